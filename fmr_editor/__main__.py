@@ -1,0 +1,7 @@
+"""``python -m fmr_editor`` runs the command line."""
+
+import sys
+
+from .cli import main
+
+sys.exit(main())

@@ -1,0 +1,74 @@
+"""Boundary-element solve for the normal-derivative jumps (DESIGN section 3).
+
+Collocation at segment midpoints x_i.  On a curve segment the mean of both
+sides is known::
+
+    mean_i = sum_j [ E_j S_ij - C_j D_ij ]            (unknowns: E_j)
+
+On the canvas border E = 0 and the colour C just inside is unknown; the
+outside is 0, so the mean of both sides is C_i / 2::
+
+    C_i / 2 = sum_j [ E_j S_ij - C_j D_ij ]
+
+Curves and border are solved together; the three colour channels share one
+matrix.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.linalg
+
+from .layers import pair_integrals
+from .segments import Segments
+
+#: Largest system the dense solve accepts (its matrix alone takes n^2 * 8 bytes).
+DENSE_LIMIT = 30_000
+
+
+def assemble(segments: Segments, chunk: int = 256) -> tuple[np.ndarray, np.ndarray]:
+    """Dense collocation matrix ``(n, n)`` and right-hand sides ``(n, 3)``.
+
+    Unknown j is ``E_j`` on a curve segment and ``C_j`` on a border segment.
+    """
+    n = len(segments)
+    border = segments.on_border
+    curve_jump = np.where(border[:, None], 0.0, segments.jump)
+    mids = segments.midpoints
+    matrix = np.empty((n, n))
+    rhs = np.where(border[:, None], 0.0, segments.mean)
+    for start in range(0, n, chunk):
+        rows = slice(start, min(start + chunk, n))
+        single, double = pair_integrals(mids[rows], segments.p, segments.q)
+        local = np.arange(rows.stop - start)
+        double[local, start + local] = 0.0  # principal value on the segment itself
+        matrix[rows] = np.where(border[None, :], -double, single)
+        rhs[rows] += double @ curve_jump
+    matrix[np.flatnonzero(border), np.flatnonzero(border)] -= 0.5
+    return matrix, rhs
+
+
+def solve_dense(segments: Segments) -> Segments:
+    """Segments with ``flux`` (curves) and ``jump`` (border) solved.
+
+    Raises
+    ------
+    MemoryError
+        When the system is larger than ``DENSE_LIMIT`` unknowns.
+    """
+    n = len(segments)
+    if n > DENSE_LIMIT:
+        raise MemoryError(f"{n} boundary segments are too many for the dense solve (limit {DENSE_LIMIT})")
+    if not np.any(~segments.on_border):
+        return segments  # no curves: the reflecting canvas alone holds black (its system is singular)
+    matrix, rhs = assemble(segments)
+    unknown = scipy.linalg.solve(matrix, rhs, overwrite_a=True, overwrite_b=True, check_finite=False)
+    border = segments.on_border[:, None]
+    return Segments(
+        p=segments.p,
+        q=segments.q,
+        jump=np.where(border, unknown, segments.jump),
+        mean=segments.mean,
+        on_border=segments.on_border,
+        flux=np.where(border, 0.0, unknown),
+    )

@@ -1,0 +1,149 @@
+"""The lattice of cells and the FMM passes over it (DESIGN section 4).
+
+A uniform ``2^L x 2^L`` lattice covers the canvas's bounding square with the
+full quadtree above it.  Level arrays are indexed ``[row, column, ...]``.
+The far field of a fine cell is everything outside its 3x3 block; each
+level's multipole-to-local step is one matrix product per interaction offset
+over strided slices of the whole level.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .expansions import l2l_matrix, m2l_matrix, m2m_matrix, multipole_moments
+from .segments import Segments
+
+def interaction_offsets(px: int, py: int) -> list[tuple[int, int]]:
+    """Offsets from a cell to the members of its interaction list.
+
+    Members are children of the parent's neighbours that are not the cell's
+    own neighbours; ``px, py`` are the cell's column and row parity.
+    """
+    return [
+        (dx, dy)
+        for dy in range(-3, 4)
+        for dx in range(-3, 4)
+        if max(abs(dx), abs(dy)) >= 2 and abs((px + dx) // 2) <= 1 and abs((py + dy) // 2) <= 1
+    ]
+
+
+def _child_offset(px: int, py: int) -> complex:
+    """(child centre - parent centre) / parent size for the child at parity (px, py)."""
+    return complex((px - 0.5) / 2, (py - 0.5) / 2)
+
+
+@dataclass(frozen=True)
+class Lattice:
+    """Geometry of the lattice.
+
+    Parameters
+    ----------
+    levels : int
+        Depth L >= 2; the fine level has ``2^L`` cells per side.
+    side : float
+        Side of the covered square ``[0, side]^2`` in pixels.
+    """
+
+    levels: int
+    side: float
+
+    @property
+    def cells_per_side(self) -> int:
+        return 2**self.levels
+
+    @property
+    def cell_size(self) -> float:
+        return self.side / self.cells_per_side
+
+    def level_size(self, level: int) -> float:
+        return self.side / 2**level
+
+    def cell_of(self, points: np.ndarray) -> np.ndarray:
+        """Fine cell ``(row, column)`` of each point, ``(n, 2)`` int, clamped to the lattice."""
+        index = np.floor(points[:, ::-1] / self.cell_size).astype(np.int64)
+        return np.clip(index, 0, self.cells_per_side - 1)
+
+    def cell_centres(self, cells: np.ndarray) -> np.ndarray:
+        """Centres ``(n, 2)`` (x, y) of fine cells given as ``(row, column)``."""
+        return (cells[:, ::-1] + 0.5) * self.cell_size
+
+
+def sort_into_cells(segments: Segments, lattice: Lattice) -> tuple[Segments, np.ndarray]:
+    """Segments sorted by fine cell, and the CSR offsets of each cell's run.
+
+    Returns
+    -------
+    segments : Segments
+        Reordered so that cell ``c = row * 2^L + column`` holds
+        ``cell_start[c]:cell_start[c + 1]``.
+    cell_start : numpy.ndarray
+        ``(4^L + 1,)`` int64.
+    """
+    cells = lattice.cell_of(segments.midpoints)
+    flat = cells[:, 0] * lattice.cells_per_side + cells[:, 1]
+    order = np.argsort(flat, kind="stable")
+    counts = np.bincount(flat, minlength=lattice.cells_per_side**2)
+    return segments.take(order), np.concatenate([[0], np.cumsum(counts)])
+
+
+def upward_pass(segments: Segments, cell_start: np.ndarray, lattice: Lattice, order: int) -> list[np.ndarray]:
+    """Scaled multipoles of every cell at every level (P2M, then M2M).
+
+    Returns
+    -------
+    list of numpy.ndarray
+        ``multipoles[l]`` is ``(2^l, 2^l, 3, order + 1)`` complex for levels
+        ``l = 2..L``; entries below 2 are None.
+    """
+    n = lattice.cells_per_side
+    fine = np.zeros((n * n, 3, order + 1), complex)
+    if len(segments):
+        cells = lattice.cell_of(segments.midpoints)
+        moments = multipole_moments(
+            segments.p, segments.q, segments.flux, segments.jump,
+            lattice.cell_centres(cells), lattice.cell_size, order,
+        )
+        occupied = np.flatnonzero(np.diff(cell_start))
+        fine[occupied] = np.add.reduceat(moments, cell_start[occupied], axis=0)
+    multipoles = [None] * (lattice.levels + 1)
+    multipoles[lattice.levels] = fine.reshape(n, n, 3, order + 1)
+    for level in range(lattice.levels, 2, -1):
+        child = multipoles[level]
+        parent = np.zeros((2 ** (level - 1),) * 2 + child.shape[2:], complex)
+        for py in (0, 1):
+            for px in (0, 1):
+                parent += child[py::2, px::2] @ m2m_matrix(_child_offset(px, py), order)
+        multipoles[level - 1] = parent
+    return multipoles
+
+
+def downward_pass(multipoles: list[np.ndarray], lattice: Lattice, order: int) -> np.ndarray:
+    """Scaled local expansions of the far field of every fine cell (M2L, L2L).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(2^L, 2^L, 3, order + 1)`` complex.
+    """
+    local = None
+    for level in range(2, lattice.levels + 1):
+        source = multipoles[level]
+        n = source.shape[0]
+        padded = np.zeros((n + 6, n + 6) + source.shape[2:], complex)
+        padded[3:-3, 3:-3] = source
+        level_local = np.zeros_like(source)
+        log_size = float(np.log(lattice.level_size(level)))
+        half = n // 2
+        for py in (0, 1):
+            for px in (0, 1):
+                target = level_local[py::2, px::2]
+                if local is not None:
+                    target += local @ l2l_matrix(_child_offset(px, py), order)
+                for dx, dy in interaction_offsets(px, py):
+                    block = padded[3 + py + dy :: 2, 3 + px + dx :: 2][:half, :half]
+                    target += block @ m2l_matrix(complex(dx, dy), order, log_size)
+        local = level_local
+    return local

@@ -1,0 +1,176 @@
+"""The fast multipole representation (FMR) of a document and how it is built.
+
+Building runs four stages, each timed in ``Representation.timings``:
+discretise (flatten, clip, choose the lattice, cut at cells), solve (the
+boundary-element system), upward (P2M, M2M) and downward (M2L, L2L).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..model import Document
+from .bem import solve_dense
+from .expansions import harmonic_to_polynomial
+from .lattice import Lattice, downward_pass, sort_into_cells, upward_pass
+from .segments import Segments, boundary_segments, curve_segments
+
+Progress = Callable[[str, float], None]
+
+
+@dataclass(frozen=True)
+class Settings:
+    """How a representation is built.
+
+    Parameters
+    ----------
+    order : int
+        Degree of the cell polynomials used for pixels.
+    propagation_order : int
+        Terms carried through the FMM passes (more than ``order``).
+    levels : int or None
+        Lattice depth L (``2^L`` cells per side); None chooses it from the
+        segment density.
+    tolerance : float
+        Chord tolerance when flattening curves, in pixels.
+    max_length : float
+        Longest curve segment, in pixels.
+    border_spacing : float
+        Longest canvas-border segment, in pixels.
+    """
+
+    order: int = 8
+    propagation_order: int = 24
+    levels: int | None = None
+    tolerance: float = 0.05
+    max_length: float = 2.0
+    border_spacing: float = 1.0
+
+    def __post_init__(self) -> None:
+        if not 0 <= self.order <= self.propagation_order <= 60:
+            raise ValueError("need 0 <= order <= propagation_order <= 60")
+        if self.levels is not None and not 2 <= self.levels <= MAX_LEVELS:
+            raise ValueError(f"levels must be between 2 and {MAX_LEVELS}")
+
+
+MAX_LEVELS = 11
+#: Mean segments per occupied fine cell that ``choose_levels`` aims below.
+SEGMENTS_PER_CELL = 6.0
+#: Smallest fine cell ``choose_levels`` picks, in pixels.
+MIN_CELL_SIZE = 2.0
+
+
+@dataclass(frozen=True, eq=False)
+class Representation:
+    """A document's FMR: solved segments sorted into cells plus far-field expansions.
+
+    Attributes
+    ----------
+    width, height : int
+        Canvas size.
+    lattice : Lattice
+    segments : Segments
+        Solved segments sorted by fine cell.
+    cell_start : numpy.ndarray
+        CSR offsets of each fine cell's segments.
+    local : numpy.ndarray
+        ``(2^L, 2^L, 3, P + 1)`` complex scaled local expansions of each fine
+        cell's far field (everything outside its 3x3 block).
+    order : int
+        Polynomial degree used for pixels.
+    timings : dict
+        Seconds spent in each build stage.
+    """
+
+    width: int
+    height: int
+    lattice: Lattice
+    segments: Segments
+    cell_start: np.ndarray
+    local: np.ndarray
+    order: int
+    timings: dict = field(default_factory=dict)
+
+    def polynomials(self, order: int | None = None) -> np.ndarray:
+        """Cell polynomials ``c[row, column, channel, i, j]`` of ``xi^i eta^j``.
+
+        ``(xi, eta) = ((x, y) - cell centre) / cell size`` lie in
+        ``[-1/2, 1/2]``; the far field at a point is
+        ``sum_ij c_ij xi^i eta^j``.  Harmonic fields fill ``i + j <= order``;
+        the tensor layout leaves room for non-harmonic terms.
+
+        Parameters
+        ----------
+        order : int, optional
+            Degree; defaults to ``self.order``, at most the propagation order.
+        """
+        order = self.order if order is None else order
+        if not 0 <= order < self.local.shape[-1]:
+            raise ValueError(f"order must be between 0 and {self.local.shape[-1] - 1}")
+        mapping = harmonic_to_polynomial(order)
+        coeffs = np.einsum("...l,lij->...ij", self.local[..., : order + 1], mapping)
+        return coeffs.real / (2 * np.pi)
+
+
+def choose_levels(curves: Segments, side: float) -> int:
+    """Lattice depth: the coarsest with at most ``SEGMENTS_PER_CELL`` per occupied cell.
+
+    Stops refining at cells of ``MIN_CELL_SIZE`` pixels.
+    """
+    mids = curves.midpoints
+    for levels in range(2, MAX_LEVELS + 1):
+        lattice = Lattice(levels, side)
+        if lattice.cell_size / 2 < MIN_CELL_SIZE or len(mids) == 0:
+            return levels
+        cells = lattice.cell_of(mids)
+        occupied = len(np.unique(cells[:, 0] * lattice.cells_per_side + cells[:, 1]))
+        if len(mids) / occupied <= SEGMENTS_PER_CELL:
+            return levels
+    return MAX_LEVELS
+
+
+def build(document: Document, settings: Settings = Settings(), progress: Progress | None = None) -> Representation:
+    """Discretise, solve and propagate ``document`` into its FMR.
+
+    Parameters
+    ----------
+    document : Document
+    settings : Settings
+    progress : callable, optional
+        Called as ``progress(stage, fraction)`` as the build advances.
+
+    Returns
+    -------
+    Representation
+    """
+    report = progress or (lambda stage, fraction: None)
+    timings = {}
+    clock = time.perf_counter()
+
+    def lap(stage: str, fraction: float) -> None:
+        nonlocal clock
+        now = time.perf_counter()
+        timings[stage] = now - clock
+        clock = now
+        report(stage, fraction)
+
+    side = float(max(document.width, document.height))
+    curves = curve_segments(document, settings.tolerance, settings.max_length)
+    levels = settings.levels or choose_levels(curves, side)
+    lattice = Lattice(levels, side)
+    segments = boundary_segments(curves, document, lattice.cell_size, settings.border_spacing)
+    lap("discretise", 0.1)
+    segments = solve_dense(segments)
+    lap("solve", 0.7)
+    segments, cell_start = sort_into_cells(segments, lattice)
+    multipoles = upward_pass(segments, cell_start, lattice, settings.propagation_order)
+    lap("upward", 0.8)
+    local = downward_pass(multipoles, lattice, settings.propagation_order)
+    lap("downward", 1.0)
+    return Representation(
+        document.width, document.height, lattice, segments, cell_start, local, settings.order, timings
+    )

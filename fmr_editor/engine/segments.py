@@ -1,0 +1,239 @@
+"""Straight segments: what the boundary integral form is discretised into.
+
+Each segment carries its colour jump ``C = u_left - u_right`` and the mean of
+both sides ``(u_left + u_right) / 2`` per channel, both constant along it; the
+solve adds the normal-derivative jump ``E``.  The canvas border is one closed
+chain of segments with the canvas on its left (DESIGN section 3).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ..model import DiffusionCurve, Document
+
+
+@dataclass(frozen=True)
+class Segments:
+    """A set of straight segments with their boundary data.
+
+    Parameters
+    ----------
+    p, q : numpy.ndarray
+        ``(n, 2)`` start and end points in document pixels.
+    jump : numpy.ndarray
+        ``(n, 3)`` colour jump ``C`` (left minus right); for border segments
+        the unknown colour just inside the canvas (zero until solved).
+    mean : numpy.ndarray
+        ``(n, 3)`` mean of both sides' colours (curve segments only).
+    on_border : numpy.ndarray
+        ``(n,)`` bool, True for canvas-border segments.
+    flux : numpy.ndarray
+        ``(n, 3)`` normal-derivative jump ``E`` (zero until solved; always
+        zero on the border).
+    """
+
+    p: np.ndarray
+    q: np.ndarray
+    jump: np.ndarray
+    mean: np.ndarray
+    on_border: np.ndarray
+    flux: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.p)
+
+    @property
+    def midpoints(self) -> np.ndarray:
+        return 0.5 * (self.p + self.q)
+
+    @property
+    def lengths(self) -> np.ndarray:
+        return np.hypot(*(self.q - self.p).T)
+
+    def take(self, index: np.ndarray) -> "Segments":
+        """The segments at ``index`` (an integer or boolean array)."""
+        return Segments(*(getattr(self, name)[index] for name in _FIELDS))
+
+    def split(self, owner: np.ndarray, t0: np.ndarray, t1: np.ndarray) -> "Segments":
+        """Sub-segments ``[t0, t1]`` (parameters along ``owner``'s segments)."""
+        d = self.q[owner] - self.p[owner]
+        return replace(
+            self.take(owner),
+            p=self.p[owner] + t0[:, None] * d,
+            q=self.p[owner] + t1[:, None] * d,
+        )
+
+
+_FIELDS = ("p", "q", "jump", "mean", "on_border", "flux")
+
+
+def concatenate(parts: list[Segments]) -> Segments:
+    """All segments of ``parts`` in one set, in order."""
+    return Segments(*(np.concatenate([getattr(part, name) for part in parts]) for name in _FIELDS))
+
+
+def empty_segments() -> Segments:
+    z = np.zeros((0, 2)), np.zeros((0, 3))
+    return Segments(z[0], z[0], z[1], z[1], np.zeros(0, bool), z[1])
+
+
+def flatten_curve(curve: DiffusionCurve, tolerance: float, max_length: float) -> Segments:
+    """Polyline approximation of ``curve`` with its colours.
+
+    Each cubic piece is split uniformly in its parameter into enough parts
+    that the chord error stays below ``tolerance`` (bound: ``max|B''| / 8n^2``)
+    and no part is longer than ``max_length`` (bound: control polygon
+    length).  Colour-stop positions are added as breakpoints so that colours
+    are linear within every segment and its midpoint colour is its mean.
+
+    Parameters
+    ----------
+    curve : DiffusionCurve
+    tolerance : float
+        Largest distance between the curve and its polyline, in pixels.
+    max_length : float
+        Largest segment length, in pixels.
+
+    Returns
+    -------
+    Segments
+    """
+    pieces = curve.pieces()
+    second = np.maximum(
+        np.hypot(*(pieces[:, 0] - 2 * pieces[:, 1] + pieces[:, 2]).T),
+        np.hypot(*(pieces[:, 1] - 2 * pieces[:, 2] + pieces[:, 3]).T),
+    )
+    polygon = np.hypot(*np.diff(pieces, axis=1).transpose(2, 0, 1)).sum(axis=1)
+    parts = np.maximum(np.sqrt(0.75 * second / tolerance), polygon / max_length)
+    parts = np.clip(np.ceil(parts), 1, 1_000_000).astype(np.int64)
+
+    piece = np.repeat(np.arange(len(parts)), parts)
+    step = np.arange(len(piece)) - np.repeat(np.cumsum(parts) - parts, parts)
+    s = np.concatenate([piece + step / parts[piece], [curve.piece_count]])
+    stops = [stop.position for stop in curve.left + curve.right]
+    s = np.unique(np.concatenate([s, stops]))
+
+    points = curve.point_at(s)
+    middle = 0.5 * (s[:-1] + s[1:])
+    left, right = curve.left_colors_at(middle), curve.right_colors_at(middle)
+    keep = np.hypot(*np.diff(points, axis=0).T) > 1e-9
+    n = int(keep.sum())
+    return Segments(
+        p=points[:-1][keep],
+        q=points[1:][keep],
+        jump=(left - right)[keep],
+        mean=(0.5 * (left + right))[keep],
+        on_border=np.zeros(n, bool),
+        flux=np.zeros((n, 3)),
+    )
+
+
+def clip_to_canvas(segments: Segments, width: float, height: float) -> Segments:
+    """Parts of ``segments`` inside the canvas (Liang-Barsky), border lines excluded.
+
+    Curve parts that run exactly along the canvas edge are dropped: the
+    border condition owns those lines.
+    """
+    d = segments.q - segments.p
+    t0 = np.zeros(len(segments))
+    t1 = np.ones(len(segments))
+    for axis, size in ((0, width), (1, height)):
+        start, delta = segments.p[:, axis], d[:, axis]
+        for bound, sign in ((0.0, -1.0), (size, 1.0)):
+            # inside means sign * (start + t delta - bound) <= 0
+            num = sign * (bound - start)
+            den = sign * delta
+            with np.errstate(divide="ignore", invalid="ignore"):
+                t = num / den
+            entering = den < 0
+            leaving = den > 0
+            t0 = np.where(entering, np.maximum(t0, t), t0)
+            t1 = np.where(leaving, np.minimum(t1, t), t1)
+            outside_parallel = (den == 0) & (num < 0)
+            t1 = np.where(outside_parallel, -1.0, t1)
+    keep = np.flatnonzero(t1 - t0 > 1e-12)
+    clipped = segments.split(keep, t0[keep], t1[keep])
+    mid = clipped.midpoints
+    along_edge = (
+        ((clipped.p[:, 0] == clipped.q[:, 0]) & np.isin(mid[:, 0], (0.0, width)))
+        | ((clipped.p[:, 1] == clipped.q[:, 1]) & np.isin(mid[:, 1], (0.0, height)))
+    )
+    return clipped.take(~along_edge)
+
+
+def canvas_border(width: float, height: float, spacing: float) -> Segments:
+    """The canvas edge as a closed chain with the canvas on its left.
+
+    With y down, "canvas on the left" runs top-left, bottom-left,
+    bottom-right, top-right.  Each side is split into equal parts no longer
+    than ``spacing``.
+    """
+    corners = np.array([[0, 0], [0, height], [width, height], [width, 0], [0, 0]], float)
+    chains = []
+    for a, b in zip(corners[:-1], corners[1:]):
+        count = max(1, int(np.ceil(np.hypot(*(b - a)) / spacing)))
+        t = np.linspace(0.0, 1.0, count + 1)[:, None]
+        chains.append(a + t * (b - a))
+    p = np.concatenate([chain[:-1] for chain in chains])
+    q = np.concatenate([chain[1:] for chain in chains])
+    n = len(p)
+    zeros = np.zeros((n, 3))
+    return Segments(p, q, zeros, zeros.copy(), np.ones(n, bool), zeros.copy())
+
+
+def cut_at_cells(segments: Segments, cell_size: float) -> Segments:
+    """Split segments where they cross the lattice lines ``k * cell_size``.
+
+    Afterwards every segment lies in one cell (up to its end points).
+    """
+    n = len(segments)
+    owners = [np.arange(n), np.arange(n)]
+    params = [np.zeros(n), np.ones(n)]
+    d = segments.q - segments.p
+    for axis in (0, 1):
+        a = segments.p[:, axis] / cell_size
+        b = segments.q[:, axis] / cell_size
+        first = np.floor(np.minimum(a, b)) + 1
+        last = np.ceil(np.maximum(a, b)) - 1
+        count = np.maximum(last - first + 1, 0).astype(np.int64)
+        owner = np.repeat(np.arange(n), count)
+        line = first[owner] + (np.arange(len(owner)) - np.repeat(np.cumsum(count) - count, count))
+        owners.append(owner)
+        params.append((line * cell_size - segments.p[owner, axis]) / d[owner, axis])
+    owner = np.concatenate(owners)
+    t = np.clip(np.concatenate(params), 0.0, 1.0)
+    order = np.lexsort((t, owner))
+    owner, t = owner[order], t[order]
+    pair = np.flatnonzero((owner[:-1] == owner[1:]) & (t[1:] - t[:-1] > 1e-12))
+    return segments.split(owner[pair], t[pair], t[pair + 1])
+
+
+def curve_segments(document: Document, tolerance: float = 0.05, max_length: float = 2.0) -> Segments:
+    """The document's curves flattened and clipped to the canvas.
+
+    Parameters
+    ----------
+    document : Document
+    tolerance : float
+        Chord tolerance of the flattening, in pixels.
+    max_length : float
+        Longest curve segment, in pixels.
+    """
+    curves = [flatten_curve(curve, tolerance, max_length) for curve in document.curves]
+    return clip_to_canvas(concatenate([empty_segments(), *curves]), document.width, document.height)
+
+
+def boundary_segments(curves: Segments, document: Document, cell_size: float, border_spacing: float = 1.0) -> Segments:
+    """Curve segments plus the canvas border, cut at the lattice's cell edges.
+
+    Returns
+    -------
+    Segments
+        Curve segments (``on_border`` False) and border segments, each lying
+        in one fine cell.
+    """
+    border = canvas_border(document.width, document.height, border_spacing)
+    return cut_at_cells(concatenate([curves, border]), cell_size)

@@ -1,0 +1,167 @@
+"""Diffusion curves: chains of cubic Beziers with colour stops on either side.
+
+Positions along a curve are in *piece units*: a chain of ``k`` cubic pieces is
+parametrised by ``s`` in ``[0, k]``; piece ``floor(s)`` at local parameter
+``s - floor(s)`` (``s == k`` is the end of the last piece).  Colours between
+stops interpolate linearly in ``s`` and stay constant beyond the first and
+last stop.  A side without stops is black.
+
+**Left** is the viewer's left when walking along the curve on screen
+(document coordinates: x to the right, y down).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+Color = tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class ColorStop:
+    """A colour at a position along a curve.
+
+    Parameters
+    ----------
+    position : float
+        Position along the chain in piece units, ``0 <= position <= k``.
+    color : tuple of float
+        sRGB red, green, blue in ``[0, 1]``.
+    """
+
+    position: float
+    color: Color
+
+
+@dataclass(frozen=True)
+class BlurStop:
+    """A blur amount at a position along a curve (kept, not yet rendered).
+
+    Parameters
+    ----------
+    position : float
+        Position along the chain in piece units.
+    blur : float
+        Blur scale (Orzan's ``best_scale``, in pixels).
+    """
+
+    position: float
+    blur: float
+
+
+def _normalised_stops(stops, piece_count: int) -> tuple:
+    """Sort stops by position and clamp their positions to ``[0, piece_count]``."""
+    clamped = [
+        type(stop)(min(max(float(stop.position), 0.0), float(piece_count)), *_payload(stop))
+        for stop in stops
+    ]
+    return tuple(sorted(clamped, key=lambda stop: stop.position))
+
+
+def _payload(stop) -> tuple:
+    if isinstance(stop, ColorStop):
+        return (tuple(float(c) for c in stop.color),)
+    return (float(stop.blur),)
+
+
+@dataclass(frozen=True, eq=False)
+class DiffusionCurve:
+    """An immutable diffusion curve.
+
+    Parameters
+    ----------
+    control_points : numpy.ndarray
+        ``(3k + 1, 2)`` control points of ``k`` cubic Bezier pieces, in
+        document pixels (may lie outside the canvas).  Stored as a read-only
+        float64 copy.
+    left, right : tuple of ColorStop
+        Colour stops on each side; sorted and clamped to ``[0, k]`` on creation.
+    blur : tuple of BlurStop
+        Blur stops (kept for round trips; rendering ignores them for now).
+    """
+
+    control_points: np.ndarray
+    left: tuple[ColorStop, ...] = ()
+    right: tuple[ColorStop, ...] = ()
+    blur: tuple[BlurStop, ...] = field(default=())
+
+    def __post_init__(self) -> None:
+        points = np.array(self.control_points, dtype=np.float64, copy=True)
+        if points.ndim != 2 or points.shape[1] != 2 or len(points) < 4 or (len(points) - 1) % 3:
+            raise ValueError(
+                f"a curve needs 3k+1 control points (k >= 1) as an (n, 2) array, got shape {points.shape}"
+            )
+        if not np.all(np.isfinite(points)):
+            raise ValueError("control points must be finite")
+        points.flags.writeable = False
+        object.__setattr__(self, "control_points", points)
+        k = self.piece_count
+        object.__setattr__(self, "left", _normalised_stops(self.left, k))
+        object.__setattr__(self, "right", _normalised_stops(self.right, k))
+        object.__setattr__(self, "blur", _normalised_stops(self.blur, k))
+
+    @property
+    def piece_count(self) -> int:
+        """Number ``k`` of cubic pieces."""
+        return (len(self.control_points) - 1) // 3
+
+    def pieces(self) -> np.ndarray:
+        """Control points grouped per piece, shape ``(k, 4, 2)``."""
+        k = self.piece_count
+        index = 3 * np.arange(k)[:, None] + np.arange(4)[None, :]
+        return self.control_points[index]
+
+    def point_at(self, s: np.ndarray) -> np.ndarray:
+        """Points on the curve at positions ``s`` (piece units), shape ``(n, 2)``."""
+        s = np.clip(np.asarray(s, dtype=np.float64), 0.0, self.piece_count)
+        piece = np.minimum(np.floor(s).astype(np.int64), self.piece_count - 1)
+        t = (s - piece)[:, None]
+        p0, p1, p2, p3 = np.moveaxis(self.pieces()[piece], 1, 0)
+        u = 1.0 - t
+        return u**3 * p0 + 3 * u * u * t * p1 + 3 * u * t * t * p2 + t**3 * p3
+
+    def left_colors_at(self, s: np.ndarray) -> np.ndarray:
+        """Left-side colours at positions ``s``, shape ``(n, 3)``."""
+        return interpolate_stops(self.left, s)
+
+    def right_colors_at(self, s: np.ndarray) -> np.ndarray:
+        """Right-side colours at positions ``s``, shape ``(n, 3)``."""
+        return interpolate_stops(self.right, s)
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, DiffusionCurve):
+            return NotImplemented
+        return (
+            np.array_equal(self.control_points, other.control_points)
+            and self.left == other.left
+            and self.right == other.right
+            and self.blur == other.blur
+        )
+
+    def __hash__(self) -> int:
+        return hash((self.control_points.tobytes(), self.left, self.right, self.blur))
+
+
+def interpolate_stops(stops: tuple[ColorStop, ...], s: np.ndarray) -> np.ndarray:
+    """Piecewise-linear colour through sorted ``stops`` at positions ``s``.
+
+    Parameters
+    ----------
+    stops : tuple of ColorStop
+        Sorted by position.  Empty means black.
+    s : numpy.ndarray
+        Positions in piece units.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(len(s), 3)`` colours, constant beyond the outermost stops.
+    """
+    s = np.asarray(s, dtype=np.float64)
+    if not stops:
+        return np.zeros((len(s), 3))
+    positions = np.array([stop.position for stop in stops])
+    colors = np.array([stop.color for stop in stops], dtype=np.float64)
+    return np.stack([np.interp(s, positions, colors[:, c]) for c in range(3)], axis=1)

@@ -1,0 +1,44 @@
+"""The document: a canvas and the items drawn on it."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+from .curve import DiffusionCurve
+
+
+@dataclass(frozen=True)
+class Document:
+    """An immutable diffusion-curve document.
+
+    Parameters
+    ----------
+    width, height : int
+        Canvas size in pixels; document coordinates have their origin at the
+        top-left corner, x to the right and y down.
+    curves : tuple of DiffusionCurve
+        The diffusion curves, in drawing order.
+
+    Notes
+    -----
+    Diffusion points join as a further tuple of items in a later version;
+    every change produces a new ``Document`` (``with_curves`` and friends).
+    """
+
+    width: int
+    height: int
+    curves: tuple[DiffusionCurve, ...] = ()
+
+    def __post_init__(self) -> None:
+        for name in ("width", "height"):
+            value = getattr(self, name)
+            if int(value) != value or value < 1:
+                raise ValueError(f"canvas {name} must be a positive whole number of pixels, got {value!r}")
+            object.__setattr__(self, name, int(value))
+        object.__setattr__(self, "curves", tuple(self.curves))
+        if not all(isinstance(curve, DiffusionCurve) for curve in self.curves):
+            raise TypeError("curves must be DiffusionCurve instances")
+
+    def with_curves(self, curves) -> "Document":
+        """A copy of this document holding ``curves`` instead."""
+        return replace(self, curves=tuple(curves))
