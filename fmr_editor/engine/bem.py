@@ -19,6 +19,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg
 
+from .kernels import collocation_system
 from .layers import pair_integrals
 from .segments import Segments
 
@@ -26,10 +27,11 @@ from .segments import Segments
 DENSE_LIMIT = 30_000
 
 
-def assemble(segments: Segments, chunk: int = 256) -> tuple[np.ndarray, np.ndarray]:
+def assemble_reference(segments: Segments, chunk: int = 256) -> tuple[np.ndarray, np.ndarray]:
     """Dense collocation matrix ``(n, n)`` and right-hand sides ``(n, 3)``.
 
     Unknown j is ``E_j`` on a curve segment and ``C_j`` on a border segment.
+    Plain numpy; ``assemble`` is the compiled twin.
     """
     n = len(segments)
     border = segments.on_border
@@ -46,6 +48,11 @@ def assemble(segments: Segments, chunk: int = 256) -> tuple[np.ndarray, np.ndarr
         rhs[rows] += double @ curve_jump
     matrix[np.flatnonzero(border), np.flatnonzero(border)] -= 0.5
     return matrix, rhs
+
+
+def assemble(segments: Segments) -> tuple[np.ndarray, np.ndarray]:
+    """Dense collocation matrix ``(n, n)`` and right-hand sides ``(n, 3)`` (compiled)."""
+    return collocation_system(segments.p, segments.q, segments.on_border, segments.jump, segments.mean)
 
 
 def solve_dense(segments: Segments) -> Segments:

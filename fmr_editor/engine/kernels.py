@@ -1,8 +1,8 @@
 """Compiled (numba) sums of segment integrals; ``layers`` holds the numpy reference.
 
-The near field is the engine's bottleneck: numpy manages about 10 M
-target-segment pairs per second, these loops ten to twenty times that
-(DESIGN section 4; ``bench/bench_engine.py`` prints both).
+The near field is the engine's bottleneck: plain numpy manages about 5 M
+target-segment pairs per second here, these loops several times that
+(``bench/bench_engine.py`` prints both).
 """
 
 from __future__ import annotations
@@ -13,28 +13,31 @@ import numba
 import numpy as np
 
 _TWO_PI = 2.0 * math.pi
+#: Fast-math flags without "no NaNs / no infinities", so the guards below keep working.
+FAST_MATH = {"nsz", "arcp", "contract", "afn", "reassoc"}
 
 
-@numba.njit(cache=True, inline="always")
-def _antiderivative(w: float, b_abs: float) -> float:
-    r2 = max(w * w + b_abs * b_abs, 1e-300)
-    return 0.5 * (w * math.log(r2) - 2.0 * w + 2.0 * b_abs * math.atan2(w, b_abs))
-
-
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, inline="always", fastmath=FAST_MATH)
 def _layers(x: float, y: float, px: float, py: float, qx: float, qy: float, tx: float, ty: float, h: float):
-    """Single and double layer of one segment at (x, y); see ``layers``."""
+    """Single and double layer of one segment at (x, y); see ``layers``.
+
+    The two arctangents of the single layer differ by the angle the segment
+    subtends, which the double layer computes anyway, so one ``atan2`` and
+    two logarithms serve both (``layers.pair_integrals`` is the plain form).
+    """
     v0x, v0y = px - x, py - y
     v1x, v1y = qx - x, qy - y
     a = -(v0x * tx + v0y * ty)
     b_abs = abs(v0x * ty - v0y * tx)
-    single = (_antiderivative(h - a, b_abs) - _antiderivative(-a, b_abs)) / _TWO_PI
     cross = v0x * v1y - v0y * v1x
     dot = v0x * v1x + v0y * v1y
-    double = 0.0
+    angle = 0.0
     if cross != 0.0 or dot > 0.0:
-        double = math.atan2(cross, dot) / _TWO_PI
-    return single, double
+        angle = math.atan2(cross, dot)
+    log_p = math.log(max(v0x * v0x + v0y * v0y, 1e-300))
+    log_q = math.log(max(v1x * v1x + v1y * v1y, 1e-300))
+    single = ((h - a) * log_q + a * log_p - 2.0 * h + 2.0 * b_abs * abs(angle)) / (2.0 * _TWO_PI)
+    return single, angle / _TWO_PI
 
 
 def segment_frames(p: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -44,17 +47,17 @@ def segment_frames(p: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray
     return d / h[:, None], h
 
 
-@numba.njit(parallel=True, cache=True)
+@numba.njit(parallel=True, cache=True, fastmath=FAST_MATH)
 def _direct_sum(targets, p, q, tangent, length, flux, jump, out):
     for i in numba.prange(targets.shape[0]):
         x, y = targets[i, 0], targets[i, 1]
-        acc = np.zeros(3)
+        r = g = b = 0.0
         for j in range(p.shape[0]):
             s, d = _layers(x, y, p[j, 0], p[j, 1], q[j, 0], q[j, 1], tangent[j, 0], tangent[j, 1], length[j])
-            for c in range(3):
-                acc[c] += flux[j, c] * s - jump[j, c] * d
-        for c in range(3):
-            out[i, c] = acc[c]
+            r += flux[j, 0] * s - jump[j, 0] * d
+            g += flux[j, 1] * s - jump[j, 1] * d
+            b += flux[j, 2] * s - jump[j, 2] * d
+        out[i, 0], out[i, 1], out[i, 2] = r, g, b
 
 
 def direct_sum(targets: np.ndarray, p: np.ndarray, q: np.ndarray, flux: np.ndarray, jump: np.ndarray) -> np.ndarray:
@@ -68,23 +71,23 @@ def direct_sum(targets: np.ndarray, p: np.ndarray, q: np.ndarray, flux: np.ndarr
     return out
 
 
-@numba.njit(parallel=True, cache=True)
+@numba.njit(parallel=True, cache=True, fastmath=FAST_MATH)
 def _near_sum(targets, cells_per_side, cell_size, cell_start, p, q, tangent, length, flux, jump, out):
     n = cells_per_side
     for i in numba.prange(targets.shape[0]):
         x, y = targets[i, 0], targets[i, 1]
         cx = min(max(int(x / cell_size), 0), n - 1)
         cy = min(max(int(y / cell_size), 0), n - 1)
-        acc = np.zeros(3)
+        r = g = b = 0.0
         for ny in range(max(cy - 1, 0), min(cy + 2, n)):
             for nx in range(max(cx - 1, 0), min(cx + 2, n)):
                 cell = ny * n + nx
                 for j in range(cell_start[cell], cell_start[cell + 1]):
                     s, d = _layers(x, y, p[j, 0], p[j, 1], q[j, 0], q[j, 1], tangent[j, 0], tangent[j, 1], length[j])
-                    for c in range(3):
-                        acc[c] += flux[j, c] * s - jump[j, c] * d
-        for c in range(3):
-            out[i, c] = acc[c]
+                    r += flux[j, 0] * s - jump[j, 0] * d
+                    g += flux[j, 1] * s - jump[j, 1] * d
+                    b += flux[j, 2] * s - jump[j, 2] * d
+        out[i, 0], out[i, 1], out[i, 2] = r, g, b
 
 
 def near_sum(
@@ -120,3 +123,33 @@ def near_sum(
         cells_per_side, float(cell_size), cell_start, p, q, tangent, length, flux, jump, out,
     )
     return out
+
+
+@numba.njit(parallel=True, cache=True, fastmath=FAST_MATH)
+def _collocation(mids, p, q, tangent, length, on_border, curve_jump, matrix, rhs):
+    n = p.shape[0]
+    for i in numba.prange(n):
+        x, y = mids[i, 0], mids[i, 1]
+        for j in range(n):
+            s, d = _layers(x, y, p[j, 0], p[j, 1], q[j, 0], q[j, 1], tangent[j, 0], tangent[j, 1], length[j])
+            if i == j:
+                d = 0.0
+            if on_border[j]:
+                matrix[i, j] = -d
+            else:
+                matrix[i, j] = s
+                for c in range(3):
+                    rhs[i, c] += d * curve_jump[j, c]
+        if on_border[i]:
+            matrix[i, i] -= 0.5
+
+
+def collocation_system(
+    p: np.ndarray, q: np.ndarray, on_border: np.ndarray, jump: np.ndarray, mean: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Dense collocation matrix and right-hand sides; compiled twin of ``bem.assemble_reference``."""
+    tangent, length = segment_frames(p, q)
+    matrix = np.empty((len(p), len(p)))
+    rhs = np.where(on_border[:, None], 0.0, mean)
+    _collocation(0.5 * (p + q), p, q, tangent, length, on_border, np.ascontiguousarray(jump), matrix, rhs)
+    return matrix, rhs
