@@ -32,7 +32,7 @@ def _parser() -> argparse.ArgumentParser:
 class StderrProgress:
     """Prints ``stage NN%`` lines on stderr, at most one per stage and ten percent."""
 
-    def __init__(self, stream=sys.stderr) -> None:
+    def __init__(self, stream=None) -> None:
         self.stream = stream
         self.last: tuple[str, int] | None = None
         self.start = time.perf_counter()
@@ -41,7 +41,7 @@ class StderrProgress:
         step = (stage, int(fraction * 10))
         if step != self.last:
             self.last = step
-            print(f"[{time.perf_counter() - self.start:6.1f}s] {stage} {fraction:4.0%}", file=self.stream, flush=True)
+            print(f"[{time.perf_counter() - self.start:6.1f}s] {stage} {fraction:4.0%}", file=self.stream or sys.stderr, flush=True)
 
 
 def run_render(args: argparse.Namespace) -> int:

@@ -94,6 +94,7 @@ def m2l_matrix(offset: complex, order: int, log_size: float) -> np.ndarray:
     Returns ``T`` with ``local = multipole @ T``.
     """
     t = np.zeros((order + 1, order + 1), complex)
+    offset = complex(offset)
     t[0, 0] = np.log(-offset) + log_size
     k = np.arange(1, order + 1)
     t[1:, 0] = (-1.0) ** k / offset**k

@@ -85,8 +85,7 @@ def flatten_curve(curve: DiffusionCurve, tolerance: float, max_length: float) ->
 
     Each cubic piece is split uniformly in its parameter into enough parts
     that the chord error stays below ``tolerance`` (bound: ``max|B''| / 8n^2``)
-    and no part is longer than ``max_length`` (bound: control polygon
-    length).  Colour-stop positions are added as breakpoints so that colours
+    and no part is longer than ``max_length`` (bound: ``|B'| <= 3 max|P_(i+1) - P_i|``).  Colour-stop positions are added as breakpoints so that colours
     are linear within every segment and its midpoint colour is its mean.
 
     Parameters
@@ -106,8 +105,9 @@ def flatten_curve(curve: DiffusionCurve, tolerance: float, max_length: float) ->
         np.hypot(*(pieces[:, 0] - 2 * pieces[:, 1] + pieces[:, 2]).T),
         np.hypot(*(pieces[:, 1] - 2 * pieces[:, 2] + pieces[:, 3]).T),
     )
-    polygon = np.hypot(*np.diff(pieces, axis=1).transpose(2, 0, 1)).sum(axis=1)
-    parts = np.maximum(np.sqrt(0.75 * second / tolerance), polygon / max_length)
+    # |B'(t)| <= 3 max|P_(i+1) - P_i|, so n uniform steps are each at most that / n long
+    speed = 3.0 * np.hypot(*np.diff(pieces, axis=1).transpose(2, 0, 1)).max(axis=1)
+    parts = np.maximum(np.sqrt(0.75 * second / tolerance), speed / max_length)
     parts = np.clip(np.ceil(parts), 1, 1_000_000).astype(np.int64)
 
     piece = np.repeat(np.arange(len(parts)), parts)

@@ -53,6 +53,8 @@ class BlurStop:
 
 def _normalised_stops(stops, piece_count: int) -> tuple:
     """Sort stops by position and clamp their positions to ``[0, piece_count]``."""
+    if not all(np.isfinite(float(stop.position)) for stop in stops):
+        raise ValueError("stop positions must be finite")
     clamped = [
         type(stop)(min(max(float(stop.position), 0.0), float(piece_count)), *_payload(stop))
         for stop in stops
@@ -141,7 +143,8 @@ class DiffusionCurve:
         )
 
     def __hash__(self) -> int:
-        return hash((self.control_points.tobytes(), self.left, self.right, self.blur))
+        # + 0.0 turns -0.0 into 0.0, which __eq__ already treats as equal
+        return hash(((self.control_points + 0.0).tobytes(), self.left, self.right, self.blur))
 
 
 def interpolate_stops(stops: tuple[ColorStop, ...], s: np.ndarray) -> np.ndarray:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+import numbers
 from dataclasses import dataclass, replace
 
 from .curve import DiffusionCurve
@@ -32,7 +34,7 @@ class Document:
     def __post_init__(self) -> None:
         for name in ("width", "height"):
             value = getattr(self, name)
-            if int(value) != value or value < 1:
+            if not (isinstance(value, numbers.Real) and math.isfinite(value) and value == int(value) and value >= 1):
                 raise ValueError(f"canvas {name} must be a positive whole number of pixels, got {value!r}")
             object.__setattr__(self, name, int(value))
         object.__setattr__(self, "curves", tuple(self.curves))
