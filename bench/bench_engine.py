@@ -179,7 +179,8 @@ def main(argv: list[str] | None = None) -> None:
             notes.add(f"skipped {note}")
     print("\n".join(["", *(f"- {note}" for note in sorted(notes))]))
     print(f"\nRaster: one sample per pixel, canvas scaled onto {s}x{s}. Direct: `kernels.direct_sum` over every "
-          f"segment on {args.direct_pixels} random pixels of that grid, time extrapolated to {s * s} pixels.\n")
+          f"segment on {args.direct_pixels} random pixels of that grid, time extrapolated to {s * s} pixels. "
+          f"Each column is its own best of {args.repeat}.\n")
     print(f"### Kernel throughput (best of {args.repeat} runs)\n")
     print("\n".join(kernel_table(args.repeat)))
 

@@ -16,6 +16,8 @@ matrix.
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import scipy.linalg
 
@@ -55,6 +57,21 @@ def assemble(segments: Segments) -> tuple[np.ndarray, np.ndarray]:
     return collocation_system(segments.p, segments.q, segments.on_border, segments.jump, segments.mean)
 
 
+def _solve_or_least_squares(matrix: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """LU solve; where curves nearly coincide the system is nearly singular, then least squares.
+
+    The least-squares solution (rank-revealing QR) shares the density of
+    coinciding segments between them instead of blowing it up.
+    """
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", scipy.linalg.LinAlgWarning)
+        try:
+            return scipy.linalg.solve(matrix, rhs, check_finite=False)
+        except (scipy.linalg.LinAlgWarning, np.linalg.LinAlgError):
+            pass
+    return scipy.linalg.lstsq(matrix, rhs, cond=1e-12, lapack_driver="gelsy", check_finite=False)[0]
+
+
 def solve_dense(segments: Segments) -> Segments:
     """Segments with ``flux`` (curves) and ``jump`` (border) solved.
 
@@ -69,7 +86,7 @@ def solve_dense(segments: Segments) -> Segments:
     if not np.any(~segments.on_border):
         return segments  # no curves: the reflecting canvas alone holds black (its system is singular)
     matrix, rhs = assemble(segments)
-    unknown = scipy.linalg.solve(matrix, rhs, overwrite_a=True, overwrite_b=True, check_finite=False)
+    unknown = _solve_or_least_squares(matrix, rhs)
     border = segments.on_border[:, None]
     return Segments(
         p=segments.p,

@@ -80,12 +80,25 @@ def empty_segments() -> Segments:
     return Segments(z[0], z[0], z[1], z[1], np.zeros(0, bool), z[1])
 
 
+def _max_speed(pieces: np.ndarray, samples: int = 65) -> np.ndarray:
+    """Upper bound of ``max |B'(t)|`` over each piece ``(k, 4, 2)``, within a hair of the truth.
+
+    ``B'(t) = A t^2 + B t + C`` is quadratic, so between samples ``delta`` apart
+    it strays from the straight line through them by at most ``|A| delta^2 / 4``.
+    """
+    d = 3.0 * np.diff(pieces, axis=1)  # hodograph control points, (k, 3, 2)
+    t = np.linspace(0.0, 1.0, samples)[:, None, None]
+    hodograph = (1 - t) ** 2 * d[:, 0] + 2 * (1 - t) * t * d[:, 1] + t**2 * d[:, 2]  # (samples, k, 2)
+    curvature = np.hypot(*(d[:, 0] - 2 * d[:, 1] + d[:, 2]).T)  # |A|
+    return np.hypot(hodograph[..., 0], hodograph[..., 1]).max(axis=0) + curvature / (4.0 * (samples - 1) ** 2)
+
+
 def flatten_curve(curve: DiffusionCurve, tolerance: float, max_length: float) -> Segments:
     """Polyline approximation of ``curve`` with its colours.
 
     Each cubic piece is split uniformly in its parameter into enough parts
     that the chord error stays below ``tolerance`` (bound: ``max|B''| / 8n^2``)
-    and no part is longer than ``max_length`` (bound: ``|B'| <= 3 max|P_(i+1) - P_i|``).  Colour-stop positions are added as breakpoints so that colours
+    and no part is longer than ``max_length`` (bound: the largest speed ``|B'|``).  Colour-stop positions are added as breakpoints so that colours
     are linear within every segment and its midpoint colour is its mean.
 
     Parameters
@@ -105,9 +118,7 @@ def flatten_curve(curve: DiffusionCurve, tolerance: float, max_length: float) ->
         np.hypot(*(pieces[:, 0] - 2 * pieces[:, 1] + pieces[:, 2]).T),
         np.hypot(*(pieces[:, 1] - 2 * pieces[:, 2] + pieces[:, 3]).T),
     )
-    # |B'(t)| <= 3 max|P_(i+1) - P_i|, so n uniform steps are each at most that / n long
-    speed = 3.0 * np.hypot(*np.diff(pieces, axis=1).transpose(2, 0, 1)).max(axis=1)
-    parts = np.maximum(np.sqrt(0.75 * second / tolerance), speed / max_length)
+    parts = np.maximum(np.sqrt(0.75 * second / tolerance), _max_speed(pieces) / max_length)
     parts = np.clip(np.ceil(parts), 1, 1_000_000).astype(np.int64)
 
     piece = np.repeat(np.arange(len(parts)), parts)
@@ -214,6 +225,9 @@ def cut_at_cells(segments: Segments, cell_size: float) -> Segments:
 def curve_segments(document: Document, tolerance: float = 0.05, max_length: float = 2.0) -> Segments:
     """The document's curves flattened and clipped to the canvas.
 
+    Where segments overlap along a line, the later one keeps the overlap
+    (``overlaps.drop_covered_parts``).
+
     Parameters
     ----------
     document : Document
@@ -222,8 +236,11 @@ def curve_segments(document: Document, tolerance: float = 0.05, max_length: floa
     max_length : float
         Longest curve segment, in pixels.
     """
+    from .overlaps import drop_covered_parts
+
     curves = [flatten_curve(curve, tolerance, max_length) for curve in document.curves]
-    return clip_to_canvas(concatenate([empty_segments(), *curves]), document.width, document.height)
+    clipped = clip_to_canvas(concatenate([empty_segments(), *curves]), document.width, document.height)
+    return drop_covered_parts(clipped)
 
 
 def boundary_segments(curves: Segments, document: Document, cell_size: float, border_spacing: float = 1.0) -> Segments:

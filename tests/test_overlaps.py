@@ -1,0 +1,88 @@
+"""Curves lying on top of each other: the later segment keeps the overlap."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+import shapely
+from shapes import straight_chain, uniform_curve
+
+from fmr_editor.engine import build, evaluate_points, rasterise
+from fmr_editor.engine.overlaps import drop_covered_parts, overlapping_pairs
+from fmr_editor.engine.segments import curve_segments
+from fmr_editor.model import Document
+from fmr_editor.io import load_document
+
+PROBES = np.array([[20.0, 20.0], [50.0, 30.0], [80.0, 70.0], [40.0, 45.0], [60.0, 52.0]])
+
+
+def test_a_curve_retracing_itself_renders_like_its_last_passes():
+    # along y = 50: forwards 20 -> 80, back 80 -> 30, forwards 30 -> 45 (as curves in flower.xml do)
+    retrace = uniform_curve(straight_chain([(20, 50), (80, 50), (30, 50), (45, 50)]), 0.9, 0.1)
+    # later passes win: 20..30 keeps the first pass, 45..80 the backward one, 30..45 the last
+    passes = [
+        uniform_curve(straight_chain(ends), 0.9, 0.1)
+        for ends in ([(20, 50), (30, 50)], [(80, 50), (45, 50)], [(30, 50), (45, 50)])
+    ]
+    got = evaluate_points(build(Document(100, 100, [retrace])), PROBES)
+    expected = evaluate_points(build(Document(100, 100, passes)), PROBES)
+    np.testing.assert_allclose(got, expected, atol=1e-6)
+
+
+def test_the_later_of_two_coinciding_curves_wins():
+    line = straight_chain([(10, 40), (90, 60)])
+    first, second = uniform_curve(line, 1.0, 0.0), uniform_curve(line, 0.2, 0.6)
+    got = evaluate_points(build(Document(100, 100, [first, second])), PROBES)
+    expected = evaluate_points(build(Document(100, 100, [second])), PROBES)
+    np.testing.assert_allclose(got, expected, atol=1e-9)
+
+
+def test_dropping_covered_parts_keeps_the_union_and_leaves_no_overlap():
+    rng = np.random.default_rng(3)
+    doc = Document(100, 100, [
+        uniform_curve(straight_chain([(a, 50.0), (b, 50.0)]), 1.0, 0.0) for a, b in rng.uniform(5, 95, (12, 2))
+    ] + [uniform_curve(straight_chain([(50.0, 5.0), (50.0, 95.0)]), 0.5, 0.5)])
+    seg = curve_segments(doc)
+    assert len(overlapping_pairs(seg)[0]) == 0
+    union = shapely.union_all(shapely.linestrings(np.stack([seg.p, seg.q], axis=1)))
+    assert seg.lengths.sum() == pytest.approx(union.length, rel=1e-9)
+
+
+def test_segments_without_overlaps_are_untouched():
+    line = straight_chain([(10, 10), (90, 30)])
+    seg = curve_segments(Document(100, 100, [uniform_curve(line, 1.0, 0.0)]))
+    again = drop_covered_parts(seg)
+    np.testing.assert_array_equal(again.p, seg.p)
+    np.testing.assert_array_equal(again.q, seg.q)
+
+
+def test_nearly_coinciding_curves_still_give_a_bounded_image():
+    line = straight_chain([(10, 40), (90, 60)])
+    shifted = line + [0.0, 1e-5]
+    doc = Document(100, 100, [uniform_curve(line, 1.0, 0.0), uniform_curve(shifted, 0.2, 0.6)])
+    image = rasterise(build(doc), 50, 50, samples=1)
+    assert np.all(np.isfinite(image)) and image.min() >= -0.05 and image.max() <= 1.05
+
+
+def test_flower_with_retraced_curves_solves_cleanly(shared_data):
+    doc = load_document(shared_data / "orzan_xml" / "berkbavas" / "flower.xml")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        rep = build(doc)
+    image = rasterise(rep, 128, 128, samples=1)
+    # the maximum principle: colours in [0, 1] stay in [0, 1], up to discretisation
+    assert image.min() >= -0.05 and image.max() <= 1.05
+
+
+def test_a_singular_system_falls_back_to_the_least_squares_solution():
+    from fmr_editor.engine.bem import _solve_or_least_squares
+
+    rng = np.random.default_rng(8)
+    matrix = rng.normal(size=(6, 6))
+    matrix[:, 5] = matrix[:, 4]  # two identical unknowns, as coinciding segments give
+    rhs = matrix @ rng.normal(size=(6, 3))
+    got = _solve_or_least_squares(matrix.copy(), rhs.copy())
+    np.testing.assert_allclose(matrix @ got, rhs, atol=1e-9)
+    np.testing.assert_allclose(got[4], got[5], atol=1e-9)  # shared, not blown up
