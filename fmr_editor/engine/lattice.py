@@ -130,20 +130,37 @@ def downward_pass(multipoles: list[np.ndarray], lattice: Lattice, order: int) ->
     """
     local = None
     for level in range(2, lattice.levels + 1):
-        source = multipoles[level]
-        n = source.shape[0]
-        padded = np.zeros((n + 6, n + 6) + source.shape[2:], complex)
-        padded[3:-3, 3:-3] = source
-        level_local = np.zeros_like(source)
         log_size = float(np.log(lattice.level_size(level)))
-        half = n // 2
+        sources = _parity_grids(multipoles[level])
+        half = multipoles[level].shape[0] // 2
+        level_local = np.empty_like(multipoles[level])
         for py in (0, 1):
             for px in (0, 1):
-                target = level_local[py::2, px::2]
+                target = np.zeros((half, half) + multipoles[level].shape[2:], complex)
                 if local is not None:
                     target += local @ l2l_matrix(_child_offset(px, py), order)
+                rows = target.reshape(half, -1, order + 1)
                 for dx, dy in interaction_offsets(px, py):
-                    block = padded[3 + py + dy :: 2, 3 + px + dx :: 2][:half, :half]
-                    target += block @ m2l_matrix(complex(dx, dy), order, log_size)
+                    row0, col0 = _PAD // 2 + (py + dy) // 2, _PAD // 2 + (px + dx) // 2
+                    window = sources[(py + dy) % 2][(px + dx) % 2][row0 : row0 + half, col0 : col0 + half]
+                    rows += window.reshape(half, -1, order + 1) @ m2l_matrix(complex(dx, dy), order, log_size)
+                level_local[py::2, px::2] = target
         local = level_local
     return local
+
+
+#: Zero cells around a level for the interaction-list windows (even, so parities are kept).
+_PAD = 4
+
+
+def _parity_grids(level: np.ndarray) -> list[list[np.ndarray]]:
+    """The zero-padded level split by row and column parity, each contiguous.
+
+    ``grids[qy][qx][a, b]`` is padded cell ``(2a + qy, 2b + qx)``; a window of
+    rows of one grid is then a stack of contiguous matrices that BLAS
+    multiplies in one call per row.
+    """
+    n = level.shape[0]
+    padded = np.zeros((n + 2 * _PAD, n + 2 * _PAD) + level.shape[2:], complex)
+    padded[_PAD:-_PAD, _PAD:-_PAD] = level
+    return [[np.ascontiguousarray(padded[qy::2, qx::2]) for qx in (0, 1)] for qy in (0, 1)]
