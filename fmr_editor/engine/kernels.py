@@ -153,3 +153,89 @@ def collocation_system(
     rhs = np.where(on_border[:, None], 0.0, mean)
     _collocation(0.5 * (p + q), p, q, tangent, length, on_border, np.ascontiguousarray(jump), matrix, rhs)
     return matrix, rhs
+
+
+@numba.njit(parallel=True, cache=True, fastmath=FAST_MATH)
+def _near_at_midpoints(cells, cells_per_side, cell_start, p, q, tangent, length, flux, jump, out):
+    n = cells_per_side
+    for i in numba.prange(p.shape[0]):
+        x, y = 0.5 * (p[i, 0] + q[i, 0]), 0.5 * (p[i, 1] + q[i, 1])
+        cy, cx = cells[i, 0], cells[i, 1]
+        r = g = b = 0.0
+        for ny in range(max(cy - 1, 0), min(cy + 2, n)):
+            for nx in range(max(cx - 1, 0), min(cx + 2, n)):
+                cell = ny * n + nx
+                for j in range(cell_start[cell], cell_start[cell + 1]):
+                    s, d = _layers(x, y, p[j, 0], p[j, 1], q[j, 0], q[j, 1], tangent[j, 0], tangent[j, 1], length[j])
+                    if j == i:
+                        d = 0.0
+                    r += flux[j, 0] * s - jump[j, 0] * d
+                    g += flux[j, 1] * s - jump[j, 1] * d
+                    b += flux[j, 2] * s - jump[j, 2] * d
+        out[i, 0], out[i, 1], out[i, 2] = r, g, b
+
+
+def near_at_midpoints(
+    cells: np.ndarray, cells_per_side: int, cell_start: np.ndarray,
+    p: np.ndarray, q: np.ndarray, flux: np.ndarray, jump: np.ndarray,
+) -> np.ndarray:
+    """Near field at every segment's own midpoint, ``(n, 3)``; a segment's own double layer is 0.
+
+    Segments must be sorted by cell; ``cells (n, 2)`` holds each one's (row, column).
+    """
+    tangent, length = segment_frames(p, q)
+    out = np.empty((len(p), 3))
+    _near_at_midpoints(cells, cells_per_side, cell_start, p, q, tangent, length, flux, jump, out)
+    return out
+
+
+@numba.njit(parallel=True, cache=True)
+def _near_row_counts(cells, cells_per_side, cell_start, counts):
+    n = cells_per_side
+    for i in numba.prange(cells.shape[0]):
+        cy, cx = cells[i, 0], cells[i, 1]
+        total = 0
+        for ny in range(max(cy - 1, 0), min(cy + 2, n)):
+            for nx in range(max(cx - 1, 0), min(cx + 2, n)):
+                total += cell_start[ny * n + nx + 1] - cell_start[ny * n + nx]
+        counts[i] = total
+
+
+@numba.njit(parallel=True, cache=True, fastmath=FAST_MATH)
+def _near_entries(cells, cells_per_side, cell_start, p, q, tangent, length, on_border, row_start, columns, values):
+    n = cells_per_side
+    for i in numba.prange(p.shape[0]):
+        x, y = 0.5 * (p[i, 0] + q[i, 0]), 0.5 * (p[i, 1] + q[i, 1])
+        cy, cx = cells[i, 0], cells[i, 1]
+        k = row_start[i]
+        for ny in range(max(cy - 1, 0), min(cy + 2, n)):
+            for nx in range(max(cx - 1, 0), min(cx + 2, n)):
+                cell = ny * n + nx
+                for j in range(cell_start[cell], cell_start[cell + 1]):
+                    s, d = _layers(x, y, p[j, 0], p[j, 1], q[j, 0], q[j, 1], tangent[j, 0], tangent[j, 1], length[j])
+                    if j == i:
+                        d = 0.0
+                    value = -d if on_border[j] else s
+                    if j == i and on_border[i]:
+                        value -= 0.5
+                    columns[k] = j
+                    values[k] = value
+                    k += 1
+
+
+def near_block(
+    cells: np.ndarray, cells_per_side: int, cell_start: np.ndarray, p: np.ndarray, q: np.ndarray, on_border: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The collocation matrix restricted to each row's 3x3 block, as CSR arrays.
+
+    Returns ``(row_start, columns, values)``; the entries equal those of the
+    dense ``bem.assemble`` at the same positions.
+    """
+    counts = np.empty(len(p), np.int64)
+    _near_row_counts(cells, cells_per_side, cell_start, counts)
+    row_start = np.concatenate([[0], np.cumsum(counts)])
+    columns = np.empty(row_start[-1], np.int64)
+    values = np.empty(row_start[-1])
+    tangent, length = segment_frames(p, q)
+    _near_entries(cells, cells_per_side, cell_start, p, q, tangent, length, on_border, row_start, columns, values)
+    return row_start, columns, values
