@@ -16,6 +16,7 @@ matrix.
 
 from __future__ import annotations
 
+import os
 import warnings
 
 import numpy as np
@@ -25,8 +26,38 @@ from .kernels import collocation_system
 from .layers import pair_integrals
 from .segments import Segments
 
-#: Largest system the dense solve accepts (its matrix alone takes n^2 * 8 bytes).
-DENSE_LIMIT = 30_000
+#: Largest system the dense solve accepts (its matrix alone takes n^2 * 8 bytes, its LU n^3 time).
+DENSE_LIMIT = 32_000
+#: Share of the available memory the dense matrix may take.
+MEMORY_SHARE = 0.8
+
+
+class SolveTooLargeError(MemoryError):
+    """The boundary system is too large for the dense solve on this machine."""
+
+
+def available_memory() -> int:
+    """Bytes of memory available to this process now (``MemAvailable``), or total physical memory."""
+    try:
+        with open("/proc/meminfo") as info:
+            for line in info:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+
+
+def check_dense_fits(count: int) -> None:
+    """Raise ``SolveTooLargeError`` before allocating when ``count`` unknowns cannot be solved densely."""
+    need = 8 * count * count
+    available = available_memory()
+    if count > DENSE_LIMIT or need > MEMORY_SHARE * available:
+        raise SolveTooLargeError(
+            f"{count:,} boundary segments need a {need / 1e9:.1f} GB dense system "
+            f"(limit {DENSE_LIMIT:,} segments, {available / 1e9:.1f} GB available); "
+            "files this large wait for the fast iterative solver"
+        )
 
 
 def assemble_reference(segments: Segments, chunk: int = 256) -> tuple[np.ndarray, np.ndarray]:
@@ -77,12 +108,10 @@ def solve_dense(segments: Segments) -> Segments:
 
     Raises
     ------
-    MemoryError
-        When the system is larger than ``DENSE_LIMIT`` unknowns.
+    SolveTooLargeError
+        Before allocating anything, when the system does not fit (``check_dense_fits``).
     """
-    n = len(segments)
-    if n > DENSE_LIMIT:
-        raise MemoryError(f"{n} boundary segments are too many for the dense solve (limit {DENSE_LIMIT})")
+    check_dense_fits(len(segments))
     if not np.any(~segments.on_border):
         return segments  # no curves: the reflecting canvas alone holds black (its system is singular)
     matrix, rhs = assemble(segments)

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..model import Document
-from .bem import solve_dense
+from .bem import check_dense_fits, solve_dense
 from .expansions import harmonic_to_polynomial
 from .lattice import Lattice, downward_pass, sort_into_cells, upward_pass
 from .segments import Segments, boundary_segments, curve_segments
@@ -163,6 +163,7 @@ def build(document: Document, settings: Settings = Settings(), progress: Progres
     levels = settings.levels or choose_levels(curves, side)
     lattice = Lattice(levels, side)
     segments = boundary_segments(curves, document, lattice.cell_size, settings.border_spacing)
+    check_dense_fits(len(segments))
     lap("discretise", 0.1)
     segments = solve_dense(segments)
     lap("solve", 0.7)
