@@ -44,7 +44,7 @@ class Settings:
     """
 
     order: int = 8
-    propagation_order: int = 24
+    propagation_order: int = 16
     levels: int | None = None
     tolerance: float = 0.05
     max_length: float = 2.0
