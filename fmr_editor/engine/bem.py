@@ -88,19 +88,23 @@ def assemble(segments: Segments) -> tuple[np.ndarray, np.ndarray]:
     return collocation_system(segments.p, segments.q, segments.on_border, segments.jump, segments.mean)
 
 
-def _solve_or_least_squares(matrix: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-    """LU solve; where curves nearly coincide the system is nearly singular, then least squares.
+def _solve_or_least_squares(segments: Segments) -> np.ndarray:
+    """LU solve in place; where curves nearly coincide the system is nearly singular, then least squares.
 
     The least-squares solution (rank-revealing QR) shares the density of
-    coinciding segments between them instead of blowing it up.
+    coinciding segments between them instead of blowing it up.  The LU
+    overwrites the matrix (one n x n array at a time), so that rare path
+    assembles it again.
     """
+    matrix, rhs = assemble(segments)
     with warnings.catch_warnings():
         warnings.simplefilter("error", scipy.linalg.LinAlgWarning)
         try:
-            return scipy.linalg.solve(matrix, rhs, check_finite=False)
+            return scipy.linalg.solve(matrix, rhs, overwrite_a=True, check_finite=False)
         except (scipy.linalg.LinAlgWarning, np.linalg.LinAlgError):
             pass
-    return scipy.linalg.lstsq(matrix, rhs, cond=1e-12, lapack_driver="gelsy", check_finite=False)[0]
+    matrix, rhs = assemble(segments)
+    return scipy.linalg.lstsq(matrix, rhs, cond=1e-12, lapack_driver="gelsy", overwrite_a=True, check_finite=False)[0]
 
 
 def solve_dense(segments: Segments) -> Segments:
@@ -114,14 +118,4 @@ def solve_dense(segments: Segments) -> Segments:
     check_dense_fits(len(segments))
     if not np.any(~segments.on_border):
         return segments  # no curves: the reflecting canvas alone holds black (its system is singular)
-    matrix, rhs = assemble(segments)
-    unknown = _solve_or_least_squares(matrix, rhs)
-    border = segments.on_border[:, None]
-    return Segments(
-        p=segments.p,
-        q=segments.q,
-        jump=np.where(border, unknown, segments.jump),
-        mean=segments.mean,
-        on_border=segments.on_border,
-        flux=np.where(border, 0.0, unknown),
-    )
+    return segments.with_unknowns(_solve_or_least_squares(segments))

@@ -154,6 +154,4 @@ def solve_fmm(
     )
     unknown = unknown.reshape(n, 3)
     residual = float(np.linalg.norm(operator.apply(unknown) - rhs) / max(np.linalg.norm(rhs), 1e-300))
-    border = operator.border
-    solved = replace(segments, jump=np.where(border, unknown, segments.jump), flux=np.where(border, 0.0, unknown))
-    return solved, SolveReport(iterations, residual)
+    return segments.with_unknowns(unknown), SolveReport(iterations, residual)

@@ -53,6 +53,15 @@ class Segments:
     def lengths(self) -> np.ndarray:
         return np.hypot(*(self.q - self.p).T)
 
+    def unknowns(self) -> np.ndarray:
+        """The solve's unknowns ``(n, 3)``: ``E`` on curve segments, ``C`` on border segments."""
+        return np.where(self.on_border[:, None], self.jump, self.flux)
+
+    def with_unknowns(self, unknown: np.ndarray) -> "Segments":
+        """A copy with ``E`` (curves) and ``C`` (border) taken from ``unknown (n, 3)``."""
+        border = self.on_border[:, None]
+        return replace(self, jump=np.where(border, unknown, self.jump), flux=np.where(border, 0.0, unknown))
+
     def take(self, index: np.ndarray) -> "Segments":
         """The segments at ``index`` (an integer or boolean array)."""
         return Segments(*(getattr(self, name)[index] for name in _FIELDS))
