@@ -162,3 +162,24 @@ def test_cell_polynomials_hold_the_far_field_of_the_lattice():
         far = np.abs(seg_cells - [row, column]).max(axis=1) > 1
         expected = direct(targets, seg.p[far], seg.q[far], seg.flux[far], seg.jump[far])
         assert np.abs(got - expected).max() <= 1e-6
+
+
+def test_compiled_cell_moments_equal_the_summed_reference():
+    from fmr_editor.engine.lattice import Lattice, sort_into_cells
+    from fmr_editor.engine.moments import cell_moments
+    from fmr_editor.engine.segments import Segments
+
+    rng = np.random.default_rng(7)
+    lattice = Lattice(3, 40.0)
+    p = rng.uniform(0, 40, (300, 2))
+    q = np.clip(p + rng.normal(0, 0.8, (300, 2)), 0, 40)
+    seg = Segments(p, q, rng.normal(size=(300, 3)), rng.normal(size=(300, 3)), np.zeros(300, bool), rng.normal(size=(300, 3)))
+    seg, start = sort_into_cells(seg, lattice)
+    rows, columns = np.divmod(np.arange(64), 8)
+    centres = lattice.cell_centres(np.stack([rows, columns], axis=1))
+    got = cell_moments(start, centres, lattice.cell_size, seg.p, seg.q, seg.flux, seg.jump, ORDER)
+    cells = lattice.cell_of(seg.midpoints)
+    per_segment = multipole_moments(seg.p, seg.q, seg.flux, seg.jump, lattice.cell_centres(cells), lattice.cell_size, ORDER)
+    expected = np.zeros_like(got)
+    np.add.at(expected, cells[:, 0] * 8 + cells[:, 1], per_segment)
+    np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-12)

@@ -13,7 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .expansions import l2l_matrix, m2l_matrix, m2m_matrix, multipole_moments
+from .expansions import l2l_matrix, m2l_matrix, m2m_matrix
+from .moments import cell_moments
 from .segments import Segments
 
 def interaction_offsets(px: int, py: int) -> list[tuple[int, int]]:
@@ -99,15 +100,11 @@ def upward_pass(segments: Segments, cell_start: np.ndarray, lattice: Lattice, or
         ``l = 2..L``; entries below 2 are None.
     """
     n = lattice.cells_per_side
-    fine = np.zeros((n * n, 3, order + 1), complex)
-    if len(segments):
-        cells = lattice.cell_of(segments.midpoints)
-        moments = multipole_moments(
-            segments.p, segments.q, segments.flux, segments.jump,
-            lattice.cell_centres(cells), lattice.cell_size, order,
-        )
-        occupied = np.flatnonzero(np.diff(cell_start))
-        fine[occupied] = np.add.reduceat(moments, cell_start[occupied], axis=0)
+    rows, columns = np.divmod(np.arange(n * n), n)
+    centres = lattice.cell_centres(np.stack([rows, columns], axis=1))
+    fine = cell_moments(
+        cell_start, centres, lattice.cell_size, segments.p, segments.q, segments.flux, segments.jump, order
+    )
     multipoles = [None] * (lattice.levels + 1)
     multipoles[lattice.levels] = fine.reshape(n, n, 3, order + 1)
     for level in range(lattice.levels, 2, -1):
