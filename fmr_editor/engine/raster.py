@@ -5,11 +5,14 @@ output pixels; the canvas is scaled onto the output.  With ``samples = s``
 each pixel averages ``s x s`` samples at ``(j + (a + 1/2)/s, i + (b + 1/2)/s)``,
 so ``s = 1`` samples the pixel centre.
 
-The far field is the cell polynomial; samples lie on a tensor grid, so within
-one cell it factors into two small matrix products, batched over all cells
-(sample counts per cell differ by at most one; shorter runs are padded).  The
-near field is the closed-form integral over the 3x3 block, in a compiled
-kernel.  Work proceeds in bands of rows so memory stays bounded.
+Samples lie on a tensor grid (sorted ``xs`` by ``ys``), so each fine cell
+holds a run of columns times a run of rows, and both fields are computed cell
+by cell in compiled kernels (``kernels.far_field_grid``,
+``kernels.near_field_grid``): the far field is the cell polynomial by Horner's
+rule, the near field the closed-form integrals over the 3x3 block's segments,
+gathered once per cell.  ``far_field`` here is the numpy form of the far field
+(two small matrix products per cell, batched), kept as a reference.  Work
+proceeds in bands of rows so memory stays bounded.
 """
 
 from __future__ import annotations
@@ -18,10 +21,10 @@ from collections.abc import Callable
 
 import numpy as np
 
-from .kernels import direct_sum, near_sum
+from .kernels import direct_sum, far_field_grid, near_field_grid, near_sum
 from .representation import Representation
 
-#: Samples per band: bounds the memory of one step (about 200 bytes a sample).
+#: Samples per band: bounds the memory of one step (some 50 bytes a sample).
 BAND_SAMPLES = 1 << 20
 
 
@@ -60,6 +63,8 @@ def _grouped_powers(coords: np.ndarray, cell_size: float, cells: int, order: int
 def far_field(poly: np.ndarray, xs: np.ndarray, ys: np.ndarray, cell_size: float) -> np.ndarray:
     """Cell polynomials evaluated on the tensor grid ``ys x xs``, ``(len(ys), len(xs), 3)``.
 
+    Plain numpy; ``rasterise`` uses the compiled ``kernels.far_field_grid``.
+
     Parameters
     ----------
     poly : numpy.ndarray
@@ -80,8 +85,18 @@ def far_field(poly: np.ndarray, xs: np.ndarray, ys: np.ndarray, cell_size: float
 
 
 def _average_blocks(values: np.ndarray, samples: int) -> np.ndarray:
+    """Means of ``samples x samples`` blocks, by whole-row additions (``mean`` over two axes is slow)."""
     rows, cols = values.shape[0] // samples, values.shape[1] // samples
-    return values.reshape(rows, samples, cols, samples, 3).mean(axis=(1, 3))
+    by_rows = values.reshape(rows, samples, cols * samples * 3)
+    row_sum = by_rows[:, 0].copy()
+    for a in range(1, samples):
+        row_sum += by_rows[:, a]
+    by_columns = row_sum.reshape(rows, cols, samples, 3)
+    total = by_columns[:, :, 0].copy()
+    for b in range(1, samples):
+        total += by_columns[:, :, b]
+    total *= 1.0 / samples**2
+    return total
 
 
 def rasterise(
@@ -130,16 +145,16 @@ def rasterise(
     for row in range(0, height, band):
         rows = slice(row, min(row + band, height))
         band_ys = ys[rows.start * samples : rows.stop * samples]
-        targets = np.stack(np.broadcast_arrays(xs[None, :], band_ys[:, None]), axis=-1).reshape(-1, 2)
         if method == "fmr":
-            near = near_sum(
-                targets, lattice.cells_per_side, lattice.cell_size, rep.cell_start,
-                seg.p, seg.q, seg.flux, seg.jump,
+            values = far_field_grid(poly, xs, band_ys, lattice.cell_size)
+            near_field_grid(
+                xs, band_ys, lattice.cells_per_side, lattice.cell_size, rep.cell_start,
+                seg.p, seg.q, seg.flux, seg.jump, out=values,
             )
-            values = far_field(poly, xs, band_ys, lattice.cell_size) + near.reshape(len(band_ys), len(xs), 3)
         else:
+            targets = np.stack(np.broadcast_arrays(xs[None, :], band_ys[:, None]), axis=-1).reshape(-1, 2)
             values = direct_sum(targets, seg.p, seg.q, seg.flux, seg.jump).reshape(len(band_ys), len(xs), 3)
-        image[rows] = _average_blocks(values, samples)
+        image[rows] = values if samples == 1 else _average_blocks(values, samples)
         if progress:
             progress("rasterise", rows.stop / height)
     return image

@@ -111,9 +111,12 @@ class Representation:
         order = self.order if order is None else order
         if not 0 <= order < self.local.shape[-1]:
             raise ValueError(f"order must be between 0 and {self.local.shape[-1] - 1}")
-        mapping = harmonic_to_polynomial(order)
-        coeffs = np.einsum("...l,lij->...ij", self.local[..., : order + 1], mapping)
-        return coeffs.real / (2 * np.pi)
+        # Re(L M) = Re L Re M - Im L Im M, as one real matrix product
+        mapping = harmonic_to_polynomial(order).reshape(order + 1, -1)
+        real_mapping = np.concatenate([mapping.real, -mapping.imag]) / (2 * np.pi)
+        local = self.local[..., : order + 1]
+        coeffs = np.concatenate([local.real, local.imag], axis=-1) @ real_mapping
+        return coeffs.reshape(local.shape[:-1] + (order + 1, order + 1))
 
 
 def choose_levels(curves: Segments, side: float) -> int:
