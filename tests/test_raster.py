@@ -10,7 +10,8 @@ import pytest
 from shapes import circle_points, straight_chain
 
 from fmr_editor.engine import Settings, build, raster, rasterise
-from fmr_editor.engine.kernels import _atan2_poly, _log_poly, far_field_grid, near_field_grid, near_sum
+from fmr_editor.engine.grid_kernels import _atan2_poly, _log_poly, far_field_grid, near_field_grid
+from fmr_editor.engine.kernels import near_sum
 from fmr_editor.engine.lattice import Lattice, sort_into_cells
 from fmr_editor.engine.layers import direct_sum_reference
 from fmr_editor.engine.raster import far_field, sample_coordinates
