@@ -25,7 +25,7 @@ import numpy as np
 import scipy.sparse
 import scipy.sparse.linalg
 
-from .kernels import near_at_midpoints, near_block
+from .kernels import near_block, near_sum
 from .lattice import Lattice, downward_pass, upward_pass
 from .segments import Segments
 
@@ -72,9 +72,10 @@ class CollocationOperator:
         seg = replace(self.segments, flux=flux, jump=jump)
         local = downward_pass(upward_pass(seg, self.cell_start, self.lattice, self.order), self.lattice, self.order)
         far = far_field_at(local, self.lattice, self.cells, seg.midpoints)
-        near = near_at_midpoints(
-            self.cells, self.lattice.cells_per_side, self.cell_start, seg.p, seg.q,
-            np.ascontiguousarray(flux), np.ascontiguousarray(jump),
+        lattice = self.lattice
+        near = near_sum(
+            seg.midpoints, lattice.cells_per_side, lattice.cell_size, self.cell_start, seg.p, seg.q,
+            np.ascontiguousarray(flux), np.ascontiguousarray(jump), own=np.arange(len(seg)),
         )
         return far + near
 

@@ -75,7 +75,7 @@ def direct_sum(targets: np.ndarray, p: np.ndarray, q: np.ndarray, flux: np.ndarr
 
 
 @numba.njit(parallel=True, cache=True, fastmath=FAST_MATH)
-def _near_sum(targets, cells_per_side, cell_size, cell_start, p, q, tangent, length, flux, jump, out):
+def _near_sum(targets, own, cells_per_side, cell_size, cell_start, p, q, tangent, length, flux, jump, out):
     n = cells_per_side
     for i in numba.prange(targets.shape[0]):
         x, y = targets[i, 0], targets[i, 1]
@@ -87,6 +87,8 @@ def _near_sum(targets, cells_per_side, cell_size, cell_start, p, q, tangent, len
                 cell = ny * n + nx
                 for j in range(cell_start[cell], cell_start[cell + 1]):
                     s, d = _layers(x, y, p[j, 0], p[j, 1], q[j, 0], q[j, 1], tangent[j, 0], tangent[j, 1], length[j])
+                    if j == own[i]:
+                        d = 0.0
                     r += flux[j, 0] * s - jump[j, 0] * d
                     g += flux[j, 1] * s - jump[j, 1] * d
                     b += flux[j, 2] * s - jump[j, 2] * d
@@ -102,6 +104,7 @@ def near_sum(
     q: np.ndarray,
     flux: np.ndarray,
     jump: np.ndarray,
+    own: np.ndarray | None = None,
 ) -> np.ndarray:
     """Sum over the segments in the 3x3 cells around each target, ``(m, 3)``.
 
@@ -118,11 +121,15 @@ def near_sum(
         ``row * cells_per_side + column`` are ``cell_start[c]:cell_start[c+1]``.
     p, q, flux, jump : numpy.ndarray
         Segments sorted by cell.
+    own : numpy.ndarray, optional
+        ``(m,)`` index of a segment each target lies on (its midpoint), whose
+        double layer then counts as 0 (the principal value); -1 for none.
     """
     tangent, length = segment_frames(p, q)
     out = np.empty((len(targets), 3))
+    own = np.full(len(targets), -1, np.int64) if own is None else np.asarray(own, np.int64)
     _near_sum(
-        np.ascontiguousarray(targets, dtype=np.float64),
+        np.ascontiguousarray(targets, dtype=np.float64), own,
         cells_per_side, float(cell_size), cell_start, p, q, tangent, length, flux, jump, out,
     )
     return out
@@ -156,40 +163,6 @@ def collocation_system(
     rhs = np.where(on_border[:, None], 0.0, mean)
     _collocation(0.5 * (p + q), p, q, tangent, length, on_border, np.ascontiguousarray(jump), matrix, rhs)
     return matrix, rhs
-
-
-@numba.njit(parallel=True, cache=True, fastmath=FAST_MATH)
-def _near_at_midpoints(cells, cells_per_side, cell_start, p, q, tangent, length, flux, jump, out):
-    n = cells_per_side
-    for i in numba.prange(p.shape[0]):
-        x, y = 0.5 * (p[i, 0] + q[i, 0]), 0.5 * (p[i, 1] + q[i, 1])
-        cy, cx = cells[i, 0], cells[i, 1]
-        r = g = b = 0.0
-        for ny in range(max(cy - 1, 0), min(cy + 2, n)):
-            for nx in range(max(cx - 1, 0), min(cx + 2, n)):
-                cell = ny * n + nx
-                for j in range(cell_start[cell], cell_start[cell + 1]):
-                    s, d = _layers(x, y, p[j, 0], p[j, 1], q[j, 0], q[j, 1], tangent[j, 0], tangent[j, 1], length[j])
-                    if j == i:
-                        d = 0.0
-                    r += flux[j, 0] * s - jump[j, 0] * d
-                    g += flux[j, 1] * s - jump[j, 1] * d
-                    b += flux[j, 2] * s - jump[j, 2] * d
-        out[i, 0], out[i, 1], out[i, 2] = r, g, b
-
-
-def near_at_midpoints(
-    cells: np.ndarray, cells_per_side: int, cell_start: np.ndarray,
-    p: np.ndarray, q: np.ndarray, flux: np.ndarray, jump: np.ndarray,
-) -> np.ndarray:
-    """Near field at every segment's own midpoint, ``(n, 3)``; a segment's own double layer is 0.
-
-    Segments must be sorted by cell; ``cells (n, 2)`` holds each one's (row, column).
-    """
-    tangent, length = segment_frames(p, q)
-    out = np.empty((len(p), 3))
-    _near_at_midpoints(cells, cells_per_side, cell_start, p, q, tangent, length, flux, jump, out)
-    return out
 
 
 @numba.njit(parallel=True, cache=True)
