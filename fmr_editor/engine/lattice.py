@@ -105,9 +105,26 @@ def upward_pass(segments: Segments, cell_start: np.ndarray, lattice: Lattice, or
     fine = cell_moments(
         cell_start, centres, lattice.cell_size, segments.p, segments.q, segments.flux, segments.jump, order
     )
-    multipoles = [None] * (lattice.levels + 1)
-    multipoles[lattice.levels] = fine.reshape(n, n, 3, order + 1)
-    for level in range(lattice.levels, 2, -1):
+    return coarser_multipoles(fine.reshape(n, n, 3, order + 1), order)
+
+
+def coarser_multipoles(fine: np.ndarray, order: int) -> list[np.ndarray | None]:
+    """The fine level's multipoles and every coarser level's, by M2M up to level 2.
+
+    Parameters
+    ----------
+    fine : numpy.ndarray
+        ``(2^L, 2^L, channels, order + 1)`` scaled multipoles of the fine cells.
+
+    Returns
+    -------
+    list of numpy.ndarray
+        Indexed by level; entries below 2 are None.
+    """
+    levels = int(np.log2(fine.shape[0]))
+    multipoles: list[np.ndarray | None] = [None] * (levels + 1)
+    multipoles[levels] = fine
+    for level in range(levels, 2, -1):
         child = multipoles[level]
         parent = np.zeros((2 ** (level - 1),) * 2 + child.shape[2:], complex)
         for py in (0, 1):
