@@ -57,8 +57,12 @@ def machine() -> str:
         cpu = next(line.split(":", 1)[1].strip() for line in open("/proc/cpuinfo") if line.startswith("model name"))
     except (OSError, StopIteration):
         pass
-    return (f"{cpu}, {os.cpu_count()} cores ({numba.get_num_threads()} numba threads); Python {platform.python_version()}, "
-            f"numpy {np.__version__}, numba {numba.__version__}")
+    try:
+        layer = f", layer {numba.threading_layer()}"
+    except ValueError:  # known only once a parallel kernel has run
+        layer = ""
+    return (f"{cpu}, {os.cpu_count()} cores ({numba.get_num_threads()} numba threads{layer}); "
+            f"Python {platform.python_version()}, numpy {np.__version__}, numba {numba.__version__}")
 
 
 def warm_up() -> float:

@@ -27,7 +27,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import platform
 import subprocess
 import sys
 import tempfile
@@ -36,6 +35,8 @@ from pathlib import Path
 
 import numba
 import numpy as np
+
+from bench_engine import machine
 
 from fmr_editor.engine.point_fmm import choose_levels, evaluate_points_direct, evaluate_points_fmm
 
@@ -182,16 +183,6 @@ def make_problem(n: int, seed: int, check_targets: int, folder: Path) -> dict:
     reference = evaluate_points_direct(sources, charges, dipoles, sources[check])
     log(f"  direct sum at {len(check)} check targets: {time.perf_counter() - start:.1f} s")
     return {"sources": sources, "charges": charges, "dipoles": dipoles, "check": check, "reference": reference}
-
-
-def machine() -> str:
-    cpu = "unknown CPU"
-    try:
-        cpu = next(line.split(":", 1)[1].strip() for line in open("/proc/cpuinfo") if line.startswith("model name"))
-    except (OSError, StopIteration):
-        pass
-    return (f"{cpu}, {os.cpu_count()} cores; Python {platform.python_version()}, numpy {np.__version__}, "
-            f"numba {numba.__version__} ({numba.get_num_threads()} threads, layer {numba.threading_layer()})")
 
 
 def main(argv: list[str] | None = None) -> None:
