@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from fmr_editor.model import ColorStop, DiffusionCurve
+from fmr_editor.model import ColorStop, DiffusionCurve, Document
 
 KAPPA = 4.0 / 3.0 * (np.sqrt(2.0) - 1.0)
 
@@ -44,3 +44,16 @@ def uniform_curve(control_points: np.ndarray, left: float, right: float) -> Diff
         left=(ColorStop(0.0, (left,) * 3),),
         right=(ColorStop(0.0, (right,) * 3),),
     )
+
+
+def scattered_document(size: int = 128, circles: int = 5, seed: int = 2) -> Document:
+    """Random circles with colour stops plus one open chain: a small but varied boundary system."""
+    rng = np.random.default_rng(seed)
+    curves = []
+    for _ in range(circles):
+        stops = tuple(ColorStop(s, tuple(rng.random(3))) for s in (0.0, 2.0, 4.0))
+        centre = rng.uniform(0.2 * size, 0.8 * size, 2)
+        curves.append(DiffusionCurve(circle_points(*centre, rng.uniform(0.05, 0.15) * size), left=stops, right=stops[::-1]))
+    chain = [(0.04 * size, 0.94 * size), (0.47 * size, 0.7 * size), (0.96 * size, 0.86 * size)]
+    curves.append(DiffusionCurve(straight_chain(chain), left=stops, right=stops))
+    return Document(size, size, curves)

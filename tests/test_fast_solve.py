@@ -1,27 +1,22 @@
-"""The FMM product of the collocation system against the dense matrix."""
+"""The FMM product of the collocation system and the preconditioned GMRES against the dense solve."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
-from shapes import circle_points, straight_chain
+from shapes import scattered_document
 
+from fmr_editor.engine import build, fast_solve, rasterise
 from fmr_editor.engine.bem import assemble, solve_dense
 from fmr_editor.engine.fast_solve import CollocationOperator, solve_fmm
 from fmr_editor.engine.lattice import Lattice, sort_into_cells
 from fmr_editor.engine.segments import boundary_segments, curve_segments
-from fmr_editor.model import ColorStop, DiffusionCurve, Document
+from fmr_editor.engine.skeleton import SkeletonFactorization
 
 
 @pytest.fixture(scope="module")
 def system():
-    rng = np.random.default_rng(2)
-    curves = []
-    for _ in range(5):
-        stops = tuple(ColorStop(s, tuple(rng.random(3))) for s in (0.0, 2.0, 4.0))
-        curves.append(DiffusionCurve(circle_points(*rng.uniform(25, 100, 2), rng.uniform(6, 20)), left=stops, right=stops[::-1]))
-    curves.append(DiffusionCurve(straight_chain([(5, 120), (60, 90), (123, 110)]), left=stops, right=stops))
-    doc = Document(128, 128, curves)
+    doc = scattered_document()
     lattice = Lattice(4, 128.0)
     segments, cell_start = sort_into_cells(
         boundary_segments(curve_segments(doc, max_length=4.0), doc, lattice.cell_size, border_spacing=4.0), lattice
@@ -43,19 +38,41 @@ def test_fmm_right_hand_side_equals_the_dense_one(system):
     assert np.abs(got - rhs).max() <= 1e-8 * np.abs(rhs).max()
 
 
-def test_near_matrix_holds_the_dense_entries_of_each_3x3_block(system):
-    segments, cell_start, lattice, matrix, _ = system
-    near = CollocationOperator(segments, cell_start, lattice, 20).near_matrix().toarray()
-    cells = lattice.cell_of(segments.midpoints)
-    neighbours = np.abs(cells[:, None, :] - cells[None, :, :]).max(axis=2) <= 1
-    np.testing.assert_array_equal(near[neighbours], matrix[neighbours])
-    assert not near[~neighbours].any()
+def compressed(segments, tolerance):
+    """A factorisation small boxes and a small top make compress through several levels."""
+    return SkeletonFactorization(segments, tolerance, leaf_size=16, top_size=40)
 
 
 def test_iterative_solve_matches_the_dense_solve(system):
     segments, cell_start, lattice, _, _ = system
-    solved, report = solve_fmm(segments, cell_start, lattice, order=20, rtol=1e-11)
-    dense = solve_dense(segments)
-    unknown, expected = solved.unknowns(), dense.unknowns()
-    assert report.residual <= 1e-9
-    assert np.abs(unknown - expected).max() <= 1e-6 * np.abs(expected).max()
+    solved, report = solve_fmm(segments, cell_start, lattice, rtol=1e-11, preconditioner=compressed(segments, 1e-10))
+    expected = solve_dense(segments).unknowns()
+    assert report.residual <= 1e-11
+    assert np.abs(solved.unknowns() - expected).max() <= 1e-6 * np.abs(expected).max()
+
+
+def test_a_weak_preconditioner_still_converges_by_iterating(system):
+    segments, cell_start, lattice, _, _ = system
+    solved, report = solve_fmm(segments, cell_start, lattice, rtol=1e-11, preconditioner=compressed(segments, 1e-3))
+    expected = solve_dense(segments).unknowns()
+    assert report.iterations >= 2 and report.residual <= 1e-11
+    assert np.abs(solved.unknowns() - expected).max() <= 1e-6 * np.abs(expected).max()
+
+
+def test_a_reused_preconditioner_and_warm_start_need_no_new_factorisation(system):
+    segments, cell_start, lattice, _, _ = system
+    first, report = solve_fmm(segments, cell_start, lattice, preconditioner=compressed(segments, 1e-10))
+    again, second = solve_fmm(segments, cell_start, lattice, preconditioner=report.preconditioner,
+                              initial=first.unknowns())
+    assert second.preconditioner is report.preconditioner
+    assert second.iterations == 0
+    np.testing.assert_array_equal(again.unknowns(), first.unknowns())
+
+
+def test_build_above_the_crossover_gives_the_dense_image(monkeypatch):
+    doc = scattered_document(96, circles=3, seed=5)
+    dense = rasterise(build(doc), 48, 48, samples=1)
+    monkeypatch.setattr(fast_solve, "DENSE_CROSSOVER", 10)
+    monkeypatch.setattr(fast_solve, "solve_dense", lambda segments: pytest.fail("dense solve used above the crossover"))
+    fast = rasterise(build(doc), 48, 48, samples=1)
+    assert np.abs(fast - dense).max() <= 1e-6

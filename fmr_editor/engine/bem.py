@@ -26,9 +26,7 @@ from .kernels import collocation_system
 from .layers import pair_integrals
 from .segments import Segments
 
-#: Largest system the dense solve accepts (its matrix alone takes n^2 * 8 bytes, its LU n^3 time).
-DENSE_LIMIT = 32_000
-#: Share of the available memory the dense matrix may take.
+#: Share of the available memory a solve may keep.
 MEMORY_SHARE = 0.8
 
 
@@ -52,11 +50,10 @@ def check_dense_fits(count: int) -> None:
     """Raise ``SolveTooLargeError`` before allocating when ``count`` unknowns cannot be solved densely."""
     need = 8 * count * count
     available = available_memory()
-    if count > DENSE_LIMIT or need > MEMORY_SHARE * available:
+    if need > MEMORY_SHARE * available:
         raise SolveTooLargeError(
             f"{count:,} boundary segments need a {need / 1e9:.1f} GB dense system "
-            f"(limit {DENSE_LIMIT:,} segments, {available / 1e9:.1f} GB available); "
-            "files this large wait for the fast iterative solver"
+            f"({available / 1e9:.1f} GB available)"
         )
 
 

@@ -4,16 +4,14 @@ The collocation system of ``bem`` is never formed.  Its product with a
 vector of unknowns x (E on curves, C on the border) is the field of those
 densities at every segment midpoint: far field through the same upward and
 downward passes that build the representation, near field (the 3x3 block)
-by exact integrals; border rows subtract x / 2.  The near-field block, a
-sparse matrix, factorised once, preconditions GMRES.  The three colour
-channels are one stacked vector, so every product is one three-channel FMM
-pass.
+by exact integrals; border rows subtract x / 2.  The three colour channels
+are one stacked vector, so every product is one three-channel FMM pass.
 
-Status: the products are exact to the FMM's accuracy, but the near-field
-preconditioner only tames the high-frequency part of this first-kind (log
-kernel) system; GMRES then needs hundreds of iterations on real files
-(poivron: 530 to 1e-10).  ``build`` therefore still uses the dense solve;
-a stronger preconditioner is the next step.
+This first-kind (log kernel) system is ill-conditioned: a near-field
+preconditioner only tames its high frequencies and leaves GMRES hundreds of
+iterations (530 on poivron).  The preconditioner is therefore a compressed
+factorisation of the whole matrix (``skeleton``), accurate to about
+``1e-10``; GMRES then corrects what compression lost in one or two steps.
 """
 
 from __future__ import annotations
@@ -25,9 +23,15 @@ import numpy as np
 import scipy.sparse
 import scipy.sparse.linalg
 
-from .kernels import near_block, near_sum
-from .lattice import Lattice, downward_pass, upward_pass
+from .kernels import near_sum
+from .bem import solve_dense
+from .lattice import Lattice, downward_pass, sort_into_cells, upward_pass
 from .segments import Segments
+from .skeleton import SkeletonFactorization
+
+
+#: Unknowns up to which the dense solve is faster (``bench/bench_solve.py``).
+DENSE_CROSSOVER = 3000
 
 
 def far_field_at(local: np.ndarray, lattice: Lattice, cells: np.ndarray, points: np.ndarray) -> np.ndarray:
@@ -46,6 +50,7 @@ class SolveReport:
 
     iterations: int
     residual: float
+    preconditioner: SkeletonFactorization
 
 
 class CollocationOperator:
@@ -91,25 +96,19 @@ class CollocationOperator:
         mean = np.where(self.border, 0.0, self.segments.mean)
         return mean - self.field(np.zeros_like(curve_jump), curve_jump)
 
-    def near_matrix(self) -> scipy.sparse.csr_matrix:
-        """The collocation matrix restricted to the 3x3 blocks (the preconditioner)."""
-        seg = self.segments
-        row_start, columns, values = near_block(
-            self.cells, self.lattice.cells_per_side, self.cell_start, seg.p, seg.q, seg.on_border
-        )
-        return scipy.sparse.csr_matrix((values, columns, row_start), shape=(len(seg), len(seg)))
-
 
 def solve_fmm(
     segments: Segments,
     cell_start: np.ndarray,
     lattice: Lattice,
     order: int = 20,
-    rtol: float = 1e-10,
+    rtol: float = 1e-9,
+    tolerance: float = 1e-10,
+    preconditioner: SkeletonFactorization | None = None,
     initial: np.ndarray | None = None,
     progress: Callable[[float], None] | None = None,
 ) -> tuple[Segments, SolveReport]:
-    """Solve the collocation system iteratively.
+    """Solve the collocation system by GMRES with FMM products.
 
     Parameters
     ----------
@@ -117,14 +116,21 @@ def solve_fmm(
         Sorted by fine cell of ``lattice``.
     cell_start : numpy.ndarray
     lattice : Lattice
+        Any lattice the segments are sorted for (a coarser one than the
+        representation's makes each product cheaper).
     order : int
         Terms carried through the FMM passes of each product.
     rtol : float
-        GMRES relative residual tolerance.
+        Relative residual (2-norm over all channels) to reach.
+    tolerance : float
+        Compression accuracy of the preconditioner, when one is made.
+    preconditioner : SkeletonFactorization, optional
+        A factorisation of the same matrix to reuse (a colour-only change).
     initial : numpy.ndarray, optional
-        ``(n, 3)`` starting guess (a previous solution).
+        ``(n, 3)`` starting guess (a previous solution); by default the
+        preconditioner's own solution.
     progress : callable, optional
-        Called with the fraction of the residual reduction reached (log scale).
+        Called with the fraction of the work done.
 
     Returns
     -------
@@ -132,27 +138,63 @@ def solve_fmm(
         With ``flux`` (curves) and ``jump`` (border) solved.
     report : SolveReport
     """
+    report = progress or (lambda fraction: None)
     n = len(segments)
+    if preconditioner is None:
+        preconditioner = SkeletonFactorization(segments, tolerance, progress=lambda f: report(0.8 * f))
     operator = CollocationOperator(segments, cell_start, lattice, order)
-    lu = scipy.sparse.linalg.splu(operator.near_matrix().tocsc())
     rhs = operator.right_hand_side()
+    last = {}
+
+    def product(vector: np.ndarray) -> np.ndarray:
+        last["x"], last["ax"] = vector.copy(), operator.apply(vector.reshape(n, 3)).ravel()
+        return last["ax"]
+
     shape = (3 * n, 3 * n)
-    matrix = scipy.sparse.linalg.LinearOperator(shape, lambda v: operator.apply(v.reshape(n, 3)).ravel(), dtype=float)
-    preconditioner = scipy.sparse.linalg.LinearOperator(shape, lambda v: lu.solve(v.reshape(n, 3)).ravel(), dtype=float)
-    target = np.log(rtol)
+    matrix = scipy.sparse.linalg.LinearOperator(shape, product, dtype=float)
+    inverse = scipy.sparse.linalg.LinearOperator(
+        shape, lambda v: preconditioner.solve(v.reshape(n, 3)).ravel(), dtype=float
+    )
     iterations = 0
 
     def step(residual_norm: float) -> None:
         nonlocal iterations
         iterations += 1
-        if progress:
-            progress(min(1.0, np.log(max(residual_norm, 1e-300)) / target))
+        report(0.8 + 0.2 * min(1.0, np.log(max(residual_norm, 1e-300)) / np.log(rtol)))
 
-    x0 = None if initial is None else initial.ravel()
-    unknown, info = scipy.sparse.linalg.gmres(
-        matrix, rhs.ravel(), x0=x0, rtol=rtol, atol=0.0, restart=60, maxiter=20,
-        M=preconditioner, callback=step, callback_type="pr_norm",
+    start = preconditioner.solve(rhs) if initial is None else initial
+    unknown, _ = scipy.sparse.linalg.gmres(
+        matrix, rhs.ravel(), x0=start.ravel(), rtol=rtol, atol=0.0, restart=30, maxiter=10,
+        M=inverse, callback=step, callback_type="pr_norm",
     )
-    unknown = unknown.reshape(n, 3)
-    residual = float(np.linalg.norm(operator.apply(unknown) - rhs) / max(np.linalg.norm(rhs), 1e-300))
-    return segments.with_unknowns(unknown), SolveReport(iterations, residual)
+    # GMRES ends on a true residual; reuse that product unless it stopped elsewhere
+    applied = last["ax"] if np.array_equal(last.get("x"), unknown) else product(unknown)
+    residual = float(np.linalg.norm(applied - rhs.ravel()) / max(np.linalg.norm(rhs), 1e-300))
+    report(1.0)
+    return segments.with_unknowns(unknown.reshape(n, 3)), SolveReport(iterations, residual, preconditioner)
+
+
+def solve_boundary(
+    segments: Segments, lattice: Lattice, progress: Callable[[float], None] | None = None
+) -> Segments:
+    """Solve the boundary system densely or iteratively, whichever is faster for its size.
+
+    Parameters
+    ----------
+    segments : Segments
+    lattice : Lattice
+        Lattice for the iterative solve's products.
+    progress : callable, optional
+        Called with the fraction of the work done.
+
+    Raises
+    ------
+    SolveTooLargeError
+        Early, when the system cannot fit in memory.
+    """
+    if not np.any(~segments.on_border):
+        return segments  # no curves: the reflecting canvas alone holds black (its system is singular)
+    if len(segments) <= DENSE_CROSSOVER:
+        return solve_dense(segments)
+    ordered, cell_start = sort_into_cells(segments, lattice)
+    return solve_fmm(ordered, cell_start, lattice, progress=progress)[0]

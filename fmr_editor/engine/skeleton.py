@@ -1,0 +1,311 @@
+"""Recursive skeletonization: a compressed LU factorisation of the collocation system.
+
+The collocation matrix A (``bem``) is dense, but the block coupling a box of
+segments to everything outside it has low numerical rank.  Working up a
+quadtree from small boxes, each box keeps a *skeleton* of its unknowns
+through which all of that coupling passes; its other (*redundant*) unknowns
+are eliminated with a small dense LU (Ho and Greengard 2012, in the
+factorised form of Minden, Ho, Damle and Ying 2017, weak admissibility).
+Whatever is left at the top is factorised densely.
+
+Compressing a box needs its coupling to every other unknown.  The nearby
+ones (within the proxy circle) are computed exactly; the field of everything
+further away is harmonic inside the circle, so point charges on the circle
+stand in for it, and likewise the box's own field outside the circle is
+determined by its values on the circle.  One interpolative decomposition of
+the stacked rows and transposed columns gives a skeleton serving both::
+
+    A[N, R] ~ A[N, S] T        A[R, N] ~ T^T A[S, N]
+
+Eliminating R then only changes the box's own skeleton block, so every other
+entry the next levels need is an original matrix entry, computed on demand.
+
+The factorisation costs far less than dense LU for large systems; its
+accuracy follows ``tolerance``.  ``fast_solve`` uses it to precondition
+GMRES (or to solve outright).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+import scipy.linalg
+from threadpoolctl import threadpool_limits
+
+from . import bem
+from .kernels import FAST_MATH, _layers, segment_frames
+from .segments import Segments
+
+#: Proxy circle radius over box width.
+PROXY_RADIUS = 1.5
+#: Charges on the proxy circle.
+PROXY_POINTS = 64
+
+
+def _entries_loop(targets, target_ids, columns, p, q, tangent, length, on_border, out):
+    for a in numba.prange(targets.shape[0]):
+        x, y, own = targets[a, 0], targets[a, 1], target_ids[a]
+        for b in range(columns.shape[0]):
+            j = columns[b]
+            s, d = _layers(x, y, p[j, 0], p[j, 1], q[j, 0], q[j, 1], tangent[j, 0], tangent[j, 1], length[j])
+            if own == j:
+                d = 0.0
+            if on_border[j]:
+                out[a, b] = -d - 0.5 if own == j else -d
+            else:
+                out[a, b] = s
+
+
+# Small blocks run serially: waking threads costs more than they save, and
+# stalls behind BLAS's spinning threads on a busy machine.
+_entries_serial = numba.njit(cache=True, fastmath=FAST_MATH)(_entries_loop)
+_entries_parallel = numba.njit(parallel=True, cache=True, fastmath=FAST_MATH)(_entries_loop)
+#: Pairs from which a block is computed in parallel.
+PARALLEL_PAIRS = 200_000
+
+
+class CollocationEntries:
+    """Entries of the collocation matrix of ``segments`` on demand.
+
+    Row i evaluates the field of unit densities at midpoint i: column j is
+    ``S_ij`` on a curve segment, ``-D_ij`` on a border segment, with the
+    principal value and the border's ``-1/2`` on the diagonal (``bem``).
+    """
+
+    def __init__(self, segments: Segments) -> None:
+        self.p, self.q, self.on_border = segments.p, segments.q, segments.on_border
+        self.tangent, self.length = segment_frames(self.p, self.q)
+        self.midpoints = segments.midpoints
+
+    def block(self, rows: np.ndarray, columns: np.ndarray) -> np.ndarray:
+        """``A[rows][:, columns]``, ``(len(rows), len(columns))``."""
+        return self.at(self.midpoints[rows], columns, rows)
+
+    def at(self, points: np.ndarray, columns: np.ndarray, ids: np.ndarray | None = None) -> np.ndarray:
+        """Field of unit densities on ``columns`` at ``points`` (not on those segments unless ``ids`` says so)."""
+        out = np.empty((len(points), len(columns)))
+        ids = np.full(len(points), -1, np.int64) if ids is None else ids
+        kernel = _entries_parallel if out.size >= PARALLEL_PAIRS else _entries_serial
+        kernel(np.ascontiguousarray(points), ids, columns, self.p, self.q, self.tangent, self.length,
+                 self.on_border, out)
+        return out
+
+
+def interpolative(
+    matrix: np.ndarray, tolerance: float, rng: np.random.Generator | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Column interpolative decomposition by pivoted QR.
+
+    ``rng``, when given, allows sketching a tall matrix first.
+
+    Returns
+    -------
+    skeleton, redundant : numpy.ndarray
+        Column positions; ``matrix[:, redundant] ~ matrix[:, skeleton] @ T``
+        to ``tolerance`` relative to the largest pivot.
+    T : numpy.ndarray
+        ``(len(skeleton), len(redundant))``.
+    """
+    rows, columns = matrix.shape
+    if rows > 4 * columns and rng is not None:
+        # A Gaussian sketch with twice as many rows as columns keeps the
+        # column relations, well conditioned, and turns a tall pivoted QR into
+        # one matrix product.
+        matrix = rng.standard_normal((2 * columns, rows)) @ matrix
+    r_factor, order = scipy.linalg.qr(matrix, mode="r", pivoting=True, overwrite_a=True, check_finite=False)
+    pivots = np.abs(np.diag(r_factor))
+    rank = int(np.count_nonzero(pivots > tolerance * pivots[0])) if len(pivots) and pivots[0] > 0 else 0
+    rank = max(rank, 1)
+    T = scipy.linalg.solve_triangular(r_factor[:rank, :rank], r_factor[:rank, rank:], check_finite=False)
+    return order[:rank], order[rank:], T
+
+
+@dataclass(frozen=True)
+class Elimination:
+    """One box's step: its redundant unknowns eliminated through its skeleton."""
+
+    redundant: np.ndarray
+    skeleton: np.ndarray
+    interpolation: np.ndarray  # T, (skeleton, redundant)
+    lu: tuple  # of M_RR
+    lower: np.ndarray  # M_SR
+    upper: np.ndarray  # M_RR^-1 M_RS
+
+
+def eliminate(block: np.ndarray, skeleton: np.ndarray, redundant: np.ndarray, T: np.ndarray):
+    """Eliminate ``redundant`` from a box's block given its interpolation ``T``.
+
+    Returns the step's factors ``(lu, lower, upper)`` and the skeleton's new block.
+    """
+    a_rr = block[np.ix_(redundant, redundant)]
+    a_rs = block[np.ix_(redundant, skeleton)]
+    a_sr = block[np.ix_(skeleton, redundant)]
+    a_ss = block[np.ix_(skeleton, skeleton)]
+    m_rs = a_rs - T.T @ a_ss
+    m_sr = a_sr - a_ss @ T
+    m_rr = a_rr - T.T @ a_sr - m_rs @ T
+    lu = scipy.linalg.lu_factor(m_rr, overwrite_a=True, check_finite=False)
+    upper = scipy.linalg.lu_solve(lu, m_rs, check_finite=False)
+    return lu, m_sr, upper, a_ss - m_sr @ upper
+
+
+@dataclass
+class _Box:
+    indices: np.ndarray  # active unknowns (global)
+    block: np.ndarray  # their current diagonal block
+
+
+class SkeletonFactorization:
+    """Compressed LU factorisation of a collocation matrix; ``solve`` applies its inverse.
+
+    Parameters
+    ----------
+    segments : Segments
+    tolerance : float
+        Relative accuracy of each compression.
+    leaf_size : int
+        Largest mean number of unknowns per occupied leaf box.
+    top_size : int
+        Stop compressing when at most this many unknowns remain.
+    progress : callable, optional
+        Called with the fraction of the work done.
+    """
+
+    def __init__(
+        self,
+        segments: Segments,
+        tolerance: float = 1e-8,
+        leaf_size: int = 64,
+        top_size: int = 1500,
+        progress: Callable[[float], None] | None = None,
+    ) -> None:
+        self.size = len(segments)
+        self.entries = CollocationEntries(segments)
+        self.tolerance = tolerance
+        self.steps: list[Elimination] = []
+        self.stored_bytes = 0
+        self.memory_limit = bem.MEMORY_SHARE * bem.available_memory()
+        self.rng = np.random.default_rng(0)
+        mids = self.entries.midpoints
+        self.origin = mids.min(axis=0) if len(mids) else np.zeros(2)
+        self.side = float(np.ptp(mids, axis=0).max()) * (1 + 1e-9) + 1e-9 if len(mids) else 1.0
+        self.reach = float(self.entries.length.max()) if len(mids) else 0.0
+        levels = leaf_levels(mids, self.origin, self.side, leaf_size)
+        boxes = {key: _Box(idx, self.entries.block(idx, idx)) for key, idx in _group(mids, self.origin, self.side, levels)}
+        # Each box's algebra is small: BLAS threads would only wait on each other.
+        with threadpool_limits(1, user_api="blas"):
+            for level in range(levels, 1, -1):
+                if sum(len(b.indices) for b in boxes.values()) <= top_size:
+                    break
+                if level < levels:
+                    boxes = self._merge(boxes)
+                self._compress_level(boxes, level)
+                if progress:
+                    progress((levels - level + 1) / levels)
+        self.top = np.concatenate([b.indices for b in boxes.values()]) if boxes else np.zeros(0, np.int64)
+        self._account(8 * len(self.top) ** 2)
+        top_block = self._merged_block(list(boxes.values()))
+        self.top_lu = scipy.linalg.lu_factor(top_block, overwrite_a=True, check_finite=False) if len(self.top) else None
+
+    def _account(self, size: int) -> None:
+        """Count ``size`` more bytes kept; fail early, before the machine runs out."""
+        self.stored_bytes += size
+        if self.stored_bytes > self.memory_limit:
+            raise bem.SolveTooLargeError(
+                f"{self.size:,} boundary segments: the compressed factorisation needs more than "
+                f"{self.memory_limit / 1e9:.1f} GB, the share of memory available"
+            )
+
+    def _merged_block(self, children: list[_Box]) -> np.ndarray:
+        indices = np.concatenate([c.indices for c in children]) if children else np.zeros(0, np.int64)
+        block = self.entries.block(indices, indices)
+        start = 0
+        for child in children:
+            stop = start + len(child.indices)
+            block[start:stop, start:stop] = child.block
+            start = stop
+        return block
+
+    def _merge(self, boxes: dict) -> dict:
+        parents: dict = {}
+        for (kx, ky), box in boxes.items():
+            parents.setdefault((kx // 2, ky // 2), []).append(box)
+        return {key: _Box(np.concatenate([c.indices for c in kids]), self._merged_block(kids))
+                for key, kids in parents.items()}
+
+    def _compress_level(self, boxes: dict, level: int) -> None:
+        width = self.side / 2**level
+        radius = PROXY_RADIUS * width
+        angles = 2 * np.pi * np.arange(PROXY_POINTS) / PROXY_POINTS
+        circle = radius * np.stack([np.cos(angles), np.sin(angles)], axis=1)
+        span = int(math.ceil((radius + self.reach) / width))
+        mids = self.entries.midpoints
+        for (kx, ky), box in boxes.items():
+            if len(box.indices) < 2:
+                continue
+            centre = self.origin + (np.array([kx, ky]) + 0.5) * width
+            near = [boxes[(kx + dx, ky + dy)].indices for dx in range(-span, span + 1) for dy in range(-span, span + 1)
+                    if (dx or dy) and (kx + dx, ky + dy) in boxes]
+            near = np.concatenate(near) if near else np.zeros(0, np.int64)
+            near = near[np.hypot(*(mids[near] - centre).T) < radius + self.reach]
+            proxy = centre + circle
+            own = mids[box.indices]
+            charges = np.log(np.hypot(own[:, None, 0] - proxy[None, :, 0], own[:, None, 1] - proxy[None, :, 1]))
+            stacked = np.concatenate([
+                self.entries.block(near, box.indices),
+                self.entries.at(proxy, box.indices),
+                self.entries.block(box.indices, near).T,
+                charges.T,
+            ])
+            skeleton, redundant, T = interpolative(stacked, self.tolerance, self.rng)
+            if len(redundant) == 0:
+                continue
+            lu, lower, upper, block = eliminate(box.block, skeleton, redundant, T)
+            self.steps.append(Elimination(box.indices[redundant], box.indices[skeleton], T, lu, lower, upper))
+            self._account(sum(a.nbytes for a in (T, lu[0], lower, upper)))
+            box.indices, box.block = box.indices[skeleton], block
+
+    def solve(self, rhs: np.ndarray) -> np.ndarray:
+        """Approximate ``A^-1 rhs`` for ``rhs`` of shape ``(n,)`` or ``(n, k)``."""
+        x = np.array(rhs, dtype=float, copy=True)
+        for step in self.steps:
+            r, s = step.redundant, step.skeleton
+            x[r] -= step.interpolation.T @ x[s]
+            x[r] = scipy.linalg.lu_solve(step.lu, x[r], check_finite=False)
+            x[s] -= step.lower @ x[r]
+        if len(self.top):
+            x[self.top] = scipy.linalg.lu_solve(self.top_lu, x[self.top], check_finite=False)
+        for step in reversed(self.steps):
+            r, s = step.redundant, step.skeleton
+            x[r] -= step.upper @ x[s]
+            x[s] -= step.interpolation @ x[r]
+        return x
+
+
+def _box_keys(points: np.ndarray, origin: np.ndarray, side: float, level: int) -> np.ndarray:
+    count = 2**level
+    return np.clip(np.floor((points - origin) / (side / count)).astype(np.int64), 0, count - 1)
+
+
+def leaf_levels(points: np.ndarray, origin: np.ndarray, side: float, leaf_size: int) -> int:
+    """Coarsest depth whose occupied boxes hold at most ``leaf_size`` points on average (at least 2)."""
+    for level in range(2, 30):
+        keys = _box_keys(points, origin, side, level)
+        occupied = len(np.unique(keys[:, 0] * 2**level + keys[:, 1]))
+        if len(points) <= leaf_size * occupied:
+            return level
+    return 30
+
+
+def _group(points: np.ndarray, origin: np.ndarray, side: float, level: int):
+    """``(key, indices)`` of each occupied box at ``level``."""
+    keys = _box_keys(points, origin, side, level)
+    flat = keys[:, 0] * 2**level + keys[:, 1]
+    order = np.argsort(flat, kind="stable")
+    unique, start = np.unique(flat[order], return_index=True)
+    for box, indices in zip(unique, np.split(order, start[1:])):
+        yield (int(box) // 2**level, int(box) % 2**level), indices

@@ -1,0 +1,65 @@
+"""Recursive skeletonization against the dense matrix and the dense solve."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from shapes import scattered_document
+
+from fmr_editor.engine import bem
+from fmr_editor.engine.bem import SolveTooLargeError, assemble
+from fmr_editor.engine.lattice import Lattice
+from fmr_editor.engine.segments import boundary_segments, curve_segments
+from fmr_editor.engine.skeleton import CollocationEntries, SkeletonFactorization, interpolative
+
+
+@pytest.fixture(scope="module")
+def system():
+    doc = scattered_document(256, circles=8, seed=7)
+    segments = boundary_segments(curve_segments(doc, max_length=2.0), doc, Lattice(5, 256.0).cell_size, 2.0)
+    matrix, rhs = assemble(segments)
+    return segments, matrix, rhs, np.linalg.solve(matrix, rhs)
+
+
+def test_entries_equal_the_dense_matrix(system):
+    segments, matrix, _, _ = system
+    rng = np.random.default_rng(0)
+    rows = np.concatenate([rng.choice(len(segments), 40, replace=False), np.flatnonzero(segments.on_border)[:5]])
+    columns = np.concatenate([rows[:10], rng.choice(len(segments), 30, replace=False)])
+    np.testing.assert_allclose(CollocationEntries(segments).block(rows, columns), matrix[np.ix_(rows, columns)],
+                               rtol=1e-12, atol=1e-14)
+
+
+@pytest.mark.parametrize("rows", [60, 400], ids=["square", "tall-sketched"])
+def test_interpolative_decomposition_finds_the_rank_and_reproduces_the_columns(rows):
+    rng = np.random.default_rng(1)
+    matrix = rng.normal(size=(rows, 12)) @ rng.normal(size=(12, 50)) + 1e-13 * rng.normal(size=(rows, 50))
+    skeleton, redundant, T = interpolative(matrix.copy(), 1e-9, np.random.default_rng(2))
+    assert len(skeleton) == 12 and sorted(np.concatenate([skeleton, redundant])) == list(range(50))
+    error = np.abs(matrix[:, redundant] - matrix[:, skeleton] @ T).max()
+    assert error <= 1e-9 * np.abs(matrix).max()
+
+
+def test_solution_error_follows_the_compression_tolerance(system):
+    segments, _, rhs, exact = system
+    errors = []
+    for tolerance in (1e-3, 1e-6, 1e-9):
+        factor = SkeletonFactorization(segments, tolerance, leaf_size=24, top_size=100)
+        assert len(factor.top) <= 0.7 * len(segments)  # it did compress
+        errors.append(np.abs(factor.solve(rhs) - exact).max() / np.abs(exact).max())
+    assert errors[2] <= 1e-6
+    assert all(later < earlier / 100 for earlier, later in zip(errors, errors[1:])), errors
+
+
+def test_without_compression_it_is_an_exact_lu(system):
+    segments, _, rhs, exact = system
+    factor = SkeletonFactorization(segments, 1e-8, top_size=len(segments))
+    assert not factor.steps
+    np.testing.assert_allclose(factor.solve(rhs), exact, rtol=0, atol=1e-10 * np.abs(exact).max())
+
+
+def test_it_fails_early_when_the_factors_would_not_fit(system, monkeypatch):
+    segments = system[0]
+    monkeypatch.setattr(bem, "available_memory", lambda: 200_000)
+    with pytest.raises(SolveTooLargeError, match="compressed factorisation needs more than"):
+        SkeletonFactorization(segments, 1e-8, leaf_size=24, top_size=100)
