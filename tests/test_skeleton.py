@@ -54,7 +54,7 @@ def test_solution_error_follows_the_compression_tolerance(system):
 def test_without_compression_it_is_an_exact_lu(system):
     segments, _, rhs, exact = system
     factor = SkeletonFactorization(segments, 1e-8, top_size=len(segments))
-    assert not factor.steps
+    assert not factor.levels
     np.testing.assert_allclose(factor.solve(rhs), exact, rtol=0, atol=1e-10 * np.abs(exact).max())
 
 

@@ -34,6 +34,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 import scipy.linalg
+import scipy.sparse
 from threadpoolctl import threadpool_limits
 
 from . import bem
@@ -126,12 +127,12 @@ def interpolative(
 
 @dataclass(frozen=True)
 class Elimination:
-    """One box's step: its redundant unknowns eliminated through its skeleton."""
+    """One box's step: its redundant unknowns R eliminated through its skeleton S."""
 
     redundant: np.ndarray
     skeleton: np.ndarray
-    interpolation: np.ndarray  # T, (skeleton, redundant)
-    lu: tuple  # of M_RR
+    interpolation: np.ndarray  # T, (S, R)
+    inverse: np.ndarray  # M_RR^-1
     lower: np.ndarray  # M_SR
     upper: np.ndarray  # M_RR^-1 M_RS
 
@@ -139,7 +140,7 @@ class Elimination:
 def eliminate(block: np.ndarray, skeleton: np.ndarray, redundant: np.ndarray, T: np.ndarray):
     """Eliminate ``redundant`` from a box's block given its interpolation ``T``.
 
-    Returns the step's factors ``(lu, lower, upper)`` and the skeleton's new block.
+    Returns the step's factors ``(inverse, lower, upper)`` and the skeleton's new block.
     """
     a_rr = block[np.ix_(redundant, redundant)]
     a_rs = block[np.ix_(redundant, skeleton)]
@@ -148,9 +149,41 @@ def eliminate(block: np.ndarray, skeleton: np.ndarray, redundant: np.ndarray, T:
     m_rs = a_rs - T.T @ a_ss
     m_sr = a_sr - a_ss @ T
     m_rr = a_rr - T.T @ a_sr - m_rs @ T
-    lu = scipy.linalg.lu_factor(m_rr, overwrite_a=True, check_finite=False)
-    upper = scipy.linalg.lu_solve(lu, m_rs, check_finite=False)
-    return lu, m_sr, upper, a_ss - m_sr @ upper
+    inverse = scipy.linalg.inv(m_rr, overwrite_a=True, check_finite=False)
+    upper = inverse @ m_rs
+    return inverse, m_sr, upper, a_ss - m_sr @ upper
+
+
+class LevelSteps:
+    """One level's eliminations as sparse ``n x n`` matrices, applied at once.
+
+    The boxes of a level own disjoint unknowns, so their steps commute.
+    """
+
+    def __init__(self, steps: list[Elimination], size: int) -> None:
+        def sparse(pairs):
+            rows = np.concatenate([np.repeat(r, len(c)) for r, c, _ in pairs])
+            columns = np.concatenate([np.tile(c, len(r)) for r, c, _ in pairs])
+            values = np.concatenate([block.ravel() for _, _, block in pairs])
+            return scipy.sparse.csr_matrix((values, (rows, columns)), shape=(size, size))
+
+        self.redundant = np.concatenate([s.redundant for s in steps])
+        self.interpolation = sparse([(s.skeleton, s.redundant, s.interpolation) for s in steps])
+        self.interpolation_t = self.interpolation.T.tocsr()
+        self.inverse = sparse([(s.redundant, s.redundant, s.inverse) for s in steps])
+        self.lower = sparse([(s.skeleton, s.redundant, s.lower) for s in steps])
+        self.upper = sparse([(s.redundant, s.skeleton, s.upper) for s in steps])
+
+    def forward(self, x: np.ndarray) -> None:
+        """``x <- E L_T x`` and the redundant part of ``D^-1``, in place."""
+        x -= self.interpolation_t @ x
+        x[self.redundant] = (self.inverse @ x)[self.redundant]
+        x -= self.lower @ x
+
+    def backward(self, x: np.ndarray) -> None:
+        """``x <- U_T F x``, in place."""
+        x -= self.upper @ x
+        x -= self.interpolation @ x
 
 
 @dataclass
@@ -186,7 +219,7 @@ class SkeletonFactorization:
         self.size = len(segments)
         self.entries = CollocationEntries(segments)
         self.tolerance = tolerance
-        self.steps: list[Elimination] = []
+        self.levels: list[LevelSteps] = []
         self.stored_bytes = 0
         self.memory_limit = bem.MEMORY_SHARE * bem.available_memory()
         self.rng = np.random.default_rng(0)
@@ -244,6 +277,7 @@ class SkeletonFactorization:
         circle = radius * np.stack([np.cos(angles), np.sin(angles)], axis=1)
         span = int(math.ceil((radius + self.reach) / width))
         mids = self.entries.midpoints
+        steps = []
         for (kx, ky), box in boxes.items():
             if len(box.indices) < 2:
                 continue
@@ -264,25 +298,22 @@ class SkeletonFactorization:
             skeleton, redundant, T = interpolative(stacked, self.tolerance, self.rng)
             if len(redundant) == 0:
                 continue
-            lu, lower, upper, block = eliminate(box.block, skeleton, redundant, T)
-            self.steps.append(Elimination(box.indices[redundant], box.indices[skeleton], T, lu, lower, upper))
-            self._account(sum(a.nbytes for a in (T, lu[0], lower, upper)))
+            inverse, lower, upper, block = eliminate(box.block, skeleton, redundant, T)
+            steps.append(Elimination(box.indices[redundant], box.indices[skeleton], T, inverse, lower, upper))
+            self._account(2 * sum(a.nbytes for a in (T, inverse, lower, upper)))  # values and sparse indices
             box.indices, box.block = box.indices[skeleton], block
+        if steps:
+            self.levels.append(LevelSteps(steps, self.size))
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
         """Approximate ``A^-1 rhs`` for ``rhs`` of shape ``(n,)`` or ``(n, k)``."""
         x = np.array(rhs, dtype=float, copy=True)
-        for step in self.steps:
-            r, s = step.redundant, step.skeleton
-            x[r] -= step.interpolation.T @ x[s]
-            x[r] = scipy.linalg.lu_solve(step.lu, x[r], check_finite=False)
-            x[s] -= step.lower @ x[r]
+        for level in self.levels:
+            level.forward(x)
         if len(self.top):
             x[self.top] = scipy.linalg.lu_solve(self.top_lu, x[self.top], check_finite=False)
-        for step in reversed(self.steps):
-            r, s = step.redundant, step.skeleton
-            x[r] -= step.upper @ x[s]
-            x[s] -= step.interpolation @ x[r]
+        for level in reversed(self.levels):
+            level.backward(x)
         return x
 
 
