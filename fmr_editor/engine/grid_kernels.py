@@ -6,122 +6,21 @@ The twins of ``kernels.near_sum`` (arbitrary points) and ``raster.far_field``
 
 from __future__ import annotations
 
-import math
-
 import numba
 import numpy as np
 
-from .kernels import _TWO_PI, segment_frames
-
+from .fastmath import POLY_MATH, _atan2_poly, _layers_from, _log_poly, _log_r2  # noqa: F401  (tests use them from here)
+from .kernels import segment_frames
 
 # --- Near field on a tensor grid of samples -------------------------------------------
 #
-# ``math.log`` and ``math.atan2`` compile to scalar libm calls, which keep LLVM
-# from vectorising a loop (numba has no SVML here).  The two functions below are
-# the classic fdlibm logarithm and Cephes arctangent in plain arithmetic, so a
-# loop over samples vectorises; measured against libm they are within 1 ulp
-# (log) and 2 ulp (atan2), the same rounding envelope as numpy's own
-# (``layers.pair_integrals``).  The grid kernel is compiled without
-# reassociation so their error bounds hold.
+# The inner loops run over a cell's samples and call ``fastmath``'s
+# branch-free, libm-free ``_layers_from``, so they vectorise.  They are
+# compiled without reassociation (``POLY_MATH``) so the polynomials' error
+# bounds hold, and with ``error_model="numpy"`` (see ``fastmath``).
 
-#: Fast-math flags of the grid kernel: no reassociation (the compensated sums below rely on order).
-GRID_MATH = {"nsz", "contract"}
-
-_LN2_HI = 6.93147180369123816490e-01
-_LN2_LO = 1.90821492927058770002e-10
-_LG1 = 6.666666666666735130e-01
-_LG2 = 3.999999999940941908e-01
-_LG3 = 2.857142874366239149e-01
-_LG4 = 2.222219843214978396e-01
-_LG5 = 1.818357216161805012e-01
-_LG6 = 1.531383769920937332e-01
-_LG7 = 1.479819860511658591e-01
-
-
-@numba.njit(cache=True, inline="always", fastmath=GRID_MATH, error_model="numpy")
-def _log_poly(x):
-    """``log(x)`` for finite normal ``x > 0`` without a libm call (fdlibm ``__ieee754_log``).
-
-    ``x = 2^k m`` with ``m`` in ``[sqrt(2)/2, sqrt(2))``; ``log m`` from
-    ``s = f / (2 + f)``, ``f = m - 1``, and a degree-14 odd polynomial.
-    """
-    bits = np.float64(x).view(np.int64) + (0x3FF0000000000000 - 0x3FE6A09E00000000)
-    k = (bits >> 52) - 0x3FF
-    m = np.int64((bits & 0x000FFFFFFFFFFFFF) + 0x3FE6A09E00000000).view(np.float64)
-    f = m - 1.0
-    half_f2 = 0.5 * f * f
-    s = f / (2.0 + f)
-    z = s * s
-    w = z * z
-    even = w * (_LG2 + w * (_LG4 + w * _LG6))
-    odd = z * (_LG1 + w * (_LG3 + w * (_LG5 + w * _LG7)))
-    dk = np.float64(k)
-    return s * (half_f2 + odd + even) + dk * _LN2_LO - half_f2 + f + dk * _LN2_HI
-
-
-_ATAN_P0 = -8.750608600031904122785e-1
-_ATAN_P1 = -1.615753718733365076637e1
-_ATAN_P2 = -7.500855792314704667340e1
-_ATAN_P3 = -1.228866684490136173410e2
-_ATAN_P4 = -6.485021904942025371773e1
-_ATAN_Q0 = 2.485846490142306297962e1
-_ATAN_Q1 = 1.650270098316988542046e2
-_ATAN_Q2 = 4.328810604912902668951e2
-_ATAN_Q3 = 4.853903996359136964868e2
-_ATAN_Q4 = 1.945506571482613964425e2
-#: pi/2 minus its double (the low part Cephes adds back).
-_PI_2_LO = 6.123233995736765886130e-17
-
-
-@numba.njit(cache=True, inline="always", fastmath=GRID_MATH, error_model="numpy")
-def _atan2_poly(y, x):
-    """``atan2(y, x)`` without a libm call (Cephes ``atan`` on ``min/max`` of ``|x|, |y|``).
-
-    NaN when ``x == y == 0``; callers select 0 there, as ``_layers`` does.
-    """
-    ax, ay = abs(x), abs(y)
-    lo, hi = min(ax, ay), max(ax, ay)
-    big = lo > 0.66 * hi
-    t = (lo - hi) / (lo + hi) if big else lo / hi
-    z = t * t
-    num = (((_ATAN_P0 * z + _ATAN_P1) * z + _ATAN_P2) * z + _ATAN_P3) * z + _ATAN_P4
-    den = ((((z + _ATAN_Q0) * z + _ATAN_Q1) * z + _ATAN_Q2) * z + _ATAN_Q3) * z + _ATAN_Q4
-    r = t + t * (z * num / den)
-    if big:
-        r = 0.25 * math.pi + (r + 0.5 * _PI_2_LO)
-    if ay > ax:
-        r = (0.5 * math.pi - r) + _PI_2_LO
-    if x < 0.0:
-        r = (math.pi - r) + 2.0 * _PI_2_LO
-    if y < 0.0:
-        r = -r
-    return r
-
-
-_INV_TWO_PI = 1.0 / _TWO_PI
-_INV_FOUR_PI = 0.5 / _TWO_PI
-
-
-@numba.njit(cache=True, inline="always", fastmath=GRID_MATH, error_model="numpy")
-def _layers_grid(x, y, px, py, qx, qy, tx, ty, h, log_p):
-    """``_layers`` given ``log|p - x|^2``, with the functions above; also returns ``log|q - x|^2``.
-
-    The closed form and the guards are those of ``_layers``; consecutive
-    segments of a curve share an end point, so the caller passes one
-    segment's ``log_q`` on as the next one's ``log_p``.
-    """
-    v0x, v0y = px - x, py - y
-    v1x, v1y = qx - x, qy - y
-    a = -(v0x * tx + v0y * ty)
-    b_abs = abs(v0x * ty - v0y * tx)
-    cross = v0x * v1y - v0y * v1x
-    dot = v0x * v1x + v0y * v1y
-    angle = _atan2_poly(cross, dot)
-    if not (cross != 0.0 or dot > 0.0):
-        angle = 0.0
-    log_q = _log_poly(max(v1x * v1x + v1y * v1y, 1e-300))
-    single = ((h - a) * log_q + a * log_p - 2.0 * h + 2.0 * b_abs * abs(angle)) * _INV_FOUR_PI
-    return single, angle * _INV_TWO_PI, log_q
+#: Fast-math flags of the grid kernels: no reassociation (the compensated sums rely on order).
+GRID_MATH = POLY_MATH
 
 
 @numba.njit(cache=True, fastmath=GRID_MATH, error_model="numpy")
@@ -172,11 +71,10 @@ def _near_cell(cy, cx, xs, ys, x_start, y_start, n, cell_start, p, q, tangent, l
             current = 1 - current  # the previous segment's log at q is this one's log at p
         else:
             for i in range(count):
-                v0x, v0y = px - sx[i], py - sy[i]
-                logs[current, i] = _log_poly(max(v0x * v0x + v0y * v0y, 1e-300))
+                logs[current, i] = _log_r2(sx[i], sy[i], px, py)
         log_p, log_q = logs[current], logs[1 - current]
         for i in range(count):
-            s, d, log_q[i] = _layers_grid(sx[i], sy[i], px, py, qx, qy, tx, ty, h, log_p[i])
+            s, d, log_q[i] = _layers_from(sx[i], sy[i], px, py, qx, qy, tx, ty, h, log_p[i])
             acc[0, i] += e0 * s - c0 * d
             acc[1, i] += e1 * s - c1 * d
             acc[2, i] += e2 * s - c2 * d

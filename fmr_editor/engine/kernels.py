@@ -1,8 +1,19 @@
 """Compiled (numba) sums of segment integrals; ``layers`` holds the numpy reference.
 
 The near field is the engine's bottleneck: plain numpy manages about 5 M
-target-segment pairs per second here, these loops several times that
+target-segment pairs per second here, these loops tens of times that
 (``bench/bench_engine.py`` prints both).
+
+Every kernel is built the same way: a target's values against a run of
+segments go into a small scratch array in a loop that LLVM vectorises (the
+branch-free ``_layers``, with ``fastmath.POLY_MATH`` and
+``error_model="numpy"``: see ``fastmath``), and a second vectorised loop
+(``_weighted_sums``, compiled with reassociation) sums them.  Segments come
+as a ``(7, n)`` table of rows (``_segment_table``) so the loops read
+contiguous memory; the near-field kernels copy a cell's 3x3 block of
+segments into one such table, padded to a multiple of ``_PAD`` with
+weightless copies so the vector loop has no scalar remainder, once for all
+the targets in that cell (``near_sum`` visits its targets sorted by cell).
 
 Rasters, whose samples form a tensor grid, have their own cell-by-cell
 kernels in ``grid_kernels``.
@@ -10,37 +21,65 @@ kernels in ``grid_kernels``.
 
 from __future__ import annotations
 
-import math
-
 import numba
 import numpy as np
 
-_TWO_PI = 2.0 * math.pi
-#: Fast-math flags without "no NaNs / no infinities", so the guards below keep working.
+from .fastmath import _TWO_PI, POLY_MATH, _layers_from, _log_r2  # noqa: F401  (_TWO_PI: importable from here too)
+
+#: Fast-math flags without "no NaNs / no infinities", so guards keep working; with reassociation,
+#: so reductions vectorise.  Not for code calling ``fastmath``'s polynomials (see ``POLY_MATH``).
 FAST_MATH = {"nsz", "arcp", "contract", "afn", "reassoc"}
+#: The near-field blocks are padded to a multiple of this many segments (a vector loop's step).
+_PAD = 8
+#: Segments per scratch tile of the dense kernels.
+_TILE = 512
 
 
-@numba.njit(cache=True, inline="always", fastmath=FAST_MATH)
+@numba.njit(cache=True, inline="always", fastmath=POLY_MATH, error_model="numpy")
 def _layers(x: float, y: float, px: float, py: float, qx: float, qy: float, tx: float, ty: float, h: float):
     """Single and double layer of one segment at (x, y); see ``layers``.
 
-    The two arctangents of the single layer differ by the angle the segment
-    subtends, which the double layer computes anyway, so one ``atan2`` and
-    two logarithms serve both (``layers.pair_integrals`` is the plain form).
+    Returns ``(S, D)``.  ``D`` is 0 on the segment's line outside it and at
+    its end points; inside the segment the rounded cross product picks a side
+    (+-1/2) unless it is exactly 0, so callers wanting the principal value
+    there select 0 themselves, as the kernels below do for a segment's own
+    midpoint.  This is ``fastmath._layers_from`` given ``log|p - x|^2``:
+    branch-free and without libm calls, so a loop calling it vectorises when
+    compiled with ``fastmath=POLY_MATH, error_model="numpy"`` (it is inlined
+    and takes its caller's options; see ``fastmath``).  Within about 2 ulp of
+    libm in any caller; bit for bit equal to the kernels' values only in a
+    caller compiled with those options.
     """
-    v0x, v0y = px - x, py - y
-    v1x, v1y = qx - x, qy - y
-    a = -(v0x * tx + v0y * ty)
-    b_abs = abs(v0x * ty - v0y * tx)
-    cross = v0x * v1y - v0y * v1x
-    dot = v0x * v1x + v0y * v1y
-    angle = 0.0
-    if cross != 0.0 or dot > 0.0:
-        angle = math.atan2(cross, dot)
-    log_p = math.log(max(v0x * v0x + v0y * v0y, 1e-300))
-    log_q = math.log(max(v1x * v1x + v1y * v1y, 1e-300))
-    single = ((h - a) * log_q + a * log_p - 2.0 * h + 2.0 * b_abs * abs(angle)) / (2.0 * _TWO_PI)
-    return single, angle / _TWO_PI
+    single, double, _ = _layers_from(x, y, px, py, qx, qy, tx, ty, h, _log_r2(x, y, px, py))
+    return single, double
+
+
+@numba.njit(cache=True, fastmath=FAST_MATH, error_model="numpy")
+def _weighted_sums(single, double, weights, lo, hi, offset):
+    """``sum_j weights[c, j] single[j - offset] - weights[3 + c, j] double[j - offset]``, j in [lo, hi), c < 3.
+
+    Not inlined: its own reassociating flags let the sum vectorise, while the
+    callers keep the polynomials' (``POLY_MATH``).
+    """
+    r = g = b = 0.0
+    for j in range(lo, hi):
+        s, d = single[j - offset], double[j - offset]
+        r += weights[0, j] * s - weights[3, j] * d
+        g += weights[1, j] * s - weights[4, j] * d
+        b += weights[2, j] * s - weights[5, j] * d
+    return r, g, b
+
+
+@numba.njit(cache=True, fastmath=FAST_MATH, error_model="numpy")
+def _sums(values, weights, lo, hi, offset):
+    """``sum_j weights[c, j] values[j - offset]``, j in [lo, hi), c < 3 (reassociating, as above)."""
+    r = g = b = 0.0
+    for j in range(lo, hi):
+        v = values[j - offset]
+        r += weights[0, j] * v
+        g += weights[1, j] * v
+        b += weights[2, j] * v
+    return r, g, b
 
 
 def segment_frames(p: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -50,49 +89,158 @@ def segment_frames(p: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray
     return d / h[:, None], h
 
 
-@numba.njit(parallel=True, cache=True, fastmath=FAST_MATH)
-def _direct_sum(targets, p, q, tangent, length, flux, jump, out):
-    for i in numba.prange(targets.shape[0]):
-        x, y = targets[i, 0], targets[i, 1]
-        r = g = b = 0.0
-        for j in range(p.shape[0]):
-            s, d = _layers(x, y, p[j, 0], p[j, 1], q[j, 0], q[j, 1], tangent[j, 0], tangent[j, 1], length[j])
-            r += flux[j, 0] * s - jump[j, 0] * d
-            g += flux[j, 1] * s - jump[j, 1] * d
-            b += flux[j, 2] * s - jump[j, 2] * d
-        out[i, 0], out[i, 1], out[i, 2] = r, g, b
+def _segment_table(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """``(7, n)`` rows p_x, p_y, q_x, q_y, t_x, t_y, h: what ``_layers`` takes, one contiguous row each."""
+    tangent, length = segment_frames(p, q)
+    table = np.empty((7, len(p)))
+    table[0:2], table[2:4], table[4:6], table[6] = p.T, q.T, tangent.T, length
+    return table
+
+
+def _weights(flux: np.ndarray, jump: np.ndarray) -> np.ndarray:
+    """``(6, n)`` rows: the three channels of E, then of C."""
+    return np.ascontiguousarray(np.concatenate([np.asarray(flux, np.float64).T, np.asarray(jump, np.float64).T]))
+
+
+@numba.njit(parallel=True, cache=True, fastmath=POLY_MATH, error_model="numpy")
+def _direct_sum(targets, table, weights, out):
+    m, n = targets.shape[0], table.shape[1]
+    per_block = 16
+    for block in numba.prange((m + per_block - 1) // per_block):
+        single = np.empty(_TILE)
+        double = np.empty(_TILE)
+        for i in range(block * per_block, min(m, (block + 1) * per_block)):
+            x, y = targets[i, 0], targets[i, 1]
+            r = g = b = 0.0
+            for lo in range(0, n, _TILE):
+                hi = min(n, lo + _TILE)
+                for j in range(lo, hi):
+                    single[j - lo], double[j - lo] = _layers(
+                        x, y, table[0, j], table[1, j], table[2, j], table[3, j], table[4, j], table[5, j], table[6, j]
+                    )
+                dr, dg, db = _weighted_sums(single, double, weights, lo, hi, lo)
+                r += dr
+                g += dg
+                b += db
+            out[i, 0], out[i, 1], out[i, 2] = r, g, b
 
 
 def direct_sum(targets: np.ndarray, p: np.ndarray, q: np.ndarray, flux: np.ndarray, jump: np.ndarray) -> np.ndarray:
     """``sum_j E_j S_j(x) - C_j D_j(x)`` over every segment, ``(m, 3)``.
 
-    Compiled twin of ``layers.direct_sum_reference``.
+    Compiled twin of ``layers.direct_sum_reference`` (a target on a segment
+    gets one side's value there, not the principal value).
     """
-    tangent, length = segment_frames(p, q)
     out = np.empty((len(targets), 3))
-    _direct_sum(np.ascontiguousarray(targets, dtype=np.float64), p, q, tangent, length, flux, jump, out)
+    _direct_sum(np.ascontiguousarray(targets, dtype=np.float64), _segment_table(p, q), _weights(flux, jump), out)
     return out
 
 
-@numba.njit(parallel=True, cache=True, fastmath=FAST_MATH)
-def _near_sum(targets, own, cells_per_side, cell_size, cell_start, p, q, tangent, length, flux, jump, out):
+@numba.njit(cache=True)
+def _block_size(cy, cx, n, cell_start):
+    """Segments in the 3x3 block of cells around cell (cy, cx)."""
+    first, last = max(cx - 1, 0), min(cx + 2, n)
+    count = 0
+    for row in range(max(cy - 1, 0), min(cy + 2, n)):
+        count += cell_start[row * n + last] - cell_start[row * n + first]
+    return count
+
+
+@numba.njit(cache=True)
+def _largest_block(n, cell_start):
+    """The most segments in any 3x3 block of cells."""
+    largest = 0
+    for cy in range(n):
+        for cx in range(n):
+            largest = max(largest, _block_size(cy, cx, n, cell_start))
+    return largest
+
+
+@numba.njit(cache=True)
+def _gather_block(cy, cx, n, cell_start, table, index, block, block_index):
+    """Copy the 3x3 block's columns of ``table`` (and their ``index``) into ``block``, padded; the real count.
+
+    The padding up to a multiple of ``_PAD`` repeats the last segment with
+    index -1 (callers give it no weight).  ``block`` must hold the padded count.
+    """
+    first, last = max(cx - 1, 0), min(cx + 2, n)
+    k = 0
+    for row in range(max(cy - 1, 0), min(cy + 2, n)):
+        for j in range(cell_start[row * n + first], cell_start[row * n + last]):
+            for c in range(table.shape[0]):
+                block[c, k] = table[c, j]
+            block_index[k] = index[j]
+            k += 1
+    for pad in range(k, (k + _PAD - 1) // _PAD * _PAD):
+        for c in range(table.shape[0]):
+            block[c, pad] = block[c, k - 1]
+        block_index[pad] = -1
+    return k
+
+
+@numba.njit(cache=True)
+def _padded(count):
+    """``count`` rounded up to a multiple of ``_PAD``."""
+    return (count + _PAD - 1) // _PAD * _PAD
+
+
+@numba.njit(cache=True)
+def _order_by_cell(cell, cell_count):
+    """Indices sorting ``cell`` (values below ``cell_count``): a stable counting sort."""
+    start = np.zeros(cell_count + 1, np.int64)
+    for c in cell:
+        start[c + 1] += 1
+    for c in range(cell_count):
+        start[c + 1] += start[c]
+    order = np.empty(len(cell), np.int64)
+    for i in range(len(cell)):
+        order[start[cell[i]]] = i
+        start[cell[i]] += 1
+    return order
+
+
+@numba.njit(cache=True)
+def _cells_of(targets, cells_per_side, cell_size):
+    """Each target's fine cell ``row * cells_per_side + column``, clamped to the lattice."""
     n = cells_per_side
-    for i in numba.prange(targets.shape[0]):
-        x, y = targets[i, 0], targets[i, 1]
-        cx = min(max(int(x / cell_size), 0), n - 1)
-        cy = min(max(int(y / cell_size), 0), n - 1)
-        r = g = b = 0.0
-        for ny in range(max(cy - 1, 0), min(cy + 2, n)):
-            for nx in range(max(cx - 1, 0), min(cx + 2, n)):
-                cell = ny * n + nx
-                for j in range(cell_start[cell], cell_start[cell + 1]):
-                    s, d = _layers(x, y, p[j, 0], p[j, 1], q[j, 0], q[j, 1], tangent[j, 0], tangent[j, 1], length[j])
-                    if j == own[i]:
-                        d = 0.0
-                    r += flux[j, 0] * s - jump[j, 0] * d
-                    g += flux[j, 1] * s - jump[j, 1] * d
-                    b += flux[j, 2] * s - jump[j, 2] * d
-        out[i, 0], out[i, 1], out[i, 2] = r, g, b
+    cell = np.empty(targets.shape[0], np.int64)
+    for i in range(targets.shape[0]):
+        cx = min(max(int(targets[i, 0] / cell_size), 0), n - 1)
+        cy = min(max(int(targets[i, 1] / cell_size), 0), n - 1)
+        cell[i] = cy * n + cx
+    return cell
+
+
+@numba.njit(parallel=True, cache=True, fastmath=POLY_MATH, error_model="numpy")
+def _near_sum(targets, cell, order, own, cells_per_side, cell_start, table, weights, out):
+    n, m = cells_per_side, targets.shape[0]
+    index = np.arange(table.shape[1])
+    capacity = _padded(_largest_block(n, cell_start))
+    per_block = 64
+    for block_number in numba.prange((m + per_block - 1) // per_block):
+        seg = np.empty((7, capacity))
+        seg_index = np.empty(capacity, np.int64)
+        seg_weights = np.empty((6, capacity))
+        single = np.empty(capacity)
+        double = np.empty(capacity)
+        current, padded = -1, 0
+        for t in range(block_number * per_block, min(m, (block_number + 1) * per_block)):
+            i = order[t]
+            if cell[i] != current:  # gather the block once for the targets of one cell
+                current = cell[i]
+                cy, cx = current // n, current % n
+                count = _gather_block(cy, cx, n, cell_start, table, index, seg, seg_index)
+                _gather_block(cy, cx, n, cell_start, weights, index, seg_weights, seg_index)
+                padded = _padded(count)
+                for k in range(count, padded):
+                    for c in range(6):
+                        seg_weights[c, k] = 0.0
+            x, y, own_i = targets[i, 0], targets[i, 1], own[i]
+            for k in range(padded):
+                s, d = _layers(x, y, seg[0, k], seg[1, k], seg[2, k], seg[3, k], seg[4, k], seg[5, k], seg[6, k])
+                single[k] = s
+                double[k] = 0.0 if seg_index[k] == own_i else d
+            out[i, 0], out[i, 1], out[i, 2] = _weighted_sums(single, double, seg_weights, 0, padded, 0)
 
 
 def near_sum(
@@ -107,6 +255,9 @@ def near_sum(
     own: np.ndarray | None = None,
 ) -> np.ndarray:
     """Sum over the segments in the 3x3 cells around each target, ``(m, 3)``.
+
+    Targets are taken cell by cell (a counting sort), so each cell's block
+    of segments is gathered once for all its targets.
 
     Parameters
     ----------
@@ -125,43 +276,55 @@ def near_sum(
         ``(m,)`` index of a segment each target lies on (its midpoint), whose
         double layer then counts as 0 (the principal value); -1 for none.
     """
-    tangent, length = segment_frames(p, q)
+    targets = np.ascontiguousarray(targets, dtype=np.float64)
     out = np.empty((len(targets), 3))
     own = np.full(len(targets), -1, np.int64) if own is None else np.asarray(own, np.int64)
-    _near_sum(
-        np.ascontiguousarray(targets, dtype=np.float64), own,
-        cells_per_side, float(cell_size), cell_start, p, q, tangent, length, flux, jump, out,
-    )
+    cell = _cells_of(targets, int(cells_per_side), float(cell_size))
+    order = _order_by_cell(cell, int(cells_per_side) ** 2)
+    _near_sum(targets, cell, order, own, int(cells_per_side), np.asarray(cell_start, np.int64),
+              _segment_table(p, q), _weights(flux, jump), out)
     return out
 
 
-@numba.njit(parallel=True, cache=True, fastmath=FAST_MATH)
-def _collocation(mids, p, q, tangent, length, on_border, curve_jump, matrix, rhs):
-    n = p.shape[0]
-    for i in numba.prange(n):
-        x, y = mids[i, 0], mids[i, 1]
-        for j in range(n):
-            s, d = _layers(x, y, p[j, 0], p[j, 1], q[j, 0], q[j, 1], tangent[j, 0], tangent[j, 1], length[j])
-            if i == j:
-                d = 0.0
-            if on_border[j]:
-                matrix[i, j] = -d
-            else:
-                matrix[i, j] = s
-                for c in range(3):
-                    rhs[i, c] += d * curve_jump[j, c]
-        if on_border[i]:
-            matrix[i, i] -= 0.5
+@numba.njit(parallel=True, cache=True, fastmath=POLY_MATH, error_model="numpy")
+def _collocation(mids, table, on_border, curve_jump, matrix, rhs):
+    n = table.shape[1]
+    per_block = 4
+    for block in numba.prange((n + per_block - 1) // per_block):
+        double = np.empty(_TILE)
+        for i in range(block * per_block, min(n, (block + 1) * per_block)):
+            x, y = mids[i, 0], mids[i, 1]
+            row = matrix[i]
+            r = g = b = 0.0
+            for lo in range(0, n, _TILE):
+                hi = min(n, lo + _TILE)
+                for j in range(lo, hi):
+                    s, d = _layers(
+                        x, y, table[0, j], table[1, j], table[2, j], table[3, j], table[4, j], table[5, j], table[6, j]
+                    )
+                    d = 0.0 if j == i else d  # principal value on the segment itself
+                    row[j] = -d if on_border[j] else s
+                    double[j - lo] = d
+                dr, dg, db = _sums(double, curve_jump, lo, hi, lo)
+                r += dr
+                g += dg
+                b += db
+            if on_border[i]:
+                row[i] -= 0.5
+            rhs[i, 0] += r
+            rhs[i, 1] += g
+            rhs[i, 2] += b
 
 
 def collocation_system(
     p: np.ndarray, q: np.ndarray, on_border: np.ndarray, jump: np.ndarray, mean: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
     """Dense collocation matrix and right-hand sides; compiled twin of ``bem.assemble_reference``."""
-    tangent, length = segment_frames(p, q)
     matrix = np.empty((len(p), len(p)))
-    rhs = np.where(on_border[:, None], 0.0, mean)
-    _collocation(0.5 * (p + q), p, q, tangent, length, on_border, np.ascontiguousarray(jump), matrix, rhs)
+    border = np.asarray(on_border, np.bool_)
+    rhs = np.where(border[:, None], 0.0, mean)
+    curve_jump = np.ascontiguousarray(np.where(border[:, None], 0.0, jump).T, dtype=np.float64)
+    _collocation(0.5 * (p + q), _segment_table(p, q), border, curve_jump, matrix, rhs)
     return matrix, rhs
 
 
@@ -177,26 +340,34 @@ def _near_row_counts(cells, cells_per_side, cell_start, counts):
         counts[i] = total
 
 
-@numba.njit(parallel=True, cache=True, fastmath=FAST_MATH)
-def _near_entries(cells, cells_per_side, cell_start, p, q, tangent, length, on_border, row_start, columns, values):
-    n = cells_per_side
-    for i in numba.prange(p.shape[0]):
-        x, y = 0.5 * (p[i, 0] + q[i, 0]), 0.5 * (p[i, 1] + q[i, 1])
-        cy, cx = cells[i, 0], cells[i, 1]
-        k = row_start[i]
-        for ny in range(max(cy - 1, 0), min(cy + 2, n)):
-            for nx in range(max(cx - 1, 0), min(cx + 2, n)):
-                cell = ny * n + nx
-                for j in range(cell_start[cell], cell_start[cell + 1]):
-                    s, d = _layers(x, y, p[j, 0], p[j, 1], q[j, 0], q[j, 1], tangent[j, 0], tangent[j, 1], length[j])
-                    if j == i:
-                        d = 0.0
-                    value = -d if on_border[j] else s
-                    if j == i and on_border[i]:
-                        value -= 0.5
-                    columns[k] = j
-                    values[k] = value
-                    k += 1
+@numba.njit(parallel=True, cache=True, fastmath=POLY_MATH, error_model="numpy")
+def _near_entries(cell, cells_per_side, cell_start, table, on_border, row_start, columns, values):
+    """Rows of ``near_block``; ``table`` has an eighth row, 1.0 on the border's segments."""
+    n, m = cells_per_side, table.shape[1]
+    index = np.arange(m)
+    capacity = _padded(_largest_block(n, cell_start))
+    per_block = 64
+    for block_number in numba.prange((m + per_block - 1) // per_block):
+        seg = np.empty((8, capacity))
+        seg_index = np.empty(capacity, np.int64)
+        entry = np.empty(capacity)
+        current, count, padded = -1, 0, 0
+        for i in range(block_number * per_block, min(m, (block_number + 1) * per_block)):
+            if cell[i] != current:  # gather the block once for a run of rows in one cell
+                current = cell[i]
+                count = _gather_block(current // n, current % n, n, cell_start, table, index, seg, seg_index)
+                padded = _padded(count)
+            x, y = 0.5 * (table[0, i] + table[2, i]), 0.5 * (table[1, i] + table[3, i])
+            # the same operations as _collocation, so the entries are equal to the last bit
+            for k in range(padded):
+                s, d = _layers(x, y, seg[0, k], seg[1, k], seg[2, k], seg[3, k], seg[4, k], seg[5, k], seg[6, k])
+                d = 0.0 if seg_index[k] == i else d
+                entry[k] = -d if seg[7, k] != 0.0 else s
+            shift = 0.5 if on_border[i] else 0.0
+            first = row_start[i]
+            for k in range(count):
+                columns[first + k] = seg_index[k]
+                values[first + k] = entry[k] - shift if seg_index[k] == i else entry[k]
 
 
 def near_block(
@@ -205,13 +376,18 @@ def near_block(
     """The collocation matrix restricted to each row's 3x3 block, as CSR arrays.
 
     Returns ``(row_start, columns, values)``; the entries equal those of the
-    dense ``bem.assemble`` at the same positions.
+    dense ``bem.assemble`` at the same positions.  ``cells`` is each
+    segment's fine cell ``(row, column)``; the segments are sorted by it, so
+    consecutive rows share their cell's block.
     """
     counts = np.empty(len(p), np.int64)
     _near_row_counts(cells, cells_per_side, cell_start, counts)
     row_start = np.concatenate([[0], np.cumsum(counts)])
     columns = np.empty(row_start[-1], np.int64)
     values = np.empty(row_start[-1])
-    tangent, length = segment_frames(p, q)
-    _near_entries(cells, cells_per_side, cell_start, p, q, tangent, length, on_border, row_start, columns, values)
+    border = np.asarray(on_border, np.bool_)
+    table = np.concatenate([_segment_table(p, q), border[None].astype(np.float64)])
+    n = int(cells_per_side)
+    cell = np.asarray(cells, np.int64) @ np.array([n, 1], np.int64)
+    _near_entries(cell, n, np.asarray(cell_start, np.int64), table, border, row_start, columns, values)
     return row_start, columns, values
