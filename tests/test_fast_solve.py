@@ -2,14 +2,16 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from shapes import scattered_document
 
 from fmr_editor.engine import build, fast_solve, rasterise
 from fmr_editor.engine.bem import assemble, solve_dense
-from fmr_editor.engine.fast_solve import CollocationOperator, solve_fmm
-from fmr_editor.engine.lattice import Lattice, sort_into_cells
+from fmr_editor.engine.fast_solve import CollocationOperator, far_field_at, far_field_fast, solve_fmm
+from fmr_editor.engine.lattice import Lattice, downward_pass, sort_into_cells, upward_pass
 from fmr_editor.engine.segments import boundary_segments, curve_segments
 from fmr_editor.engine.skeleton import SkeletonFactorization
 
@@ -30,6 +32,18 @@ def test_fmm_product_equals_the_dense_matrix_product(system):
     got = CollocationOperator(segments, cell_start, lattice, 20).apply(unknown)
     expected = matrix @ unknown
     assert np.abs(got - expected).max() <= 1e-8 * np.abs(expected).max()
+
+
+def test_compiled_far_field_equals_the_numpy_reference(system):
+    segments, cell_start, lattice, _, _ = system
+    rng = np.random.default_rng(4)
+    seg = replace(segments, flux=rng.normal(size=(len(segments), 3)), jump=rng.normal(size=(len(segments), 3)))
+    local = downward_pass(upward_pass(seg, cell_start, lattice, 12), lattice, 12)
+    points = rng.uniform(0, 128, (500, 2))
+    cells = lattice.cell_of(points)
+    expected = far_field_at(local, lattice, cells, points)
+    np.testing.assert_allclose(far_field_fast(local, lattice, cells, points), expected, rtol=0,
+                               atol=1e-12 * np.abs(expected).max())
 
 
 def test_fmm_right_hand_side_equals_the_dense_one(system):

@@ -10,8 +10,9 @@ are one stacked vector, so every product is one three-channel FMM pass.
 This first-kind (log kernel) system is ill-conditioned: a near-field
 preconditioner only tames its high frequencies and leaves GMRES hundreds of
 iterations (530 on poivron).  The preconditioner is therefore a compressed
-factorisation of the whole matrix (``skeleton``), accurate to about
-``1e-10``; GMRES then corrects what compression lost in one or two steps.
+factorisation of the whole matrix (``skeleton``).  Compressed to ``1e-6``
+it leaves GMRES 2 iterations on lady_bug and 9 on roses; tighter
+compression costs more than the iterations it saves (``bench/bench_solve.py``).
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 
+import numba
 import numpy as np
 import scipy.sparse
 import scipy.sparse.linalg
@@ -35,13 +37,34 @@ DENSE_CROSSOVER = 3000
 
 
 def far_field_at(local: np.ndarray, lattice: Lattice, cells: np.ndarray, points: np.ndarray) -> np.ndarray:
-    """The fine-level local expansions, all terms, at ``points`` in ``cells``; ``(m, 3)``."""
+    """The fine-level local expansions, all terms, at ``points`` in ``cells``; ``(m, 3)`` (numpy reference)."""
     w = (points / lattice.cell_size - (cells[:, ::-1] + 0.5)) @ np.array([1.0, 1.0j])
     coeffs = local[cells[:, 0], cells[:, 1]]  # (m, 3, P + 1)
     value = coeffs[:, :, -1]
     for term in range(coeffs.shape[-1] - 2, -1, -1):
         value = value * w[:, None] + coeffs[:, :, term]
     return value.real / (2 * np.pi)
+
+
+@numba.njit(parallel=True, cache=True)
+def _far_field(local, cells, points, cell_size, out):
+    for i in numba.prange(points.shape[0]):
+        row, col = cells[i, 0], cells[i, 1]
+        w = complex(points[i, 0] / cell_size - (col + 0.5), points[i, 1] / cell_size - (row + 0.5))
+        for channel in range(local.shape[2]):
+            coeffs = local[row, col, channel]
+            value = coeffs[-1]
+            for term in range(coeffs.shape[0] - 2, -1, -1):
+                value = value * w + coeffs[term]
+            out[i, channel] = value.real / (2 * np.pi)
+
+
+def far_field_fast(local: np.ndarray, lattice: Lattice, cells: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Compiled twin of ``far_field_at``."""
+    out = np.empty((len(points), local.shape[2]))
+    _far_field(local, np.ascontiguousarray(cells), np.ascontiguousarray(points, dtype=np.float64),
+               float(lattice.cell_size), out)
+    return out
 
 
 @dataclass(frozen=True)
@@ -76,7 +99,7 @@ class CollocationOperator:
         """``sum_j E_j S_ij - C_j D_ij`` at every midpoint (own double layer 0), ``(n, 3)``."""
         seg = replace(self.segments, flux=flux, jump=jump)
         local = downward_pass(upward_pass(seg, self.cell_start, self.lattice, self.order), self.lattice, self.order)
-        far = far_field_at(local, self.lattice, self.cells, seg.midpoints)
+        far = far_field_fast(local, self.lattice, self.cells, seg.midpoints)
         lattice = self.lattice
         near = near_sum(
             seg.midpoints, lattice.cells_per_side, lattice.cell_size, self.cell_start, seg.p, seg.q,
@@ -103,7 +126,7 @@ def solve_fmm(
     lattice: Lattice,
     order: int = 20,
     rtol: float = 1e-9,
-    tolerance: float = 1e-10,
+    tolerance: float = 1e-6,
     preconditioner: SkeletonFactorization | None = None,
     initial: np.ndarray | None = None,
     progress: Callable[[float], None] | None = None,

@@ -10,6 +10,7 @@ over strided slices of the whole level.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -17,18 +18,19 @@ from .expansions import l2l_matrix, m2l_matrix, m2m_matrix
 from .moments import cell_moments
 from .segments import Segments
 
-def interaction_offsets(px: int, py: int) -> list[tuple[int, int]]:
+@lru_cache(maxsize=None)
+def interaction_offsets(px: int, py: int) -> tuple[tuple[int, int], ...]:
     """Offsets from a cell to the members of its interaction list.
 
     Members are children of the parent's neighbours that are not the cell's
     own neighbours; ``px, py`` are the cell's column and row parity.
     """
-    return [
+    return tuple(
         (dx, dy)
         for dy in range(-3, 4)
         for dx in range(-3, 4)
         if max(abs(dx), abs(dy)) >= 2 and abs((px + dx) // 2) <= 1 and abs((py + dy) // 2) <= 1
-    ]
+    )
 
 
 def _child_offset(px: int, py: int) -> complex:
