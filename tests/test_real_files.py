@@ -10,7 +10,8 @@ import pytest
 from PIL import Image
 
 from fmr_editor import load
-from fmr_editor.engine import Representation, build, rasterise
+from fmr_editor.engine import Representation, build, fast_solve, rasterise
+from fmr_editor.engine.bem import solve_dense
 
 #: File and output size; lady_bug at its full canvas, the others at half (direct sums are slow).
 FILES = [("lady_bug.xml", 512), ("zephyr.xml", 256), ("poivron.xml", 256)]
@@ -49,3 +50,10 @@ def test_lady_bug_matches_an_independent_ray_traced_render(shared_data):
     image = np.clip(rasterise(rep, 512, 512, samples=3), 0.0, 1.0)
     assert reference.shape == image.shape
     assert np.abs(image - reference).mean() <= 0.025
+
+
+def test_fast_solve_matches_the_dense_solve(shared_data):
+    rep = representation(shared_data / "orzan_xml" / "berkbavas" / "poivron.xml")
+    assert len(rep.segments) > fast_solve.DENSE_CROSSOVER  # built by the fast solve
+    expected = solve_dense(rep.segments).unknowns()
+    assert np.abs(rep.segments.unknowns() - expected).max() <= 1e-6 * np.abs(expected).max()
