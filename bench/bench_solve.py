@@ -1,6 +1,6 @@
 """Boundary-solve benchmark: every Orzan sample built and rendered, and the dense/fast crossover.
 
-    python bench/bench_solve.py [FILES...] [--repeat N] [--dense-max N] [--crossover]
+    python bench/bench_solve.py [FILES...] [--repeat N] [--dense-max N] [--crossover | --crossover-only]
 
 For each file, in a fresh process (so its peak memory is its own): load,
 build (discretise, solve, upward, downward), render at its canvas size with
@@ -75,13 +75,13 @@ def one_file(path: Path, repeat: int, dense_max: int) -> dict:
         image = rasterise(rep, document.width, document.height, samples=3)
         best["render"] = min(best["render"], time.perf_counter() - start)
     result = {"segments": len(rep.segments), "runs": runs, "size": f"{document.width}x{document.height}",
-              "finite": bool(np.isfinite(image).all()), **best}
+              "finite": bool(np.isfinite(image).all()), **best,
+              "peak_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}  # before the dense check
     if len(rep.segments) <= dense_max and len(rep.segments) > fast_solve.DENSE_CROSSOVER:
         segments, lattice = boundary_system(document)
         _, _, fast, dense, report = fast_and_dense(segments, lattice)
         result["difference"] = float(np.abs(fast - dense).max() / np.abs(dense).max())
         result["iterations"] = report.iterations
-    result["peak_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     return result
 
 
@@ -112,13 +112,13 @@ def file_table(files: list[Path], repeat: int, dense_max: int) -> list[str]:
 
 
 def crossover_table(repeat: int) -> list[str]:
-    """Dense and fast solve side by side on random circles of growing count."""
+    """Dense and fast solve side by side on random circles, growing canvases and counts."""
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
     from shapes import scattered_document
 
     rows = ["| segments | dense (s) | fast (s) | fast / dense | difference |", "|---:|---:|---:|---:|---:|"]
-    for circles in (10, 20, 40, 80):
-        document = scattered_document(512, circles=circles, seed=circles)
+    for size, circles in ((128, 1), (256, 1), (256, 4), (512, 1), (512, 8), (512, 20)):
+        document = scattered_document(size, circles=circles, seed=circles)
         segments, lattice = boundary_system(document)
         log(f"crossover: {len(segments)} segments")
         fast_time = dense_time = float("inf")
@@ -138,6 +138,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--repeat", type=int, default=3, help="runs per measurement; the best is reported")
     parser.add_argument("--dense-max", type=int, default=12_000, help="largest system also solved densely")
     parser.add_argument("--crossover", action="store_true", help="also time dense against fast on synthetic documents")
+    parser.add_argument("--crossover-only", action="store_true", help="only the dense/fast comparison")
     parser.add_argument("--one", type=Path, help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.one:
@@ -145,9 +146,10 @@ def main(argv: list[str] | None = None) -> None:
         return
     files = args.files or sorted(ORZAN.rglob("*.xml"))
     print(f"Machine: {machine()}. Best of {args.repeat} runs unless marked; seconds.\n")
-    print("\n".join(file_table(files, args.repeat, args.dense_max)))
-    if args.crossover:
-        print("\nDense against fast solve (random circles on a 512x512 canvas):\n")
+    if not args.crossover_only:
+        print("\n".join(file_table(files, args.repeat, args.dense_max)))
+    if args.crossover or args.crossover_only:
+        print("\nDense against fast solve (random circles on 128 to 512 px canvases):\n")
         print("\n".join(crossover_table(args.repeat)))
 
 

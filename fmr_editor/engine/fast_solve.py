@@ -10,9 +10,10 @@ are one stacked vector, so every product is one three-channel FMM pass.
 This first-kind (log kernel) system is ill-conditioned: a near-field
 preconditioner only tames its high frequencies and leaves GMRES hundreds of
 iterations (530 on poivron).  The preconditioner is therefore a compressed
-factorisation of the whole matrix (``skeleton``).  Compressed to ``1e-6``
-it leaves GMRES 2 iterations on lady_bug and 9 on roses; tighter
-compression costs more than the iterations it saves (``bench/bench_solve.py``).
+factorisation of the whole matrix (``skeleton``), compressed to 1e-6 or
+1e-5 (``compression_tolerance``): GMRES then needs 2 iterations on
+lady_bug, about 16 on roses; tighter compression costs more than the
+iterations it saves (``bench/bench_solve.py``).
 """
 
 from __future__ import annotations
@@ -33,7 +34,17 @@ from .skeleton import SkeletonFactorization
 
 
 #: Unknowns up to which the dense solve is faster (``bench/bench_solve.py``).
-DENSE_CROSSOVER = 3000
+DENSE_CROSSOVER = 1500
+
+
+def compression_tolerance(count: int) -> float:
+    """Preconditioner accuracy for ``count`` unknowns (measured by ``bench/bench_solve.py``).
+
+    Looser compression means cheaper factors but more GMRES products; on
+    large, dense files (roses: 90k unknowns) 1e-5 was faster overall than
+    1e-6 (51 s against 69 s, 16 against 9 iterations) and smaller.
+    """
+    return 1e-6 if count <= 30_000 else 1e-5
 
 
 def far_field_at(local: np.ndarray, lattice: Lattice, cells: np.ndarray, points: np.ndarray) -> np.ndarray:
@@ -126,7 +137,7 @@ def solve_fmm(
     lattice: Lattice,
     order: int = 20,
     rtol: float = 1e-9,
-    tolerance: float = 1e-6,
+    tolerance: float | None = None,
     preconditioner: SkeletonFactorization | None = None,
     initial: np.ndarray | None = None,
     progress: Callable[[float], None] | None = None,
@@ -145,8 +156,9 @@ def solve_fmm(
         Terms carried through the FMM passes of each product.
     rtol : float
         Relative residual (2-norm over all channels) to reach.
-    tolerance : float
-        Compression accuracy of the preconditioner, when one is made.
+    tolerance : float, optional
+        Compression accuracy of the preconditioner, when one is made; by
+        default ``compression_tolerance(len(segments))``.
     preconditioner : SkeletonFactorization, optional
         A factorisation of the same matrix to reuse (a colour-only change).
     initial : numpy.ndarray, optional
@@ -164,6 +176,7 @@ def solve_fmm(
     report = progress or (lambda fraction: None)
     n = len(segments)
     if preconditioner is None:
+        tolerance = compression_tolerance(n) if tolerance is None else tolerance
         preconditioner = SkeletonFactorization(segments, tolerance, progress=lambda f: report(0.8 * f))
     operator = CollocationOperator(segments, cell_start, lattice, order)
     rhs = operator.right_hand_side()
