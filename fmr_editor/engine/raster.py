@@ -21,6 +21,8 @@ from collections.abc import Callable
 
 import numpy as np
 
+from .gauss import gaussian_sum_reference
+from .gauss_near import near_at
 from .grid_kernels import far_field_grid, near_field_grid
 from .kernels import direct_sum, near_sum
 from .representation import Representation
@@ -119,8 +121,8 @@ def rasterise(
     samples : int
         ``samples x samples`` supersampling per pixel.
     method : {"fmr", "direct"}
-        ``"direct"`` sums the boundary integral over every segment (slow;
-        the reference for checking the FMR).
+        ``"direct"`` sums the boundary integral over every segment and every
+        diffusion point's Gaussian (slow; the reference for checking the FMR).
     order : int, optional
         Polynomial degree for the far field; defaults to ``rep.order``.
     progress : callable, optional
@@ -152,9 +154,15 @@ def rasterise(
                 xs, band_ys, lattice.cells_per_side, lattice.cell_size, rep.cell_start,
                 seg.p, seg.q, seg.flux, seg.jump, out=values,
             )
+            if rep.points is not None:
+                rep.points.add_near_grid(xs, band_ys, values)
         else:
             targets = np.stack(np.broadcast_arrays(xs[None, :], band_ys[:, None]), axis=-1).reshape(-1, 2)
-            values = direct_sum(targets, seg.p, seg.q, seg.flux, seg.jump).reshape(len(band_ys), len(xs), 3)
+            values = direct_sum(targets, seg.p, seg.q, seg.flux, seg.jump)
+            if rep.points is not None:
+                p = rep.points.points
+                values += gaussian_sum_reference(targets, p.positions, p.radii, p.weights)
+            values = values.reshape(len(band_ys), len(xs), 3)
         image[rows] = values if samples == 1 else _average_blocks(values, samples)
         if progress:
             progress("rasterise", rows.stop / height)
@@ -188,5 +196,7 @@ def evaluate_points(rep: Representation, points: np.ndarray, order: int | None =
     xi, eta = local[:, 0:1] ** degrees, local[:, 1:2] ** degrees
     far = np.einsum("mcij,mi,mj->mc", poly[cells[:, 0], cells[:, 1]], xi, eta)
     near = near_sum(points, lattice.cells_per_side, lattice.cell_size, rep.cell_start, seg.p, seg.q, seg.flux, seg.jump)
+    if rep.points is not None:
+        near += near_at(rep.points.near, points)
     inside = (points >= 0).all(axis=1) & (points[:, 0] <= rep.width) & (points[:, 1] <= rep.height)
     return np.where(inside[:, None], far + near, 0.0)

@@ -15,6 +15,7 @@ import numpy as np
 
 from ..model import Document
 from .fast_solve import solve_boundary
+from .point_field import PointField, point_levels
 from .expansions import harmonic_to_polynomial
 from .lattice import Lattice, downward_pass, sort_into_cells, upward_pass
 from .segments import Segments, boundary_segments, curve_segments
@@ -87,6 +88,8 @@ class Representation:
         Polynomial degree used for pixels.
     timings : dict
         Seconds spent in each build stage.
+    points : PointField or None
+        The document's diffusion points, if any.
     """
 
     width: int
@@ -97,6 +100,7 @@ class Representation:
     local: np.ndarray
     order: int
     timings: dict = field(default_factory=dict)
+    points: PointField | None = None
 
     def polynomials(self, order: int | None = None) -> np.ndarray:
         """Cell polynomials ``c[row, column, channel, i, j]`` of ``xi^i eta^j``.
@@ -119,7 +123,10 @@ class Representation:
         real_mapping = np.concatenate([mapping.real, -mapping.imag]) / (2 * np.pi)
         local = self.local[..., : order + 1]
         coeffs = np.concatenate([local.real, local.imag], axis=-1) @ real_mapping
-        return coeffs.reshape(local.shape[:-1] + (order + 1, order + 1))
+        coeffs = coeffs.reshape(local.shape[:-1] + (order + 1, order + 1))
+        if self.points is not None:
+            coeffs += self.points.polynomials(order)
+        return coeffs
 
 
 def choose_levels(curves: Segments, side: float, per_cell: float = SEGMENTS_PER_CELL) -> int:
@@ -166,7 +173,7 @@ def build(document: Document, settings: Settings = Settings(), progress: Progres
 
     side = float(max(document.width, document.height))
     curves = curve_segments(document, settings.tolerance, settings.max_length)
-    levels = settings.levels or choose_levels(curves, side)
+    levels = settings.levels or max(choose_levels(curves, side), point_levels(document.points, side, MAX_LEVELS))
     lattice = Lattice(levels, side)
     segments = boundary_segments(curves, document, lattice.cell_size, settings.border_spacing)
     solve_lattice = Lattice(choose_levels(curves, side, SOLVE_SEGMENTS_PER_CELL), side)
@@ -177,7 +184,10 @@ def build(document: Document, settings: Settings = Settings(), progress: Progres
     multipoles = upward_pass(segments, cell_start, lattice, settings.propagation_order)
     lap("upward", 0.8)
     local = downward_pass(multipoles, lattice, settings.propagation_order)
-    lap("downward", 1.0)
+    lap("downward", 0.95 if document.points else 1.0)
+    points = PointField.build(document.points, lattice, settings.order) if document.points else None
+    if points is not None:
+        lap("points", 1.0)
     return Representation(
-        document.width, document.height, lattice, segments, cell_start, local, settings.order, timings
+        document.width, document.height, lattice, segments, cell_start, local, settings.order, timings, points
     )

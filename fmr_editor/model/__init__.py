@@ -2,5 +2,6 @@
 
 from .curve import BlurStop, ColorStop, DiffusionCurve, interpolate_stops
 from .document import Document
+from .point import DiffusionPoint
 
-__all__ = ["BlurStop", "ColorStop", "DiffusionCurve", "Document", "interpolate_stops"]
+__all__ = ["BlurStop", "ColorStop", "DiffusionCurve", "DiffusionPoint", "Document", "interpolate_stops"]

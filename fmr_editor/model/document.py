@@ -7,6 +7,7 @@ import numbers
 from dataclasses import dataclass, replace
 
 from .curve import DiffusionCurve
+from .point import DiffusionPoint
 
 
 @dataclass(frozen=True)
@@ -20,16 +21,18 @@ class Document:
         top-left corner, x to the right and y down.
     curves : tuple of DiffusionCurve
         The diffusion curves, in drawing order.
+    points : tuple of DiffusionPoint
+        Gaussian colour blobs added to the curves' image.
 
     Notes
     -----
-    Diffusion points join as a further tuple of items in a later version;
-    every change produces a new ``Document`` (``with_curves`` and friends).
+    Every change produces a new ``Document`` (``with_curves``, ``with_points``).
     """
 
     width: int
     height: int
     curves: tuple[DiffusionCurve, ...] = ()
+    points: tuple[DiffusionPoint, ...] = ()
 
     def __post_init__(self) -> None:
         for name in ("width", "height"):
@@ -40,7 +43,14 @@ class Document:
         object.__setattr__(self, "curves", tuple(self.curves))
         if not all(isinstance(curve, DiffusionCurve) for curve in self.curves):
             raise TypeError("curves must be DiffusionCurve instances")
+        object.__setattr__(self, "points", tuple(self.points))
+        if not all(isinstance(point, DiffusionPoint) for point in self.points):
+            raise TypeError("points must be DiffusionPoint instances")
 
     def with_curves(self, curves) -> "Document":
         """A copy of this document holding ``curves`` instead."""
         return replace(self, curves=tuple(curves))
+
+    def with_points(self, points) -> "Document":
+        """A copy of this document holding ``points`` instead."""
+        return replace(self, points=tuple(points))
