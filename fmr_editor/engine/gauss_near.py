@@ -21,7 +21,7 @@ import numba
 import numpy as np
 
 from .gauss import GaussPoints, PointSettings, cell_range, cutoff_radii, expansion_ratios
-from .grid_kernels import far_field_grid, grid_cell_runs
+from .grid_kernels import far_field_grid, grid_arrays, grid_cell_runs
 from .lattice import Lattice
 
 
@@ -115,15 +115,7 @@ def near_grid(near: NearPoints, xs: np.ndarray, ys: np.ndarray, out: np.ndarray 
     out : numpy.ndarray, optional
         C-contiguous float64 ``(len(ys), len(xs), 3)``; the sum is *added* to it.
     """
-    xs = np.ascontiguousarray(xs, dtype=np.float64)
-    ys = np.ascontiguousarray(ys, dtype=np.float64)
-    if (np.diff(xs) < 0).any() or (np.diff(ys) < 0).any():
-        raise ValueError("grid coordinates must be sorted")
-    shape = (len(ys), len(xs), 3)
-    if out is None:
-        out = np.zeros(shape)
-    elif out.shape != shape or out.dtype != np.float64 or not out.flags.c_contiguous:
-        raise ValueError(f"out must be a C-contiguous float64 array of shape {shape}")
+    xs, ys, out = grid_arrays(xs, ys, out)
     if len(near) == 0 or out.size == 0:
         return out
     n, size = near.lattice.cells_per_side, near.lattice.cell_size

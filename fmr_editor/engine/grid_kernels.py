@@ -93,6 +93,24 @@ def _near_grid(xs, ys, x_start, y_start, n, cell_start, p, q, tangent, length, f
                        p, q, tangent, length, flux, jump, out)
 
 
+def grid_arrays(xs: np.ndarray, ys: np.ndarray, out: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Checked grid coordinates (contiguous, sorted) and an output ``(len(ys), len(xs), 3)`` to add to.
+
+    Raises ``ValueError`` for unsorted coordinates or an ``out`` of the wrong
+    shape, type or layout; a missing ``out`` is zeros.
+    """
+    xs = np.ascontiguousarray(xs, dtype=np.float64)
+    ys = np.ascontiguousarray(ys, dtype=np.float64)
+    if (np.diff(xs) < 0).any() or (np.diff(ys) < 0).any():
+        raise ValueError("grid coordinates must be sorted")
+    shape = (len(ys), len(xs), 3)
+    if out is None:
+        out = np.zeros(shape)
+    elif out.shape != shape or out.dtype != np.float64 or not out.flags.c_contiguous:
+        raise ValueError(f"out must be a C-contiguous float64 array of shape {shape}")
+    return xs, ys, out
+
+
 def grid_cell_runs(coords: np.ndarray, cell_size: float, cells_per_side: int) -> np.ndarray:
     """Offsets ``(cells_per_side + 1,)`` of each fine cell's run in sorted coordinates along one axis.
 
@@ -132,15 +150,7 @@ def near_field_grid(
         ``(len(ys), len(xs), 3)`` float64 C-contiguous; the near field is
         *added* to it (the far field, say) and it is returned.
     """
-    xs = np.ascontiguousarray(xs, dtype=np.float64)
-    ys = np.ascontiguousarray(ys, dtype=np.float64)
-    if (np.diff(xs) < 0).any() or (np.diff(ys) < 0).any():
-        raise ValueError("grid coordinates must be sorted")
-    shape = (len(ys), len(xs), 3)
-    if out is None:
-        out = np.zeros(shape)
-    elif out.shape != shape or out.dtype != np.float64 or not out.flags.c_contiguous:
-        raise ValueError(f"out must be a C-contiguous float64 array of shape {shape}")
+    xs, ys, out = grid_arrays(xs, ys, out)
     n = int(cells_per_side)
     if out.size == 0 or len(p) == 0:
         return out

@@ -4,7 +4,7 @@ The collocation matrix A (``bem``) is dense, but the block coupling a box of
 segments to everything outside it has low numerical rank.  Working up a
 quadtree from small boxes, each box keeps a *skeleton* of its unknowns
 through which all of that coupling passes; its other (*redundant*) unknowns
-are eliminated with a small dense LU (Ho and Greengard 2012, in the
+are eliminated through a small dense inverse (Ho and Greengard 2012, in the
 factorised form of Minden, Ho, Damle and Ying 2017, weak admissibility).
 Whatever is left at the top is factorised densely.
 
