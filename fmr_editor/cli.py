@@ -1,4 +1,4 @@
-"""Command line: ``fmr-editor render INPUT -o OUT.png``."""
+"""Command line: ``fmr-editor render INPUT -o OUT.png`` or ``fmr-editor render A.xml B.xml ... -o DIR``."""
 
 from __future__ import annotations
 
@@ -6,6 +6,7 @@ import argparse
 import sys
 import time
 from collections.abc import Sequence
+from pathlib import Path
 
 
 def _positive(text: str) -> int:
@@ -18,9 +19,10 @@ def _positive(text: str) -> int:
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="fmr-editor", description="Diffusion-curve images on the fast multipole representation.")
     commands = parser.add_subparsers(dest="command", required=True)
-    render = commands.add_parser("render", help="render a document to PNG")
-    render.add_argument("input", help="document to render (Orzan CurveSetXML .xml)")
-    render.add_argument("-o", "--output", required=True, help="PNG file to write")
+    render = commands.add_parser("render", help="render documents to PNG")
+    render.add_argument("inputs", nargs="+", metavar="INPUT", help="documents to render (Orzan CurveSetXML .xml)")
+    render.add_argument("-o", "--output", required=True,
+                        help="PNG file to write, or with several inputs a folder (made if missing) for NAME.png each")
     render.add_argument("--width", type=_positive, help="output width (default: canvas width)")
     render.add_argument("--height", type=_positive, help="output height (default: canvas height)")
     render.add_argument("--samples", type=_positive, default=3, help="N x N samples per pixel (default 3; 1 = pixel centre)")
@@ -44,13 +46,14 @@ class StderrProgress:
             print(f"[{time.perf_counter() - self.start:6.1f}s] {stage} {fraction:4.0%}", file=self.stream or sys.stderr, flush=True)
 
 
-def run_render(args: argparse.Namespace) -> int:
+def render_one(source: str, output: str, args: argparse.Namespace) -> int:
+    """Render ``source`` to the PNG ``output``; 0, or 2 after one line on stderr."""
     from . import load, render
     from .io import DocumentLoadError
     from .io.png import save_png
 
     try:
-        document = load(args.input)
+        document = load(source)
     except DocumentLoadError as error:
         print(f"fmr-editor: cannot open {error}", file=sys.stderr)
         return 2
@@ -60,15 +63,37 @@ def run_render(args: argparse.Namespace) -> int:
             order=args.order, method=args.method, progress=StderrProgress(),
         )
     except (ValueError, MemoryError) as error:
-        print(f"fmr-editor: cannot render {args.input}: {error}", file=sys.stderr)
+        print(f"fmr-editor: cannot render {source}: {error}", file=sys.stderr)
         return 2
     try:
-        written = save_png(image, args.output)
+        written = save_png(image, output)
     except OSError as error:
-        print(f"fmr-editor: cannot write {args.output}: {error.strerror or error}", file=sys.stderr)
+        print(f"fmr-editor: cannot write {output}: {error.strerror or error}", file=sys.stderr)
         return 2
     print(f"wrote {written} ({image.shape[1]}x{image.shape[0]})")
     return 0
+
+
+def run_render(args: argparse.Namespace) -> int:
+    """One input to a file, or several into a folder; every input is tried, 2 if any failed."""
+    if len(args.inputs) == 1 and not Path(args.output).is_dir():
+        return render_one(args.inputs[0], args.output, args)
+    stems = [Path(source).stem for source in args.inputs]
+    clashes = {stem for stem in stems if stems.count(stem) > 1}
+    if clashes:
+        print(f"fmr-editor: several inputs would write {', '.join(sorted(clashes))}.png; rename or render them apart",
+              file=sys.stderr)
+        return 2
+    folder = Path(args.output)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        print(f"fmr-editor: cannot make the folder {folder}: {error.strerror or error}", file=sys.stderr)
+        return 2
+    failed = [source for source, stem in zip(args.inputs, stems) if render_one(source, str(folder / f"{stem}.png"), args)]
+    if failed:
+        print(f"fmr-editor: {len(failed)} of {len(args.inputs)} documents failed", file=sys.stderr)
+    return 2 if failed else 0
 
 
 def main(argv: Sequence[str] | None = None) -> int:

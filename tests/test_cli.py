@@ -276,3 +276,34 @@ def test_failed_save_to_a_new_path_creates_nothing(tmp_path):
     with pytest.raises(ValueError):
         save_png(np.zeros((4, 5)), tmp_path / "new.png")
     assert list(tmp_path.iterdir()) == []
+
+
+# --- several documents at once ------------------------------------------------------------------
+
+
+def test_several_inputs_render_into_a_folder_each_as_alone(tmp_path, split_canvas):
+    folder = tmp_path / "renders"
+    assert main(["render", str(RIBBON), str(split_canvas), "-o", str(folder), "--width", "24", "--samples", "1"]) == 0
+    assert sorted(p.name for p in folder.iterdir()) == [f"{RIBBON.stem}.png", "split.png"]
+    alone = tmp_path / "alone.png"
+    assert main(["render", str(split_canvas), "-o", str(alone), "--width", "24", "--samples", "1"]) == 0
+    np.testing.assert_array_equal(read_png(folder / "split.png"), read_png(alone))
+
+
+def test_a_bad_input_among_several_is_reported_and_the_rest_rendered(tmp_path, capsys, split_canvas):
+    broken = tmp_path / "broken.xml"
+    broken.write_text("<curve_set")
+    folder = tmp_path / "out"
+    assert main(["render", str(broken), str(split_canvas), "-o", str(folder), "--width", "8", "--samples", "1"]) == 2
+    assert sorted(p.name for p in folder.iterdir()) == ["split.png"]
+    err = capsys.readouterr().err
+    assert "broken.xml" in err and "1 of 2 documents failed" in err and "Traceback" not in err
+
+
+def test_inputs_with_the_same_name_are_refused_before_rendering(tmp_path, capsys, split_canvas):
+    other = tmp_path / "other" / "split.xml"
+    other.parent.mkdir()
+    other.write_text(split_canvas.read_text())
+    folder = tmp_path / "out"
+    assert main(["render", str(split_canvas), str(other), "-o", str(folder)]) == 2
+    assert "split.png" in capsys.readouterr().err and not folder.exists()
