@@ -90,3 +90,15 @@ def test_build_above_the_crossover_gives_the_dense_image(monkeypatch):
     monkeypatch.setattr(fast_solve, "solve_dense", lambda segments: pytest.fail("dense solve used above the crossover"))
     fast = rasterise(build(doc), 48, 48, samples=1)
     assert np.abs(fast - dense).max() <= 1e-6
+
+
+def test_a_solve_that_does_not_converge_says_so(system, monkeypatch):
+    segments, _, lattice, _, _ = system
+    weak = compressed(segments, 0.5)
+    monkeypatch.setattr(fast_solve, "SkeletonFactorization", lambda *args, **kwargs: weak)
+    monkeypatch.setattr(fast_solve, "DENSE_CROSSOVER", 10)
+    real_gmres = fast_solve.scipy.sparse.linalg.gmres
+    monkeypatch.setattr(fast_solve.scipy.sparse.linalg, "gmres",
+                        lambda *args, **kwargs: real_gmres(*args, **{**kwargs, "maxiter": 1, "restart": 1}))
+    with pytest.warns(RuntimeWarning, match="stopped at relative residual"):
+        fast_solve.solve_boundary(segments, lattice)

@@ -18,6 +18,7 @@ iterations it saves (``bench/bench_solve.py``).
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 
@@ -26,15 +27,16 @@ import numpy as np
 import scipy.sparse
 import scipy.sparse.linalg
 
-from .kernels import near_sum
 from .bem import solve_dense
+from .kernels import near_sum
 from .lattice import Lattice, downward_pass, sort_into_cells, upward_pass
 from .segments import Segments
 from .skeleton import SkeletonFactorization
 
-
 #: Unknowns up to which the dense solve is faster (``bench/bench_solve.py``).
 DENSE_CROSSOVER = 1500
+#: Relative residual above which ``solve_boundary`` warns that GMRES did not converge.
+UNCONVERGED = 1e-6
 
 
 def compression_tolerance(count: int) -> float:
@@ -233,4 +235,8 @@ def solve_boundary(
     if len(segments) <= DENSE_CROSSOVER:
         return solve_dense(segments)
     ordered, cell_start = sort_into_cells(segments, lattice)
-    return solve_fmm(ordered, cell_start, lattice, progress=progress)[0]
+    solved, report = solve_fmm(ordered, cell_start, lattice, progress=progress)
+    if report.residual > UNCONVERGED:
+        warnings.warn(f"the boundary solve stopped at relative residual {report.residual:.1e} after "
+                      f"{report.iterations} iterations; colours may be off", RuntimeWarning, stacklevel=2)
+    return solved
