@@ -2,7 +2,8 @@
 
 Building runs four stages, each timed in ``Representation.timings``:
 discretise (flatten, clip, choose the lattice, cut at cells), solve (the
-boundary-element system), upward (P2M, M2M) and downward (M2L, L2L).
+boundary-element system), upward (P2M, M2M) and downward (M2L, L2L); a
+document with diffusion points adds a fifth, points (their polynomials).
 """
 
 from __future__ import annotations
@@ -14,10 +15,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..model import Document
-from .fast_solve import solve_boundary
-from .point_field import PointField, point_levels
 from .expansions import harmonic_to_polynomial
+from .fast_solve import solve_boundary
 from .lattice import Lattice, downward_pass, sort_into_cells, upward_pass
+from .point_field import PointField, point_levels
 from .segments import Segments, boundary_segments, curve_segments
 
 Progress = Callable[[str, float], None]
