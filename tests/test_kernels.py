@@ -11,7 +11,7 @@ from scipy.integrate import quad
 
 from fmr_editor.engine.bem import assemble, assemble_reference
 from fmr_editor.engine.fastmath import POLY_MATH
-from fmr_editor.engine.kernels import FAST_MATH, _layers, direct_sum, near_block, near_sum
+from fmr_editor.engine.kernels import FAST_MATH, _layers, direct_sum, near_sum
 from fmr_editor.engine.lattice import Lattice, sort_into_cells
 from fmr_editor.engine.layers import direct_sum_reference, pair_integrals
 from fmr_editor.engine.segments import Segments
@@ -190,24 +190,6 @@ def test_near_sum_with_own_segments_matches_the_principal_value_reference():
     near = block_mask(lattice, targets, seg)
     expected = (single * near) @ seg.flux - (double * near) @ seg.jump
     np.testing.assert_allclose(got, expected, rtol=1e-9, atol=1e-9)
-
-
-def test_near_block_holds_the_dense_entries_exactly():
-    """``near_block`` against ``assemble`` (to the last bit) and the numpy reference, crowded cells included."""
-    rng = np.random.default_rng(10)
-    lattice = Lattice(4, 64.0)
-    seg, start = sort_into_cells(random_segments(rng, 700, 64.0, 0.6), lattice)
-    cells = lattice.cell_of(seg.midpoints)
-    row_start, columns, values = near_block(cells, lattice.cells_per_side, start, seg.p, seg.q, seg.on_border)
-    near = np.zeros((len(seg), len(seg)))
-    rows = np.repeat(np.arange(len(seg)), np.diff(row_start))
-    near[rows, columns] = values
-    mask = block_mask(lattice, seg.midpoints, seg)
-    assert len(values) == mask.sum() and mask[rows, columns].all()
-    matrix, _ = assemble(seg)
-    np.testing.assert_array_equal(near[mask], matrix[mask])
-    expected, _ = assemble_reference(seg)
-    np.testing.assert_allclose(near[mask], expected[mask], rtol=1e-9, atol=1e-11)
 
 
 def test_compiled_assembly_over_many_segments_matches_reference():
