@@ -6,6 +6,7 @@ Checks
   ``python -m fmr_editor``) writes a PNG of the requested size, keeping the
   aspect ratio when only ``--width`` is given, whose pixels are exactly the
   8-bit rounding of ``fmr_editor.render``; progress goes to stderr.
+* A saved ``.fmr`` file renders like the document it holds.
 * ``--method direct`` agrees with the FMR to one 8-bit level.
 * Bad input (malformed or missing file) and an unwritable output path end with
   exit code 2 and a one-line message, without a traceback or an output file.
@@ -33,6 +34,8 @@ from shapes import circle_points, uniform_curve
 
 import fmr_editor
 from fmr_editor.cli import main
+from fmr_editor.engine import build
+from fmr_editor.io import save_fmr
 from fmr_editor.io.png import save_png, to_rgb8
 from fmr_editor.model import Document
 
@@ -148,6 +151,14 @@ def test_height_alone_keeps_the_aspect_ratio(tmp_path, split_canvas):
     out = tmp_path / "split.png"
     assert main(["render", str(split_canvas), "-o", str(out), "--height", "10", "--samples", "1"]) == 0
     assert read_png(out).shape == (10, 15, 3)
+
+
+def test_render_command_reads_a_saved_fmr_file(tmp_path, split_canvas):
+    document = fmr_editor.load(split_canvas)
+    saved = save_fmr(tmp_path / "split.fmr", document, build(document))
+    out = tmp_path / "split.png"
+    assert main(["render", str(saved), "-o", str(out), "--width", "30", "--samples", "1"]) == 0
+    np.testing.assert_array_equal(read_png(out), to_rgb8(fmr_editor.render(document, 30, 20, samples=1)))
 
 
 def test_python_dash_m_renders_and_reports_progress_on_stderr(tmp_path):

@@ -1,4 +1,4 @@
-"""Reading documents from files.  No Qt, no OpenGL."""
+"""Reading and writing documents.  No Qt, no OpenGL."""
 
 from __future__ import annotations
 
@@ -7,9 +7,10 @@ from pathlib import Path
 
 from ..model import Document
 from .errors import DocumentLoadError
+from .fmr_file import FmrFile, load_fmr, save_fmr
 from .orzan import load_orzan, parse_orzan
 
-__all__ = ["DocumentLoadError", "load_document", "load_orzan", "parse_orzan"]
+__all__ = ["DocumentLoadError", "FmrFile", "load_document", "load_fmr", "load_orzan", "parse_orzan", "save_fmr"]
 
 
 def load_document(path: str | os.PathLike) -> Document:
@@ -18,7 +19,9 @@ def load_document(path: str | os.PathLike) -> Document:
     Parameters
     ----------
     path : str or os.PathLike
-        ``.xml`` (any case) is read as Orzan CurveSetXML or usvg SceneXML.
+        ``.fmr`` (any case) is read as the native format (its document only;
+        use :func:`load_fmr` for the representation too); ``.xml`` as Orzan
+        CurveSetXML or usvg SceneXML.
 
     Returns
     -------
@@ -31,7 +34,9 @@ def load_document(path: str | os.PathLike) -> Document:
         For an unsupported suffix, or when the reader fails.
     """
     suffix = Path(path).suffix.lower()
+    if suffix == ".fmr":
+        return load_fmr(path, representation=False).document
     if suffix == ".xml":
         return load_orzan(path)
     name = Path(path).name or os.fspath(path)
-    raise DocumentLoadError(name, f"unsupported file type {suffix or '(no suffix)'!r}; supported: .xml")
+    raise DocumentLoadError(name, f"unsupported file type {suffix or '(no suffix)'!r}; supported: .fmr, .xml")

@@ -1,0 +1,182 @@
+"""The document as JSON: the ``document.json`` entry of an ``.fmr`` file.
+
+Kept apart from the container so that other features (history snapshots,
+the clipboard) can reuse it.  The schema, with an example, is in
+``docs/fmr-format.md``; in short::
+
+    {"format": "fmr-editor document", "version": 1,
+     "canvas": {"width": 512, "height": 512},
+     "curves": [{"control_points": [[x, y], ...],
+                 "left": [{"position": s, "color": [r, g, b]}, ...],
+                 "right": [...], "blur": [{"position": s, "blur": b}, ...]}],
+     "points": [{"position": [x, y], "radius": r, "color": [r, g, b], "amplitude": a}]}
+
+Positions along curves are in piece units (the model's convention).  Floats
+are written with Python's shortest round-trip ``repr``, so a document comes
+back exactly equal.  Reading is strict about what it uses (types,
+finiteness, counts, duplicate keys; NaN and Infinity are refused) and names
+the place of any problem; keys it does not know are ignored, so a later
+version may add optional ones without a version change.
+"""
+
+from __future__ import annotations
+
+import json
+
+from ..model import BlurStop, ColorStop, DiffusionCurve, DiffusionPoint, Document
+from .json_checks import (
+    SchemaError,
+    as_list,
+    as_object,
+    check_version,
+    finite,
+    finite_rows,
+    finite_tuple,
+    parse_json,
+    required,
+    whole,
+)
+
+FORMAT_NAME = "fmr-editor document"
+"""Value of the ``format`` key."""
+
+SCHEMA_VERSION = 1
+"""The version written, and the newest one read."""
+
+MAX_CANVAS_SIZE = 32768
+"""Largest canvas width or height accepted (as the Orzan reader)."""
+
+
+# --- writing -------------------------------------------------------------------------------------
+
+
+def document_to_data(document: Document) -> dict:
+    """The JSON-ready form of ``document`` (dicts, lists, floats and ints).
+
+    Raises
+    ------
+    ValueError
+        If a colour is not three numbers (the model does not check it).
+    """
+    return {
+        "format": FORMAT_NAME,
+        "version": SCHEMA_VERSION,
+        "canvas": {"width": document.width, "height": document.height},
+        "curves": [_curve_to_data(curve) for curve in document.curves],
+        "points": [_point_to_data(point) for point in document.points],
+    }
+
+
+def _curve_to_data(curve: DiffusionCurve) -> dict:
+    return {
+        "control_points": curve.control_points.tolist(),
+        "left": [_color_stop_to_data(stop) for stop in curve.left],
+        "right": [_color_stop_to_data(stop) for stop in curve.right],
+        "blur": [{"position": float(stop.position), "blur": float(stop.blur)} for stop in curve.blur],
+    }
+
+
+def _color_stop_to_data(stop: ColorStop) -> dict:
+    return {"position": float(stop.position), "color": _color(stop.color)}
+
+
+def _point_to_data(point: DiffusionPoint) -> dict:
+    return {
+        "position": [float(v) for v in point.position],
+        "radius": float(point.radius),
+        "color": _color(point.color),
+        "amplitude": float(point.amplitude),
+    }
+
+
+def _color(color) -> list[float]:
+    values = [float(v) for v in color]
+    if len(values) != 3:
+        raise ValueError(f"a colour must be 3 numbers, got {len(values)}")
+    return values
+
+
+def dumps_document(document: Document) -> bytes:
+    """``document`` as compact UTF-8 JSON.
+
+    Raises
+    ------
+    ValueError
+        If the document holds a non-finite number or a malformed colour.
+    """
+    return json.dumps(document_to_data(document), allow_nan=False, separators=(",", ":")).encode("utf-8")
+
+
+# --- reading -------------------------------------------------------------------------------------
+
+
+def loads_document(data: bytes) -> Document:
+    """Parse ``document.json`` bytes.
+
+    Raises
+    ------
+    SchemaError
+        If the bytes are not strict JSON or do not describe a document
+        (``NewerVersionError`` for a version above ``SCHEMA_VERSION``).
+    """
+    return document_from_data(parse_json(data))
+
+
+def document_from_data(data: object) -> Document:
+    """The document described by parsed JSON ``data``.
+
+    Raises
+    ------
+    SchemaError
+        If ``data`` does not follow the schema; the message names the place.
+    """
+    root = as_object(data, "the top level")
+    if root.get("format") != FORMAT_NAME:
+        raise SchemaError(f"format is {root.get('format')!r:.60}, expected {FORMAT_NAME!r}")
+    check_version(root, "version", SCHEMA_VERSION, "document format")
+    canvas = as_object(required(root, "canvas", ""), "canvas")
+    width = whole(required(canvas, "width", "canvas"), "canvas.width", 1, MAX_CANVAS_SIZE)
+    height = whole(required(canvas, "height", "canvas"), "canvas.height", 1, MAX_CANVAS_SIZE)
+    curves = [_curve(item, f"curves[{i}]") for i, item in enumerate(as_list(root.get("curves", []), "curves"))]
+    points = [_point(item, f"points[{i}]") for i, item in enumerate(as_list(root.get("points", []), "points"))]
+    return Document(width, height, tuple(curves), tuple(points))
+
+
+def _curve(value: object, where: str) -> DiffusionCurve:
+    item = as_object(value, where)
+    points = finite_rows(required(item, "control_points", where), 2, f"{where}.control_points")
+    if len(points) < 4 or (len(points) - 1) % 3:
+        raise SchemaError(
+            f"{where}.control_points has {len(points)} points; a chain of cubic Beziers needs 3k+1 (4, 7, 10, ...)"
+        )
+    left = [ColorStop(_position(stop, w), finite_tuple(required(stop, "color", w), 3, f"{w}.color"))
+            for w, stop in _stops(item, "left", where)]
+    right = [ColorStop(_position(stop, w), finite_tuple(required(stop, "color", w), 3, f"{w}.color"))
+             for w, stop in _stops(item, "right", where)]
+    blur = [BlurStop(_position(stop, w), finite(required(stop, "blur", w), f"{w}.blur"))
+            for w, stop in _stops(item, "blur", where)]
+    try:
+        return DiffusionCurve(points, left, right, blur)
+    except ValueError as error:  # a safety net: the checks above leave nothing for the model
+        raise SchemaError(f"{where}: {error}") from None
+
+
+def _stops(item: dict, key: str, where: str) -> list[tuple[str, dict]]:
+    """``(place, object)`` for each element of the optional list ``item[key]``."""
+    values = as_list(item.get(key, []), f"{where}.{key}")
+    return [(f"{where}.{key}[{i}]", as_object(value, f"{where}.{key}[{i}]")) for i, value in enumerate(values)]
+
+
+def _position(stop: dict, where: str) -> float:
+    return finite(required(stop, "position", where), f"{where}.position")
+
+
+def _point(value: object, where: str) -> DiffusionPoint:
+    item = as_object(value, where)
+    position = finite_tuple(required(item, "position", where), 2, f"{where}.position")
+    radius = finite(required(item, "radius", where), f"{where}.radius")
+    if not radius > 0:
+        raise SchemaError(f"{where}.radius must be positive, got {radius!r}")
+    color = finite_tuple(required(item, "color", where), 3, f"{where}.color")
+    amplitude = finite(item.get("amplitude", 1.0), f"{where}.amplitude")
+    return DiffusionPoint(position, radius, color, amplitude)
