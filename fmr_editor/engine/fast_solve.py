@@ -24,12 +24,14 @@ from dataclasses import dataclass, replace
 
 import numba
 import numpy as np
+import scipy.linalg
 import scipy.sparse
 import scipy.sparse.linalg
 
-from .bem import solve_dense
+from .bem import assemble, check_dense_fits
 from .kernels import near_sum
-from .lattice import Lattice, downward_pass, sort_into_cells, upward_pass
+from .delta import delta_local
+from .lattice import Lattice, dilated, fine_multipoles, sort_into_cells
 from .segments import Segments
 from .skeleton import SkeletonFactorization
 
@@ -109,16 +111,24 @@ class CollocationOperator:
         self.border = segments.on_border[:, None]
 
     def field(self, flux: np.ndarray, jump: np.ndarray) -> np.ndarray:
-        """``sum_j E_j S_ij - C_j D_ij`` at every midpoint (own double layer 0), ``(n, 3)``."""
+        """``sum_j E_j S_ij - C_j D_ij`` at every midpoint (own double layer 0), ``(n, 3)``.
+
+        When few segments carry densities (a change of some curves' colours),
+        M2L runs from their cells only and the near field is summed only
+        around them.
+        """
         seg = replace(self.segments, flux=flux, jump=jump)
-        local = downward_pass(upward_pass(seg, self.cell_start, self.lattice, self.order), self.lattice, self.order)
-        far = far_field_fast(local, self.lattice, self.cells, seg.midpoints)
-        lattice = self.lattice
-        near = near_sum(
-            seg.midpoints, lattice.cells_per_side, lattice.cell_size, self.cell_start, seg.p, seg.q,
-            np.ascontiguousarray(flux), np.ascontiguousarray(jump), own=np.arange(len(seg)),
+        lattice, order = self.lattice, self.order
+        fine = fine_multipoles(seg, self.cell_start, lattice, order)
+        local = delta_local(fine, lattice, order)
+        sources = np.any(fine != 0, axis=(2, 3))
+        rows = np.flatnonzero(dilated(sources)[self.cells[:, 0], self.cells[:, 1]])
+        out = far_field_fast(local, lattice, self.cells, seg.midpoints)
+        out[rows] += near_sum(
+            seg.midpoints[rows], lattice.cells_per_side, lattice.cell_size, self.cell_start, seg.p, seg.q,
+            np.ascontiguousarray(flux), np.ascontiguousarray(jump), own=rows,
         )
-        return far + near
+        return out
 
     def apply(self, unknown: np.ndarray) -> np.ndarray:
         """Collocation matrix times ``unknown (n, 3)``."""
@@ -126,11 +136,15 @@ class CollocationOperator:
         jump = np.where(self.border, unknown, 0.0)
         return self.field(flux, jump) - np.where(self.border, 0.5 * unknown, 0.0)
 
-    def right_hand_side(self) -> np.ndarray:
-        """``mean_i + sum over curves of D_ij C_j``, zero mean on the border rows."""
-        curve_jump = np.where(self.border, 0.0, self.segments.jump)
-        mean = np.where(self.border, 0.0, self.segments.mean)
-        return mean - self.field(np.zeros_like(curve_jump), curve_jump)
+    def right_hand_side(self, jump: np.ndarray | None = None, mean: np.ndarray | None = None) -> np.ndarray:
+        """``mean_i + sum over curves of D_ij C_j``, zero mean on the border rows.
+
+        ``jump`` and ``mean`` (sorted like the segments) default to the segments' own.
+        """
+        jump = self.segments.jump if jump is None else jump
+        mean = self.segments.mean if mean is None else mean
+        curve_jump = np.where(self.border, 0.0, jump)
+        return np.where(self.border, 0.0, mean) - self.field(np.zeros_like(curve_jump), curve_jump)
 
 
 def solve_fmm(
@@ -176,12 +190,32 @@ def solve_fmm(
     report : SolveReport
     """
     report = progress or (lambda fraction: None)
-    n = len(segments)
     if preconditioner is None:
-        tolerance = compression_tolerance(n) if tolerance is None else tolerance
+        tolerance = compression_tolerance(len(segments)) if tolerance is None else tolerance
         preconditioner = SkeletonFactorization(segments, tolerance, progress=lambda f: report(0.8 * f))
     operator = CollocationOperator(segments, cell_start, lattice, order)
-    rhs = operator.right_hand_side()
+    unknown, result = gmres(operator, operator.right_hand_side(), preconditioner, rtol, initial,
+                            lambda f: report(0.8 + 0.2 * f))
+    return segments.with_unknowns(unknown), result
+
+
+def gmres(
+    operator: CollocationOperator,
+    rhs: np.ndarray,
+    preconditioner: SkeletonFactorization,
+    rtol: float = 1e-9,
+    initial: np.ndarray | None = None,
+    progress: Callable[[float], None] | None = None,
+) -> tuple[np.ndarray, SolveReport]:
+    """Unknowns ``(n, 3)`` with ``operator.apply(x) = rhs`` to ``rtol``, by preconditioned GMRES.
+
+    ``initial`` defaults to the preconditioner's own solution; ``progress``
+    gets the fraction of the residual reduction reached.
+    """
+    report = progress or (lambda fraction: None)
+    n = len(rhs)
+    if not np.any(rhs):
+        return np.zeros_like(rhs), SolveReport(0, 0.0, preconditioner)
     last = {}
 
     def product(vector: np.ndarray) -> np.ndarray:
@@ -198,7 +232,7 @@ def solve_fmm(
     def step(residual_norm: float) -> None:
         nonlocal iterations
         iterations += 1
-        report(0.8 + 0.2 * min(1.0, np.log(max(residual_norm, 1e-300)) / np.log(rtol)))
+        report(min(1.0, np.log(max(residual_norm, 1e-300)) / np.log(rtol)))
 
     start = preconditioner.solve(rhs) if initial is None else initial
     unknown, _ = scipy.sparse.linalg.gmres(
@@ -209,7 +243,96 @@ def solve_fmm(
     applied = last["ax"] if np.array_equal(last.get("x"), unknown) else product(unknown)
     residual = float(np.linalg.norm(applied - rhs.ravel()) / max(np.linalg.norm(rhs), 1e-300))
     report(1.0)
-    return segments.with_unknowns(unknown.reshape(n, 3)), SolveReport(iterations, residual, preconditioner)
+    return unknown.reshape(n, 3), SolveReport(iterations, residual, preconditioner)
+
+
+class BoundarySolver:
+    """The boundary system of one geometry, factorised once and solved for any colours.
+
+    Up to ``DENSE_CROSSOVER`` unknowns the dense matrix is LU-factorised;
+    above, the compressed factorisation preconditions GMRES with FMM
+    products.  Right-hand sides come from FMM products either way, so a
+    change of colours costs one product and one solve (``solve_delta``).
+
+    Parameters
+    ----------
+    segments : Segments
+        The geometry (end points, ``on_border``); their colours are not used.
+    lattice : Lattice
+        Lattice for the products (see ``solve_fmm``).
+    progress : callable, optional
+        Called with the fraction of the factorisation done.
+
+    Raises
+    ------
+    SolveTooLargeError
+        Early, when the system cannot fit in memory.
+    """
+
+    def __init__(self, segments: Segments, lattice: Lattice, progress: Callable[[float], None] | None = None) -> None:
+        self.size = len(segments)
+        self.trivial = not np.any(~segments.on_border)  # the reflecting canvas alone holds black (singular)
+        cells = lattice.cell_of(segments.midpoints)
+        self.order = np.argsort(cells[:, 0] * lattice.cells_per_side + cells[:, 1], kind="stable")
+        ordered, cell_start = sort_into_cells(segments, lattice)
+        self.operator = CollocationOperator(ordered, cell_start, lattice, order=20)
+        self.dense = self.size <= DENSE_CROSSOVER
+        self.factors = None
+        if self.trivial:
+            return
+        if self.dense:
+            check_dense_fits(self.size)
+            self.factors = _dense_factors(assemble(ordered)[0])
+        else:
+            self.factors = SkeletonFactorization(ordered, compression_tolerance(self.size), progress=progress)
+
+    def right_hand_side(self, jump: np.ndarray, mean: np.ndarray) -> np.ndarray:
+        """The system's right-hand side ``(n, 3)`` for segment colours ``jump`` and ``mean`` (input order)."""
+        operator = self.operator
+        rhs = operator.right_hand_side(jump[self.order], mean[self.order])
+        return _unsorted(rhs, self.order)
+
+    def solve(self, rhs: np.ndarray, progress: Callable[[float], None] | None = None, iterate: bool = True) -> np.ndarray:
+        """Unknowns ``(n, 3)`` (E on curves, C on the border, input order) for ``rhs`` (input order).
+
+        With ``iterate=False`` the compressed factorisation's own solution is
+        returned, without GMRES (its products are most of a solve's time):
+        accurate to about the compression tolerance, which is plenty for the
+        change of a few colours.  The dense solve is always exact.
+        """
+        if self.trivial:
+            return np.zeros((self.size, 3))
+        ordered = rhs[self.order]
+        if self.dense:
+            return _unsorted(self.factors(ordered), self.order)
+        if not iterate:
+            return _unsorted(self.factors.solve(ordered), self.order)
+        unknown, report = gmres(self.operator, ordered, self.factors, progress=progress)
+        if report.residual > UNCONVERGED:
+            warnings.warn(f"the boundary solve stopped at relative residual {report.residual:.1e} after "
+                          f"{report.iterations} iterations; colours may be off", RuntimeWarning, stacklevel=2)
+        return _unsorted(unknown, self.order)
+
+
+def _unsorted(values: np.ndarray, order: np.ndarray) -> np.ndarray:
+    out = np.empty_like(values)
+    out[order] = values
+    return out
+
+
+def _dense_factors(matrix: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
+    """A solver for ``matrix``: its LU factors, or least squares where it is nearly singular.
+
+    Where curves nearly coincide the system is nearly singular; the
+    least-squares solution (rank-revealing QR) then shares the density of
+    coinciding segments between them instead of blowing it up.
+    """
+    norm = float(np.abs(matrix).sum(axis=0).max())
+    lu, pivots = scipy.linalg.lu_factor(matrix, check_finite=False)
+    condition, _ = scipy.linalg.lapack.dgecon(lu, norm, norm="1")
+    if condition >= np.finfo(float).eps:
+        return lambda rhs: scipy.linalg.lu_solve((lu, pivots), rhs, check_finite=False)
+    return lambda rhs: scipy.linalg.lstsq(matrix, rhs, cond=1e-12, lapack_driver="gelsy", check_finite=False)[0]
 
 
 def solve_boundary(
@@ -230,13 +353,7 @@ def solve_boundary(
     SolveTooLargeError
         Early, when the system cannot fit in memory.
     """
-    if not np.any(~segments.on_border):
-        return segments  # no curves: the reflecting canvas alone holds black (its system is singular)
-    if len(segments) <= DENSE_CROSSOVER:
-        return solve_dense(segments)
-    ordered, cell_start = sort_into_cells(segments, lattice)
-    solved, report = solve_fmm(ordered, cell_start, lattice, progress=progress)
-    if report.residual > UNCONVERGED:
-        warnings.warn(f"the boundary solve stopped at relative residual {report.residual:.1e} after "
-                      f"{report.iterations} iterations; colours may be off", RuntimeWarning, stacklevel=2)
-    return solved
+    report = progress or (lambda fraction: None)
+    solver = BoundarySolver(segments, lattice, lambda f: report(0.8 * f))
+    rhs = solver.right_hand_side(segments.jump, segments.mean)
+    return segments.with_unknowns(solver.solve(rhs, lambda f: report(0.8 + 0.2 * f)))

@@ -52,20 +52,45 @@ class NearPoints:
     def build(cls, points: GaussPoints, reach: np.ndarray, lattice: Lattice) -> NearPoints:
         """List ``points`` (with cutoff radii ``reach``) in the fine cells of their windows."""
         n = lattice.cells_per_side
-        col0, col1 = cell_range(points.positions[:, 0], reach, lattice.cell_size, n)
-        row0, row1 = cell_range(points.positions[:, 1], reach, lattice.cell_size, n)
-        cols, rows = np.maximum(col1 - col0 + 1, 0), np.maximum(row1 - row0 + 1, 0)
-        counts = cols * rows
-        owner = np.repeat(np.arange(len(points)), counts)
-        local = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
-        safe = np.maximum(cols[owner], 1)
-        cell = (row0[owner] + local // safe) * n + col0[owner] + local % safe
+        owner, cell = _memberships(points, reach, lattice)
         order = np.argsort(cell, kind="stable")
         cell_start = np.concatenate([[0], np.cumsum(np.bincount(cell, minlength=n * n))]).astype(np.int64)
         return cls(points, np.asarray(reach, dtype=np.float64), cell_start, owner[order].astype(np.int64), lattice)
 
+    def with_points(self, added: GaussPoints, reach: np.ndarray) -> NearPoints:
+        """These near points and ``added`` (indices ``len(self)`` on), each cell's list still in increasing order."""
+        n = self.lattice.cells_per_side
+        owner, cell = _memberships(added, reach, self.lattice)
+        order = np.argsort(cell, kind="stable")
+        owner, cell = owner[order] + len(self), cell[order]
+        members = np.insert(self.members, self.cell_start[cell + 1], owner)  # at the end of each cell's run
+        cell_start = self.cell_start + np.concatenate([[0], np.cumsum(np.bincount(cell, minlength=n * n))])
+        points = GaussPoints(*(np.concatenate([getattr(self.points, name), getattr(added, name)])
+                               for name in ("positions", "radii", "weights")))
+        return NearPoints(points, np.concatenate([self.reach, reach]), cell_start, members, self.lattice)
+
+    def without(self, index: np.ndarray) -> NearPoints:
+        """These near points with those at ``index`` weighing nothing (their slots stay, summing exact zeros)."""
+        weights = self.points.weights.copy()
+        weights[index] = 0.0
+        points = GaussPoints(self.points.positions, self.points.radii, weights)
+        return NearPoints(points, self.reach, self.cell_start, self.members, self.lattice)
+
     def __len__(self) -> int:
         return len(self.points)
+
+
+def _memberships(points: GaussPoints, reach: np.ndarray, lattice: Lattice) -> tuple[np.ndarray, np.ndarray]:
+    """``(owner, cell)`` of every (point, fine cell of its window) pair, ``cell = row * 2^L + column``."""
+    n = lattice.cells_per_side
+    col0, col1 = cell_range(points.positions[:, 0], reach, lattice.cell_size, n)
+    row0, row1 = cell_range(points.positions[:, 1], reach, lattice.cell_size, n)
+    cols, rows = np.maximum(col1 - col0 + 1, 0), np.maximum(row1 - row0 + 1, 0)
+    counts = cols * rows
+    owner = np.repeat(np.arange(len(points)), counts)
+    local = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
+    safe = np.maximum(cols[owner], 1)
+    return owner, (row0[owner] + local // safe) * n + col0[owner] + local % safe
 
 
 def near_points(points: GaussPoints, lattice: Lattice, settings: PointSettings = PointSettings()) -> NearPoints:

@@ -74,6 +74,17 @@ class Lattice:
         return (cells[:, ::-1] + 0.5) * self.cell_size
 
 
+def dilated(cells: np.ndarray) -> np.ndarray:
+    """The boolean ``(n, n)`` cell mask ``cells`` grown by one cell every way (to the 3x3 blocks)."""
+    grown = cells.copy()
+    grown[1:] |= cells[:-1]
+    grown[:-1] |= cells[1:]
+    out = grown.copy()
+    out[:, 1:] |= grown[:, :-1]
+    out[:, :-1] |= grown[:, 1:]
+    return out
+
+
 def sort_into_cells(segments: Segments, lattice: Lattice) -> tuple[Segments, np.ndarray]:
     """Segments sorted by fine cell, and the CSR offsets of each cell's run.
 
@@ -92,6 +103,17 @@ def sort_into_cells(segments: Segments, lattice: Lattice) -> tuple[Segments, np.
     return segments.take(order), np.concatenate([[0], np.cumsum(counts)])
 
 
+def fine_multipoles(segments: Segments, cell_start: np.ndarray, lattice: Lattice, order: int) -> np.ndarray:
+    """Scaled multipoles of the fine cells (P2M), ``(2^L, 2^L, 3, order + 1)`` complex."""
+    n = lattice.cells_per_side
+    rows, columns = np.divmod(np.arange(n * n), n)
+    centres = lattice.cell_centres(np.stack([rows, columns], axis=1))
+    fine = cell_moments(
+        cell_start, centres, lattice.cell_size, segments.p, segments.q, segments.flux, segments.jump, order
+    )
+    return fine.reshape(n, n, 3, order + 1)
+
+
 def upward_pass(segments: Segments, cell_start: np.ndarray, lattice: Lattice, order: int) -> list[np.ndarray]:
     """Scaled multipoles of every cell at every level (P2M, then M2M).
 
@@ -101,13 +123,7 @@ def upward_pass(segments: Segments, cell_start: np.ndarray, lattice: Lattice, or
         ``multipoles[l]`` is ``(2^l, 2^l, 3, order + 1)`` complex for levels
         ``l = 2..L``; entries below 2 are None.
     """
-    n = lattice.cells_per_side
-    rows, columns = np.divmod(np.arange(n * n), n)
-    centres = lattice.cell_centres(np.stack([rows, columns], axis=1))
-    fine = cell_moments(
-        cell_start, centres, lattice.cell_size, segments.p, segments.q, segments.flux, segments.jump, order
-    )
-    return coarser_multipoles(fine.reshape(n, n, 3, order + 1), order)
+    return coarser_multipoles(fine_multipoles(segments, cell_start, lattice, order), order)
 
 
 def coarser_multipoles(fine: np.ndarray, order: int) -> list[np.ndarray | None]:

@@ -10,11 +10,13 @@ plain reference the tests compare against.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
 from ..model import DiffusionPoint
-from .gauss import GaussPoints, PointSettings
+from .gauss import GaussPoints, PointSettings, changed_cells, cutoff_radii, expansion_ratios
+from .gauss_delta import add_points
 from .gauss_near import NearPoints, near_at, near_grid, near_points, polynomials_at
 from .gauss_tensor import point_polynomials
 from .lattice import Lattice
@@ -22,15 +24,31 @@ from .lattice import Lattice
 #: Points refine the lattice down to cells of this size (pixels) at most: points
 #: narrower than about 1.3 cells are summed exactly instead.
 POINT_CELL_SIZE = 8.0
+#: Cells are fitted to this quantile of the radii, so about 90% of the points
+#: are wide enough for the polynomials (the rest are summed exactly).
+POINT_QUANTILE = 0.1
+#: Deepest lattice points alone ask for: the tensor is 243 coefficients a
+#: cell at order 8, 127 MB at 256^2 cells.
+POINT_MAX_LEVELS = 8
 
 
-def point_levels(points: tuple[DiffusionPoint, ...], side: float, max_levels: int) -> int:
-    """The lattice depth points ask for: cells no wider than the median radius, nor than ``POINT_CELL_SIZE``."""
-    if not points:
+def point_levels(radius: float | None, side: float) -> int:
+    """The lattice depth points ask for: cells no wider than ``radius``, nor than ``POINT_CELL_SIZE``.
+
+    ``radius`` is the document's ``lattice_radius`` (None without points);
+    points never refine the lattice beyond ``POINT_MAX_LEVELS``.
+    """
+    if radius is None:
         return 2
-    target = max(POINT_CELL_SIZE, float(np.median([point.radius for point in points])))
-    levels = int(np.ceil(np.log2(side / target)))
-    return int(np.clip(levels, 2, max_levels))
+    target = max(POINT_CELL_SIZE, float(radius))
+    return int(np.clip(np.ceil(np.log2(side / target)), 2, POINT_MAX_LEVELS))
+
+
+def lattice_radius(sorted_radii: np.ndarray) -> float | None:
+    """The radius the lattice is fitted to: the ``POINT_QUANTILE`` quantile (lower) of the sorted radii."""
+    if len(sorted_radii) == 0:
+        return None
+    return float(sorted_radii[int(POINT_QUANTILE * (len(sorted_radii) - 1))])
 
 
 @dataclass(frozen=True, eq=False)
@@ -39,15 +57,15 @@ class PointField:
 
     Attributes
     ----------
-    points : GaussPoints
-        All the document's points, packed.
+    source : tuple of DiffusionPoint
+        All the document's points.
     tensor : numpy.ndarray
         ``(2^L, 2^L, 3, P + 1, P + 1)`` coefficients of ``xi^i eta^j``.
     near : NearPoints
         The points too narrow for the polynomials.
     """
 
-    points: GaussPoints
+    source: tuple[DiffusionPoint, ...]
     tensor: np.ndarray
     near: NearPoints
 
@@ -56,7 +74,12 @@ class PointField:
         """Expand ``points`` on ``lattice`` with polynomials of degree ``order`` per axis."""
         packed = GaussPoints.from_points(points)
         settings = PointSettings(order=order)
-        return cls(packed, point_polynomials(packed, lattice, settings), near_points(packed, lattice, settings))
+        return cls(tuple(points), point_polynomials(packed, lattice, settings), near_points(packed, lattice, settings))
+
+    @cached_property
+    def points(self) -> GaussPoints:
+        """All the points, packed (for the reference sums)."""
+        return GaussPoints.from_points(self.source)
 
     def polynomials(self, order: int) -> np.ndarray:
         """The tensor at degree ``order``: zero-padded above its own, truncated (less accurate) below."""
@@ -73,3 +96,89 @@ class PointField:
     def at(self, targets: np.ndarray, order: int) -> np.ndarray:
         """The points' field at ``targets (m, 2)``, ``(m, 3)``."""
         return polynomials_at(self.polynomials(order), targets, self.near.lattice.cell_size) + near_at(self.near, targets)
+
+
+def sorted_radii_after(radii: np.ndarray, removed: np.ndarray, added: np.ndarray) -> np.ndarray:
+    """The sorted array ``radii`` without one copy of each of ``removed`` and with ``added``."""
+    if len(removed):
+        counts = np.unique(removed, return_counts=True)
+        drop = np.concatenate([np.searchsorted(radii, value) + np.arange(count) for value, count in zip(*counts)])
+        radii = np.delete(radii, drop)
+    if len(added):
+        added = np.sort(added)
+        radii = np.insert(radii, np.searchsorted(radii, added), added)
+    return radii
+
+
+class LivePoints:
+    """A document's points on a lattice, updated point by point.
+
+    Adding and removing points changes the tensor in the cells they reach
+    (``gauss_delta.add_points``).  Near points join the near lists in place;
+    a removed one keeps its slot with zero weight (its terms are exact
+    zeros) until dead slots outnumber live ones and the lists are compacted.
+
+    Parameters
+    ----------
+    points : tuple of DiffusionPoint
+    lattice : Lattice
+    order : int
+        Polynomial degree per axis.
+    """
+
+    def __init__(self, points: tuple[DiffusionPoint, ...], lattice: Lattice, order: int) -> None:
+        self.lattice, self.settings = lattice, PointSettings(order=order)
+        packed = GaussPoints.from_points(points)
+        self.tensor = point_polynomials(packed, lattice, self.settings)
+        near = np.flatnonzero(expansion_ratios(packed, lattice, self.settings) == 0)
+        self._near = near_points(packed.take(near), lattice, self.settings)
+        self._slots: dict[DiffusionPoint, list[int]] = {}
+        for slot, index in enumerate(near):
+            self._slots.setdefault(points[index], []).append(slot)
+        self._dead = 0
+        self.source = tuple(points)
+
+    def update(self, points: tuple[DiffusionPoint, ...], removed: list[DiffusionPoint],
+               added: list[DiffusionPoint]) -> np.ndarray:
+        """Go over to ``points``, which is the current set without ``removed`` and with ``added``.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(k, 4)`` rectangles of fine cells that changed (rows ``[a, b)``, columns ``[c, d)``).
+        """
+        delta = GaussPoints.from_points([*removed, *added])
+        delta = GaussPoints(delta.positions, delta.radii,
+                            np.concatenate([-delta.weights[: len(removed)], delta.weights[len(removed):]]))
+        rectangles = add_points(self.tensor, delta, self.lattice, self.settings)
+        near = expansion_ratios(delta, self.lattice, self.settings) == 0
+        if near.any():
+            rectangles[near] = changed_cells(delta.take(near), self.lattice, self.settings)
+            gone = [self._slots[point].pop() for point, is_near in zip(removed, near) if is_near]
+            if gone:
+                self._near = self._near.without(np.array(gone))
+                self._dead += len(gone)
+            new = np.flatnonzero(near[len(removed):])
+            if len(new):
+                for slot, index in enumerate(new, start=len(self._near)):
+                    self._slots.setdefault(added[index], []).append(slot)
+                fresh = GaussPoints.from_points([added[i] for i in new])
+                self._near = self._near.with_points(fresh, cutoff_radii(fresh, self.settings.tolerance))
+            if self._dead > len(self._near) // 2:
+                self._compact()
+        self.source = tuple(points)
+        return rectangles
+
+    def _compact(self) -> None:
+        """Rebuild the near lists from the live slots only."""
+        live = sorted((slot, point) for point, slots in self._slots.items() for slot in slots)
+        keep = np.array([slot for slot, _ in live], dtype=np.int64)
+        self._near = near_points(self._near.points.take(keep), self.lattice, self.settings)
+        self._slots = {}
+        for slot, (_, point) in enumerate(live):
+            self._slots.setdefault(point, []).append(slot)
+        self._dead = 0
+
+    def field(self) -> PointField:
+        """The current points as a ``PointField`` (sharing the tensor)."""
+        return PointField(self.source, self.tensor, self._near)

@@ -1,27 +1,22 @@
-"""The fast multipole representation (FMR) of a document and how it is built.
+"""The fast multipole representation (FMR) of a document, its settings and lattice depth.
 
-Building runs four stages, each timed in ``Representation.timings``:
-discretise (flatten, clip, choose the lattice, cut at cells), solve (the
-boundary-element system), upward (P2M, M2M) and downward (M2L, L2L); a
-document with diffusion points adds a fifth, points (their polynomials).
+``live.build`` makes one in four stages, each timed in
+``Representation.timings``: discretise (flatten, clip, choose the lattice,
+cut at cells), solve (the boundary-element system), upward (P2M, M2M) and
+downward (M2L, L2L); a document with diffusion points adds a fifth, points
+(their polynomials).  ``live.LiveRepresentation`` keeps one up to date.
 """
 
 from __future__ import annotations
 
-import time
-from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..model import Document
 from .expansions import harmonic_to_polynomial
-from .fast_solve import solve_boundary
-from .lattice import Lattice, downward_pass, sort_into_cells, upward_pass
-from .point_field import PointField, point_levels
-from .segments import Segments, boundary_segments, curve_segments
-
-Progress = Callable[[str, float], None]
+from .lattice import Lattice
+from .point_field import PointField
+from .segments import Segments
 
 
 @dataclass(frozen=True)
@@ -145,50 +140,3 @@ def choose_levels(curves: Segments, side: float, per_cell: float = SEGMENTS_PER_
         if len(mids) / occupied <= per_cell:
             return levels
     return MAX_LEVELS
-
-
-def build(document: Document, settings: Settings = Settings(), progress: Progress | None = None) -> Representation:
-    """Discretise, solve and propagate ``document`` into its FMR.
-
-    Parameters
-    ----------
-    document : Document
-    settings : Settings
-    progress : callable, optional
-        Called as ``progress(stage, fraction)`` as the build advances.
-
-    Returns
-    -------
-    Representation
-    """
-    report = progress or (lambda stage, fraction: None)
-    timings = {}
-    clock = time.perf_counter()
-
-    def lap(stage: str, fraction: float) -> None:
-        nonlocal clock
-        now = time.perf_counter()
-        timings[stage] = now - clock
-        clock = now
-        report(stage, fraction)
-
-    side = float(max(document.width, document.height))
-    curves = curve_segments(document, settings.tolerance, settings.max_length)
-    levels = settings.levels or max(choose_levels(curves, side), point_levels(document.points, side, MAX_LEVELS))
-    lattice = Lattice(levels, side)
-    segments = boundary_segments(curves, document, lattice.cell_size, settings.border_spacing)
-    solve_lattice = Lattice(choose_levels(curves, side, SOLVE_SEGMENTS_PER_CELL), side)
-    lap("discretise", 0.1)
-    segments = solve_boundary(segments, solve_lattice, progress=lambda fraction: report("solve", 0.1 + 0.6 * fraction))
-    lap("solve", 0.7)
-    segments, cell_start = sort_into_cells(segments, lattice)
-    multipoles = upward_pass(segments, cell_start, lattice, settings.propagation_order)
-    lap("upward", 0.8)
-    local = downward_pass(multipoles, lattice, settings.propagation_order)
-    lap("downward", 0.95 if document.points else 1.0)
-    points = PointField.build(document.points, lattice, settings.order) if document.points else None
-    if points is not None:
-        lap("points", 1.0)
-    return Representation(
-        document.width, document.height, lattice, segments, cell_start, local, settings.order, timings, points
-    )

@@ -8,6 +8,7 @@ chain of segments with the canvas on its left (DESIGN section 3).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -231,7 +232,12 @@ def cut_at_cells(segments: Segments, cell_size: float) -> Segments:
     return segments.split(owner[pair], t[pair], t[pair + 1])
 
 
-def curve_segments(document: Document, tolerance: float = 0.05, max_length: float = 2.0) -> Segments:
+def curve_segments(
+    document: Document,
+    tolerance: float = 0.05,
+    max_length: float = 2.0,
+    flatten: Callable[[DiffusionCurve, float, float], Segments] = flatten_curve,
+) -> Segments:
     """The document's curves flattened and clipped to the canvas.
 
     Where segments overlap along a line, the later one keeps the overlap
@@ -244,10 +250,12 @@ def curve_segments(document: Document, tolerance: float = 0.05, max_length: floa
         Chord tolerance of the flattening, in pixels.
     max_length : float
         Longest curve segment, in pixels.
+    flatten : callable
+        ``flatten_curve`` or a cache in front of it.
     """
     from .overlaps import drop_covered_parts
 
-    curves = [flatten_curve(curve, tolerance, max_length) for curve in document.curves]
+    curves = [flatten(curve, tolerance, max_length) for curve in document.curves]
     clipped = clip_to_canvas(concatenate([empty_segments(), *curves]), document.width, document.height)
     return drop_covered_parts(clipped)
 

@@ -1,0 +1,125 @@
+"""Edit benchmark: incremental updates side by side with full rebuilds of the same document.
+
+    python bench/bench_edits.py [--repeat N] [--data DIR]
+
+Edits (issue 4's targets):
+- one stop's colour on ``lady_bug.xml`` and ``fruits.xml`` (a curve of median
+  length; its first left stop cycles through colours);
+- one control point of that curve on ``lady_bug.xml``, moved by a pixel back
+  and forth;
+- one brush dab of 20 points into a document of 100,000 points.
+
+Every time is the best of N runs (the machine is shared and noisy); the
+rebuild is ``engine.build`` of the edited document, timed in the same run.
+"Pixels" is the largest difference between the updated and the rebuilt
+representation's images (one sample per pixel), in 1/255.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_engine import best_of, machine  # noqa: E402
+
+from fmr_editor.engine import LiveRepresentation, build, rasterise  # noqa: E402
+from fmr_editor.io import load_document  # noqa: E402
+from fmr_editor.model import DiffusionPoint, Document, edits  # noqa: E402
+
+DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "orzan_xml" / "berkbavas"
+COLOURS = [(0.9, 0.1, 0.5), (0.2, 0.3, 0.4), (0.5, 0.5, 0.1), (0.0, 0.8, 0.9)]
+
+
+def edited_curve(document: Document) -> int:
+    """The curve of median length among those with a left stop."""
+    candidates = [i for i, curve in enumerate(document.curves) if curve.left]
+    return sorted(candidates, key=lambda i: document.curves[i].piece_count)[len(candidates) // 2]
+
+
+def timed_updates(live: LiveRepresentation, documents: list[Document]) -> tuple[float, str]:
+    """Best time of updating ``live`` to each document in turn, and the kind of the last update."""
+    best, kind = math.inf, ""
+    for document in documents:
+        start = time.perf_counter()
+        update = live.update(document)
+        best, kind = min(best, time.perf_counter() - start), update.kind
+    return best, kind
+
+
+def pixel_error(live: LiveRepresentation, rebuilt) -> float:
+    width, height = live.document.width, live.document.height
+    return 255 * float(np.abs(rasterise(live.representation, width, height, 1) - rasterise(rebuilt, width, height, 1)).max())
+
+
+def row(name: str, live: LiveRepresentation, documents: list[Document], rebuilds: int, target: str) -> None:
+    update, kind = timed_updates(live, documents)
+    rebuild, rebuilt = best_of(rebuilds, lambda: build(live.document))
+    print(f"| {name} | {kind} | {update * 1e3:.1f} ms | {rebuild:.2f} s | {rebuild / update:.0f}x | "
+          f"{pixel_error(live, rebuilt):.4f} | {target} |", flush=True)
+
+
+def curve_edits(path: Path, repeat: int, rebuilds: int, move: bool) -> None:
+    document = load_document(path)
+    live = LiveRepresentation(document)
+    k = edited_curve(document)
+    colours = [edits.set_stop_color(document, k, "left", 0, COLOURS[i % len(COLOURS)]) for i in range(repeat)]
+    target = "<= 30 ms, >= 10x" if path.stem == "lady_bug" else ">= 10x"
+    row(f"{path.stem}: stop colour (curve {k})", live, colours, rebuilds, target)
+    if move:
+        point = document.curves[k].control_points[1]
+        moves = [edits.move_control_point(live.document, k, 1, tuple(point + (i % 2))) for i in range(1, repeat + 1)]
+        row(f"{path.stem}: control point (curve {k})", live, moves, rebuilds, "<= 60 ms")
+
+
+def dab(repeat: int) -> None:
+    rng = np.random.default_rng(0)
+
+    def points(count: int) -> list[DiffusionPoint]:
+        radii = np.exp(rng.uniform(math.log(12), math.log(96), count))
+        return [DiffusionPoint(tuple(xy), r, tuple(c)) for xy, r, c in
+                zip(rng.uniform(0, 1024, (count, 2)), radii, rng.uniform(0, 1, (count, 3)))]
+
+    document = Document(1024, 1024, points=points(100_000))
+    live = LiveRepresentation(document)
+    strokes = [edits.add_points(document, points(20)) for _ in range(repeat)]
+    start = time.perf_counter()
+    edits.add_points(document, points(20))
+    edit = time.perf_counter() - start
+    best = math.inf
+    for stroke in strokes:
+        live.update(document)
+        start = time.perf_counter()
+        live.update(stroke)
+        best = min(best, time.perf_counter() - start)
+    rebuild, rebuilt = best_of(1, lambda: build(live.document))
+    print(f"| 100,000 points: dab of 20 | points | {best * 1e3:.1f} ms | {rebuild:.2f} s | {rebuild / best:.0f}x | "
+          f"{pixel_error(live, rebuilt):.4f} | <= 5 ms |")
+    print(f"\nMaking the edited document itself (a tuple of 100,020 points, checked) took {edit * 1e3:.1f} ms, "
+          "not counted above.")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeat", type=int, default=5, help="updates per edit (best of)")
+    parser.add_argument("--rebuilds", type=int, default=3, help="rebuilds of lady_bug (best of); fruits: 2")
+    parser.add_argument("--data", type=Path, default=DATA)
+    args = parser.parse_args()
+    warm = LiveRepresentation(load_document(args.data / "lady_bug.xml"))  # numba cache loads
+    warm.update(edits.set_stop_color(warm.document, edited_curve(warm.document), "left", 0, (1, 1, 1)))
+    print(f"# Edits\n\n{machine()}\n\nBest of {args.repeat} updates and of {args.rebuilds} rebuilds (fruits: 2, "
+          "points: 1).\n")
+    print("| edit | update | time | rebuild | speed-up | pixels (1/255) | target |")
+    print("| --- | --- | ---: | ---: | ---: | ---: | --- |")
+    curve_edits(args.data / "lady_bug.xml", args.repeat, args.rebuilds, move=True)
+    curve_edits(args.data / "fruits.xml", max(2, args.repeat // 2), 2, move=False)
+    dab(args.repeat * 4)
+
+
+if __name__ == "__main__":
+    main()

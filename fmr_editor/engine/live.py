@@ -1,0 +1,253 @@
+"""A representation kept up to date as its document changes.
+
+The FMR is linear in its sources, so an edit is applied as a change:
+
+- **points** come and go in the cells they reach (``point_field.LivePoints``);
+- **curve colours** (same geometry): the boundary system's matrix is the
+  same, so its factorisation is reused and only the change of the solution
+  is solved for, from the change of the right-hand side;
+- **curve geometry**: the system is factorised and solved again (flattened
+  curves are cached, so only edited curves are flattened again).
+
+Either curve edit ends with the change of the fine cells' multipoles,
+carried up the quadtree and down through the interaction lists from the
+changed cells only (``delta.delta_local``).  A change that moves the
+lattice (the canvas, or the density of curves or points) rebuilds.  Every
+update reports the fine cells whose pixels may have changed, so a view can
+upload just those.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..model import DiffusionCurve, Document
+from ..model.changes import ChangeSet
+from .delta import delta_local
+from .fast_solve import BoundarySolver
+from .lattice import Lattice, coarser_multipoles, dilated, downward_pass, fine_multipoles, sort_into_cells
+from .point_field import LivePoints, lattice_radius, point_levels, sorted_radii_after
+from .representation import (
+    SOLVE_SEGMENTS_PER_CELL, Representation, Settings, choose_levels,
+)
+from .segments import Segments, boundary_segments, curve_segments, flatten_curve
+
+Progress = Callable[[str, float], None]
+
+#: A fine cell whose multipoles changed by less than this, relative to the
+#: largest multipole, keeps the change pending (it is added with a later one).
+NEGLIGIBLE = 1e-10
+#: A cell is reported changed once its local expansion moved by more than this
+#: since it was last reported, so a view that uploads what is reported stays
+#: within it of the truth.
+UNSEEN = 1e-7
+
+
+@dataclass(frozen=True)
+class Update:
+    """What one ``LiveRepresentation.update`` did.
+
+    Attributes
+    ----------
+    kind : str
+        ``"none"``, ``"points"``, ``"colours"``, ``"geometry"`` (curves, and
+        points if they changed too) or ``"rebuild"``.
+    changed : numpy.ndarray
+        ``(2^L, 2^L)`` bool: fine cells whose pixels may differ.
+    seconds : float
+    """
+
+    kind: str
+    changed: np.ndarray
+    seconds: float
+
+
+class LiveRepresentation:
+    """A document's FMR, updated edit by edit.
+
+    Parameters
+    ----------
+    document : Document
+    settings : Settings
+    progress : callable, optional
+        Called as ``progress(stage, fraction)`` during (re)builds.
+
+    Attributes
+    ----------
+    document : Document
+        The document the representation is of.
+    representation : Representation
+        The current FMR (its arrays are updated in place by ``update``).
+    """
+
+    def __init__(self, document: Document, settings: Settings = Settings(), progress: Progress | None = None) -> None:
+        self.settings = settings
+        self._flattened: dict[DiffusionCurve, Segments] = {}
+        self._rebuild(document, progress)
+
+    # -- building ----------------------------------------------------------------------------
+    def _flatten(self, curve: DiffusionCurve, tolerance: float, max_length: float) -> Segments:
+        segments = self._flattened.get(curve)
+        if segments is None:
+            segments = self._flattened[curve] = flatten_curve(curve, tolerance, max_length)
+        return segments
+
+    def _forget_curves(self, keep: tuple[DiffusionCurve, ...]) -> None:
+        """Drop cached flattenings of curves in neither ``keep`` nor the current document."""
+        wanted = set(keep) | set(self.document.curves)
+        self._flattened = {curve: segments for curve, segments in self._flattened.items() if curve in wanted}
+
+    def _curve_segments(self, document: Document) -> Segments:
+        return curve_segments(document, self.settings.tolerance, self.settings.max_length, flatten=self._flatten)
+
+    def _levels(self, curves: Segments, radii: np.ndarray) -> int:
+        if self.settings.levels:
+            return self.settings.levels
+        return max(choose_levels(curves, self._side), point_levels(lattice_radius(radii), self._side))
+
+    def _rebuild(self, document: Document, progress: Progress | None) -> None:
+        report = progress or (lambda stage, fraction: None)
+        timings = {}
+        clock = time.perf_counter()
+
+        def lap(stage: str, fraction: float) -> None:
+            nonlocal clock
+            now = time.perf_counter()
+            timings[stage] = now - clock
+            clock = now
+            report(stage, fraction)
+
+        settings = self.settings
+        self.document = document
+        self._side = float(max(document.width, document.height))
+        self._curves = self._curve_segments(document)
+        self._radii = np.sort([point.radius for point in document.points])
+        self.lattice = Lattice(self._levels(self._curves, self._radii), self._side)
+        self._boundary = boundary_segments(self._curves, document, self.lattice.cell_size, settings.border_spacing)
+        lap("discretise", 0.1)
+        self._solver = self._new_solver(lambda fraction: report("solve", 0.1 + 0.5 * fraction))
+        boundary = self._boundary
+        rhs = self._solver.right_hand_side(boundary.jump, boundary.mean)
+        self._unknowns = self._solver.solve(rhs, lambda fraction: report("solve", 0.6 + 0.1 * fraction))
+        lap("solve", 0.7)
+        self._sort_solution()
+        self._fine = self._fine_moments()
+        multipoles = coarser_multipoles(self._fine, settings.propagation_order)
+        lap("upward", 0.8)
+        self._local = downward_pass(multipoles, self.lattice, settings.propagation_order)
+        self._unreported = np.zeros(self._local.shape[:2])
+        lap("downward", 0.95 if document.points else 1.0)
+        self._points = LivePoints(document.points, self.lattice, settings.order) if document.points else None
+        if self._points is not None:
+            lap("points", 1.0)
+        self.timings = timings
+        self._forget_curves(document.curves)
+
+    def _new_solver(self, progress: Callable[[float], None] | None = None) -> BoundarySolver:
+        solve_lattice = Lattice(choose_levels(self._curves, self._side, SOLVE_SEGMENTS_PER_CELL), self._side)
+        return BoundarySolver(self._boundary, solve_lattice, progress)
+
+    def _sort_solution(self) -> None:
+        solved = self._boundary.with_unknowns(self._unknowns)
+        self._segments, self._cell_start = sort_into_cells(solved, self.lattice)
+
+    def _fine_moments(self) -> np.ndarray:
+        return fine_multipoles(self._segments, self._cell_start, self.lattice, self.settings.propagation_order)
+
+    @property
+    def representation(self) -> Representation:
+        document = self.document
+        return Representation(
+            document.width, document.height, self.lattice, self._segments, self._cell_start, self._local,
+            self.settings.order, self.timings, self._points.field() if self._points is not None else None,
+        )
+
+    # -- updating ----------------------------------------------------------------------------
+    def update(self, document: Document, progress: Progress | None = None) -> Update:
+        """Bring the representation to ``document``, doing as little work as the change allows.
+
+        Returns
+        -------
+        Update
+        """
+        start = time.perf_counter()
+        before = self.document
+        changes = ChangeSet.between(before, document)
+        n = self.lattice.cells_per_side
+        if changes.empty:
+            self.document = document
+            return Update("none", np.zeros((n, n), bool), time.perf_counter() - start)
+        removed = [before.points[i] for i in changes.removed_points]
+        added = [document.points[i] for i in changes.added_points]
+        curves = self._curve_segments(document) if changes.curves_changed else self._curves
+        radii = sorted_radii_after(self._radii, np.array([p.radius for p in removed]),
+                                   np.array([p.radius for p in added]))
+        if changes.canvas_changed or self._levels(curves, radii) != self.lattice.levels:
+            self._rebuild(document, progress)
+            n = self.lattice.cells_per_side
+            return Update("rebuild", np.ones((n, n), bool), time.perf_counter() - start)
+        changed = np.zeros((n, n), bool)
+        kind = "points"
+        if changes.curves_changed:
+            kind = self._update_curves(document, curves, changed)
+        if removed or added:
+            self._update_points(document, removed, added, changed)
+        self.document, self._curves, self._radii = document, curves, radii
+        self._forget_curves(before.curves)
+        return Update(kind, changed, time.perf_counter() - start)
+
+    def _update_curves(self, document: Document, curves: Segments, changed: np.ndarray) -> str:
+        old = self._boundary
+        new = boundary_segments(curves, document, self.lattice.cell_size, self.settings.border_spacing)
+        same_geometry = len(new) == len(old) and all(
+            np.array_equal(getattr(new, name), getattr(old, name)) for name in ("p", "q", "on_border"))
+        self._boundary, self._curves = new, curves
+        if same_geometry:
+            rhs_change = self._solver.right_hand_side(new.jump - old.jump, new.mean - old.mean)
+            self._unknowns = self._unknowns + self._solver.solve(rhs_change, iterate=False)
+        else:
+            self._solver = self._new_solver()
+            self._unknowns = self._solver.solve(self._solver.right_hand_side(new.jump, new.mean))
+        self._sort_solution()
+        delta = self._fine_moments() - self._fine
+        size = np.abs(delta).max(axis=(2, 3))
+        moved = size > NEGLIGIBLE * max(float(np.abs(self._fine).max(initial=0.0)), 1e-300)
+        delta[~moved] = 0.0
+        self._fine += delta
+        local_change = delta_local(delta, self.lattice, self.settings.propagation_order)
+        self._local += local_change
+        self._unreported += np.abs(local_change).max(axis=(2, 3), initial=0.0)
+        changed |= (self._unreported > UNSEEN) | dilated(moved)
+        self._unreported[changed] = 0.0
+        return "colours" if same_geometry else "geometry"
+
+    def _update_points(self, document: Document, removed: list, added: list, changed: np.ndarray) -> None:
+        if not document.points:
+            self._points = None
+            changed[:] = True  # cheap to say, rare: the last points went
+            return
+        if self._points is None:
+            self._points = LivePoints((), self.lattice, self.settings.order)
+        for a, b, c, d in self._points.update(document.points, removed, added):
+            changed[a:b, c:d] = True
+
+
+def build(document: Document, settings: Settings = Settings(), progress: Progress | None = None) -> Representation:
+    """Discretise, solve and propagate ``document`` into its FMR.
+
+    Parameters
+    ----------
+    document : Document
+    settings : Settings
+    progress : callable, optional
+        Called as ``progress(stage, fraction)`` as the build advances.
+
+    Returns
+    -------
+    Representation
+    """
+    return LiveRepresentation(document, settings, progress).representation

@@ -1,0 +1,73 @@
+"""What changed between two documents: the engine's cue for what to update.
+
+Every change to a document, undo and redo included, is a pair of documents
+``(before, after)``; ``ChangeSet.between`` describes the difference.  Items
+are matched by value (curves and points are immutable), so an item that
+appears in both documents, in whatever position, is unchanged.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from dataclasses import dataclass
+
+from .document import Document
+
+
+def _unmatched(before: tuple, after: tuple) -> tuple[tuple[int, ...], tuple[int, ...]]:
+    """Indices of items in ``before`` without a match in ``after`` and vice versa (multiset difference)."""
+    if len(after) >= len(before) and after[: len(before)] == before:  # appended (a brush dab): no hashing
+        return (), tuple(range(len(before), len(after)))
+    spare = Counter(after) - Counter(before)  # items after has more of
+    missing = Counter(before) - Counter(after)
+    removed, added = [], []
+    for index, item in enumerate(before):
+        if missing[item]:
+            missing[item] -= 1
+            removed.append(index)
+    for index, item in enumerate(after):
+        if spare[item]:
+            spare[item] -= 1
+            added.append(index)
+    return tuple(removed), tuple(added)
+
+
+@dataclass(frozen=True)
+class ChangeSet:
+    """The difference between two documents.
+
+    Attributes
+    ----------
+    canvas_changed : bool
+        The canvas size differs.
+    curves_changed : bool
+        The curves differ in content or order (drawing order decides which
+        of two overlapping curves keeps the overlap).
+    removed_curves, added_curves : tuple of int
+        Indices of curves in ``before`` missing from ``after``, and of curves
+        in ``after`` new to it.
+    removed_points, added_points : tuple of int
+        The same for diffusion points (their order does not matter).
+    """
+
+    canvas_changed: bool
+    curves_changed: bool
+    removed_curves: tuple[int, ...]
+    added_curves: tuple[int, ...]
+    removed_points: tuple[int, ...]
+    added_points: tuple[int, ...]
+
+    @classmethod
+    def between(cls, before: Document, after: Document) -> ChangeSet:
+        """Describe how ``after`` differs from ``before``."""
+        canvas = (before.width, before.height) != (after.width, after.height)
+        same_curves = before.curves is after.curves or before.curves == after.curves
+        removed_curves, added_curves = ((), ()) if same_curves else _unmatched(before.curves, after.curves)
+        same_points = before.points is after.points
+        removed_points, added_points = ((), ()) if same_points else _unmatched(before.points, after.points)
+        return cls(canvas, not same_curves, removed_curves, added_curves, removed_points, added_points)
+
+    @property
+    def empty(self) -> bool:
+        """True when the two documents are equal."""
+        return not (self.canvas_changed or self.curves_changed or self.removed_points or self.added_points)

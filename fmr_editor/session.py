@@ -1,0 +1,112 @@
+"""Scripted editing: a document, its undo history and its live FMR, without Qt.
+
+>>> from fmr_editor.session import Session
+>>> from fmr_editor.model import edits
+>>> session = Session.open("lady_bug.xml")                       # doctest: +SKIP
+>>> session.apply(lambda d: edits.set_stop_color(d, 3, "left", 0, (1, 0, 0)),
+...               "Change Stop Colour")                           # doctest: +SKIP
+>>> session.undo(); session.redo()                                # doctest: +SKIP
+>>> session.save_png("red.png", width=512)                        # doctest: +SKIP
+
+The editor drives the same object: tools apply edits (a drag through the
+history's ``begin``/``preview``/``commit``), and every change of the current
+document, undo and redo included, updates the representation incrementally;
+``last_update`` says which cells changed.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Hashable
+from pathlib import Path
+
+import numpy as np
+
+from .engine import LiveRepresentation, Representation, Settings, Update, rasterise
+from .io import load_document
+from .io.png import save_png
+from .model import Document
+from .model.history import History
+
+Edit = Callable[[Document], Document]
+
+
+class Session:
+    """An editing session on one document.
+
+    Parameters
+    ----------
+    document : Document
+    settings : Settings
+    progress : callable, optional
+        ``progress(stage, fraction)`` during the first build and rebuilds.
+
+    Attributes
+    ----------
+    history : History
+        The undo history; changing its current document updates the FMR.
+    last_update : Update or None
+        What the most recent change did (None before any).
+    """
+
+    def __init__(self, document: Document, settings: Settings = Settings(),
+                 progress: Callable[[str, float], None] | None = None) -> None:
+        self.history = History(document)
+        self._progress = progress
+        self._live = LiveRepresentation(document, settings, progress)
+        self.last_update: Update | None = None
+        self.history.subscribe(self._follow)
+
+    @classmethod
+    def open(cls, path: str | os.PathLike, settings: Settings = Settings()) -> Session:
+        """A session on the document in ``path`` (raises ``io.DocumentLoadError``)."""
+        return cls(load_document(path), settings)
+
+    def _follow(self, before: Document, after: Document) -> None:
+        self.last_update = self._live.update(after, self._progress)
+
+    @property
+    def document(self) -> Document:
+        return self.history.document
+
+    @property
+    def representation(self) -> Representation:
+        return self._live.representation
+
+    def apply(self, edit: Edit | Document, label: str, merge_key: Hashable | None = None) -> Update | None:
+        """Apply ``edit`` (a function of the document, or the new document) as one undo step.
+
+        Returns
+        -------
+        Update or None
+            What the engine did; None when the edit changed nothing.
+        """
+        document = edit(self.document) if callable(edit) else edit
+        self.last_update = None
+        self.history.apply(document, label, merge_key)
+        return self.last_update
+
+    def undo(self) -> Update | None:
+        """Undo the last step (nothing when there is none)."""
+        self.last_update = None
+        self.history.undo()
+        return self.last_update
+
+    def redo(self) -> Update | None:
+        """Redo the next undone step (nothing when there is none)."""
+        self.last_update = None
+        self.history.redo()
+        return self.last_update
+
+    def image(self, width: int | None = None, height: int | None = None, samples: int = 3) -> np.ndarray:
+        """The current image ``(height, width, 3)`` in [0, 1] floats (unclamped), as ``engine.rasterise``."""
+        return rasterise(self.representation, width, height, samples=samples)
+
+    def cells(self, order: int | None = None) -> np.ndarray:
+        """The cells' polynomials ``c[row, column, channel, i, j]`` (see ``Representation.polynomials``)."""
+        return self.representation.polynomials(order)
+
+    def save_png(self, path: str | os.PathLike, width: int | None = None, height: int | None = None,
+                 samples: int = 3) -> Path:
+        """Render the current image and write it to ``path`` as a PNG."""
+        return save_png(self.image(width, height, samples), path)

@@ -1,0 +1,127 @@
+"""Undo history, change sets and edits of the document model."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from fmr_editor.model import ColorStop, DiffusionPoint, Document, edits
+from fmr_editor.model.changes import ChangeSet
+from fmr_editor.model.history import History
+
+from shapes import scattered_document
+
+
+def dot(x: float, radius: float = 4.0) -> DiffusionPoint:
+    return DiffusionPoint((x, 10.0), radius, (1.0, 0.5, 0.0))
+
+
+@pytest.fixture
+def history_and_calls():
+    history = History(Document(32, 32))
+    calls = []
+    history.subscribe(lambda before, after: calls.append((before, after)))
+    return history, calls
+
+
+def test_undo_redo_walk_the_steps_and_name_them(history_and_calls):
+    history, calls = history_and_calls
+    start = history.document
+    one = edits.add_points(start, [dot(1)])
+    two = edits.add_points(one, [dot(2)])
+    history.apply(one, "Paint")
+    history.apply(two, "Paint Again")
+    assert history.undo_label == "Paint Again" and history.redo_label is None
+    history.undo()
+    assert history.document is one and history.redo_label == "Paint Again"
+    history.undo()
+    assert history.document is start and not history.can_undo
+    history.redo()
+    history.redo()
+    assert history.document is two
+    assert [after for _, after in calls] == [one, two, one, start, one, two]
+
+
+def test_a_new_edit_after_undo_drops_the_undone_steps(history_and_calls):
+    history, _ = history_and_calls
+    one = edits.add_points(history.document, [dot(1)])
+    history.apply(one, "A")
+    history.apply(edits.add_points(one, [dot(2)]), "B")
+    history.undo()
+    history.apply(edits.add_points(one, [dot(3)]), "C")
+    assert history.labels == ("", "A", "C") and not history.can_redo
+
+
+def test_equal_documents_and_merge_keys_do_not_add_steps(history_and_calls):
+    history, calls = history_and_calls
+    history.apply(Document(32, 32), "Nothing")
+    assert history.index == 0 and calls == []
+    for x in (1, 2, 3):
+        history.apply(edits.add_points(Document(32, 32), [dot(x)]), "Slide", merge_key="slider")
+    assert history.index == 1 and history.document.points == (dot(3),)
+    history.undo()
+    assert history.document == Document(32, 32)
+
+
+def test_a_drag_is_one_step_and_cancel_restores_the_start(history_and_calls):
+    history, calls = history_and_calls
+    start = history.document
+    history.begin("Move Point")
+    for x in (1, 2, 3):
+        history.preview(edits.add_points(start, [dot(x)]))
+    assert not history.can_undo  # nothing recorded mid-drag
+    history.commit()
+    assert history.index == 1 and history.undo_label == "Move Point"
+    assert history.document.points == (dot(3),)
+    final = history.document
+    history.begin("Move Point")
+    history.preview(edits.add_points(final, [dot(9)]))
+    history.cancel()
+    assert history.document is final and history.index == 1
+    assert calls[-1][1] is final  # listeners were taken back
+    with pytest.raises(RuntimeError):
+        history.commit()
+
+
+def test_modified_follows_the_saved_step(history_and_calls):
+    history, _ = history_and_calls
+    assert not history.modified
+    history.apply(edits.add_points(history.document, [dot(1)]), "Paint")
+    assert history.modified
+    history.mark_saved()
+    history.undo()
+    assert history.modified
+    history.redo()
+    assert not history.modified
+
+
+def test_change_sets_match_items_by_value():
+    doc = scattered_document(64, circles=3, seed=1)
+    points = (dot(1), dot(2), dot(2), dot(3))
+    before = doc.with_points(points)
+    after = edits.set_stop_color(before, 1, "left", 0, (0.1, 0.2, 0.3))
+    after = after.with_points((dot(3), dot(2), dot(4)))  # reordered, one dot(2) and dot(1) gone, dot(4) new
+    changes = ChangeSet.between(before, after)
+    assert changes.curves_changed and changes.removed_curves == (1,) and changes.added_curves == (1,)
+    assert changes.removed_points == (0, 1)  # dot(1) and the first dot(2)
+    assert [after.points[i] for i in changes.added_points] == [dot(4)]
+    appended = edits.add_points(before, [dot(5), dot(6)])
+    assert ChangeSet.between(before, appended).added_points == (4, 5)
+    assert ChangeSet.between(before, before).empty
+    reordered = before.with_curves(before.curves[::-1])
+    changes = ChangeSet.between(before, reordered)
+    assert changes.curves_changed and changes.removed_curves == () and changes.added_curves == ()
+
+
+def test_edits_change_only_what_they_name():
+    doc = scattered_document(64, circles=2, seed=3)
+    moved = edits.move_control_point(doc, 0, 2, (5.0, 6.0))
+    assert np.array_equal(moved.curves[0].control_points[2], (5.0, 6.0))
+    assert moved.curves[1] is doc.curves[1] and moved.curves[0].left == doc.curves[0].left
+    recoloured = edits.set_stop_color(doc, 0, "right", 1, (1.0, 0.0, 0.0))
+    assert recoloured.curves[0].right[1] == ColorStop(doc.curves[0].right[1].position, (1.0, 0.0, 0.0))
+    assert recoloured.curves[0].left == doc.curves[0].left
+    with pytest.raises(ValueError):
+        edits.set_stop_color(doc, 0, "up", 0, (0, 0, 0))
+    fewer = edits.remove_stop(edits.add_stop(doc, 0, "left", ColorStop(0.5, (0, 0, 0))), 0, "left", 0)
+    assert len(fewer.curves[0].left) == len(doc.curves[0].left)

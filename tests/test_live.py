@@ -1,0 +1,131 @@
+"""The incremental engine against full rebuilds: after every edit, the same FMR."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, settings
+from hypothesis import strategies as st
+from hypothesis.stateful import RuleBasedStateMachine, initialize, invariant, precondition, rule
+
+from fmr_editor.engine import LiveRepresentation, build, rasterise
+from fmr_editor.engine.delta import delta_local
+from fmr_editor.engine.lattice import Lattice, coarser_multipoles, downward_pass
+from fmr_editor.model import ColorStop, DiffusionCurve, DiffusionPoint, Document
+from fmr_editor.model import edits
+from fmr_editor.model.history import History
+
+from shapes import circle_points
+
+SIZE = 64
+PIXELS = 32
+COEFFICIENTS = 1e-6
+PIXEL = 0.25 / 255
+
+coordinates = st.floats(4.0, SIZE - 4.0)
+colors = st.tuples(*[st.floats(0.0, 1.0)] * 3)
+
+
+def assert_same_as_rebuild(live: LiveRepresentation, document: Document) -> None:
+    fresh = build(document)
+    incremental = live.representation
+    assert incremental.lattice == fresh.lattice
+    np.testing.assert_allclose(incremental.polynomials(), fresh.polynomials(), rtol=0, atol=COEFFICIENTS)
+    np.testing.assert_allclose(rasterise(incremental, PIXELS, PIXELS, samples=1),
+                               rasterise(fresh, PIXELS, PIXELS, samples=1), rtol=0, atol=PIXEL)
+
+
+@st.composite
+def curves(draw) -> DiffusionCurve:
+    """A random open cubic or a small circle, with one or two stops a side."""
+    if draw(st.booleans()):
+        points = np.array([[draw(coordinates), draw(coordinates)] for _ in range(4)])
+        stops = draw(st.lists(st.tuples(st.floats(0.0, 1.0), colors), min_size=1, max_size=2))
+    else:
+        points = circle_points(draw(st.floats(16, 48)), draw(st.floats(16, 48)), draw(st.floats(4, 12)))
+        stops = draw(st.lists(st.tuples(st.floats(0.0, 4.0), colors), min_size=1, max_size=2))
+    left = tuple(ColorStop(s, c) for s, c in stops)
+    right = tuple(ColorStop(s, c) for s, c in draw(st.lists(st.tuples(st.floats(0.0, 1.0), colors), min_size=1, max_size=2)))
+    return DiffusionCurve(points, left=left, right=right)
+
+
+points = st.builds(
+    lambda x, y, r, c, a: DiffusionPoint((x, y), r, c, a),
+    coordinates, coordinates, st.sampled_from([0.7, 3.0, 9.0, 20.0]), colors, st.floats(-1.0, 1.0),
+)
+
+
+class Editing(RuleBasedStateMachine):
+    """Random edits, undo and redo; after each, the live FMR equals a rebuild."""
+
+    @initialize(first=curves(), dots=st.lists(points, max_size=3))
+    def start(self, first, dots):
+        self.history = History(Document(SIZE, SIZE, (first,), tuple(dots)))
+        self.live = LiveRepresentation(self.history.document)
+        self.history.subscribe(lambda before, after: self.live.update(after))
+
+    @rule(curve=curves())
+    def add_curve(self, curve):
+        self.history.apply(edits.add_curve(self.history.document, curve), "Add Curve")
+
+    @precondition(lambda self: len(self.history.document.curves) > 1)
+    @rule(data=st.data())
+    def delete_curve(self, data):
+        index = data.draw(st.integers(0, len(self.history.document.curves) - 1))
+        self.history.apply(edits.remove_curves(self.history.document, [index]), "Delete Curve")
+
+    @precondition(lambda self: self.history.document.curves)
+    @rule(data=st.data(), x=coordinates, y=coordinates)
+    def move_control_point(self, data, x, y):
+        document = self.history.document
+        curve = data.draw(st.integers(0, len(document.curves) - 1))
+        point = data.draw(st.integers(0, len(document.curves[curve].control_points) - 2))  # closed circles: not the end
+        self.history.apply(edits.move_control_point(document, curve, point, (x, y)), "Move Control Point")
+
+    @precondition(lambda self: self.history.document.curves)
+    @rule(data=st.data(), color=colors)
+    def change_stop_color(self, data, color):
+        document = self.history.document
+        curve = data.draw(st.integers(0, len(document.curves) - 1))
+        side = data.draw(st.sampled_from(["left", "right"]))
+        stop = data.draw(st.integers(0, len(getattr(document.curves[curve], side)) - 1))
+        self.history.apply(edits.set_stop_color(document, curve, side, stop, color), "Change Stop Colour")
+
+    @rule(dab=st.lists(points, min_size=1, max_size=4))
+    def add_points(self, dab):
+        self.history.apply(edits.add_points(self.history.document, dab), "Paint")
+
+    @precondition(lambda self: self.history.document.points)
+    @rule(data=st.data())
+    def delete_point(self, data):
+        index = data.draw(st.integers(0, len(self.history.document.points) - 1))
+        self.history.apply(edits.remove_points(self.history.document, [index]), "Delete Point")
+
+    @rule()
+    def undo(self):
+        self.history.undo()
+
+    @rule()
+    def redo(self):
+        self.history.redo()
+
+    @invariant()
+    def same_as_rebuild(self):
+        assert self.live.document == self.history.document
+        assert_same_as_rebuild(self.live, self.history.document)
+
+
+Editing.TestCase.settings = settings(
+    max_examples=12, stateful_step_count=6, deadline=None, suppress_health_check=[HealthCheck.too_slow]
+)
+test_incremental_equals_rebuild = pytest.mark.slow(Editing.TestCase)
+
+
+def test_delta_downward_pass_matches_the_full_pass():
+    rng = np.random.default_rng(0)
+    lattice, order, n = Lattice(5, 256.0), 12, 32
+    delta = np.zeros((n, n, 3, order + 1), complex)
+    cells = rng.integers(0, n, (12, 2))
+    delta[cells[:, 0], cells[:, 1]] = rng.standard_normal((12, 3, order + 1)) + 1j * rng.standard_normal((12, 3, order + 1))
+    expected = downward_pass(coarser_multipoles(delta, order), lattice, order)
+    np.testing.assert_allclose(delta_local(delta, lattice, order), expected, rtol=0, atol=1e-13 * np.abs(expected).max())
