@@ -39,6 +39,8 @@ from .skeleton import SkeletonFactorization
 DENSE_CROSSOVER = 1500
 #: Relative residual above which ``solve_boundary`` warns that GMRES did not converge.
 UNCONVERGED = 1e-6
+#: Relative residual the iterative solve aims at.
+GMRES_RTOL = 1e-9
 
 
 def compression_tolerance(count: int) -> float:
@@ -152,7 +154,7 @@ def solve_fmm(
     cell_start: np.ndarray,
     lattice: Lattice,
     order: int = 20,
-    rtol: float = 1e-9,
+    rtol: float = GMRES_RTOL,
     tolerance: float | None = None,
     preconditioner: SkeletonFactorization | None = None,
     initial: np.ndarray | None = None,
@@ -203,7 +205,7 @@ def gmres(
     operator: CollocationOperator,
     rhs: np.ndarray,
     preconditioner: SkeletonFactorization,
-    rtol: float = 1e-9,
+    rtol: float = GMRES_RTOL,
     initial: np.ndarray | None = None,
     progress: Callable[[float], None] | None = None,
 ) -> tuple[np.ndarray, SolveReport]:
@@ -291,6 +293,13 @@ class BoundarySolver:
         operator = self.operator
         rhs = operator.right_hand_side(jump[self.order], mean[self.order])
         return _unsorted(rhs, self.order)
+
+    def accuracy(self, iterate: bool = True) -> float:
+        """Relative accuracy of ``solve``'s unknowns (roughly: the dense solve's rounding, GMRES's
+        tolerance, or the compression tolerance without iterations)."""
+        if self.dense or self.trivial:
+            return 1e-13
+        return GMRES_RTOL if iterate else self.factors.tolerance
 
     def solve(self, rhs: np.ndarray, progress: Callable[[float], None] | None = None, iterate: bool = True) -> np.ndarray:
         """Unknowns ``(n, 3)`` (E on curves, C on the border, input order) for ``rhs`` (input order).

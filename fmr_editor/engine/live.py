@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -34,13 +34,14 @@ from .point_field import LivePoints, lattice_radius, point_levels, sorted_radii_
 from .representation import (
     SOLVE_SEGMENTS_PER_CELL, Representation, Settings, choose_levels,
 )
-from .segments import Segments, boundary_segments, curve_segments, flatten_curve
+from .segments import Segments, boundary_segments, curve_colors, curve_segments, flatten_curve
 
 Progress = Callable[[str, float], None]
 
-#: A fine cell whose multipoles changed by less than this, relative to the
-#: largest multipole, keeps the change pending (it is added with a later one).
-NEGLIGIBLE = 1e-10
+#: A fine cell whose multipoles changed by less than this share of the solve's
+#: own accuracy (relative to the largest multipole) keeps the change pending:
+#: it is added with a later one.  Such changes are mostly the solve's noise.
+NEGLIGIBLE = 0.1
 #: A cell is reported changed once its local expansion moved by more than this
 #: since it was last reported, so a view that uploads what is reported stays
 #: within it of the truth.
@@ -183,7 +184,11 @@ class LiveRepresentation:
             return Update("none", np.zeros((n, n), bool), time.perf_counter() - start)
         removed = [before.points[i] for i in changes.removed_points]
         added = [document.points[i] for i in changes.added_points]
-        curves = self._curve_segments(document) if changes.curves_changed else self._curves
+        recoloured = _recoloured(before, document, changes) if changes.curves_changed else None
+        if recoloured is not None:
+            curves = _with_colors(self._curves, document, recoloured)
+        else:
+            curves = self._curve_segments(document) if changes.curves_changed else self._curves
         radii = sorted_radii_after(self._radii, np.array([p.radius for p in removed]),
                                    np.array([p.radius for p in added]))
         if changes.canvas_changed or self._levels(curves, radii) != self.lattice.levels:
@@ -193,18 +198,22 @@ class LiveRepresentation:
         changed = np.zeros((n, n), bool)
         kind = "points"
         if changes.curves_changed:
-            kind = self._update_curves(document, curves, changed)
+            kind = self._update_curves(document, curves, changed, recoloured)
         if removed or added:
             self._update_points(document, removed, added, changed)
         self.document, self._curves, self._radii = document, curves, radii
         self._forget_curves(before.curves)
         return Update(kind, changed, time.perf_counter() - start)
 
-    def _update_curves(self, document: Document, curves: Segments, changed: np.ndarray) -> str:
+    def _update_curves(self, document: Document, curves: Segments, changed: np.ndarray,
+                       recoloured: tuple[int, ...] | None) -> str:
         old = self._boundary
-        new = boundary_segments(curves, document, self.lattice.cell_size, self.settings.border_spacing)
-        same_geometry = len(new) == len(old) and all(
-            np.array_equal(getattr(new, name), getattr(old, name)) for name in ("p", "q", "on_border"))
+        if recoloured is not None:
+            new, same_geometry = _with_colors(old, document, recoloured), True
+        else:
+            new = boundary_segments(curves, document, self.lattice.cell_size, self.settings.border_spacing)
+            same_geometry = len(new) == len(old) and all(
+                np.array_equal(getattr(new, name), getattr(old, name)) for name in ("p", "q", "on_border"))
         self._boundary, self._curves = new, curves
         if same_geometry:
             rhs_change = self._solver.right_hand_side(new.jump - old.jump, new.mean - old.mean)
@@ -215,7 +224,8 @@ class LiveRepresentation:
         self._sort_solution()
         delta = self._fine_moments() - self._fine
         size = np.abs(delta).max(axis=(2, 3))
-        moved = size > NEGLIGIBLE * max(float(np.abs(self._fine).max(initial=0.0)), 1e-300)
+        negligible = NEGLIGIBLE * self._solver.accuracy(iterate=not same_geometry)
+        moved = size > negligible * max(float(np.abs(self._fine).max(initial=0.0)), 1e-300)
         delta[~moved] = 0.0
         self._fine += delta
         local_change = delta_local(delta, self.lattice, self.settings.propagation_order)
@@ -234,6 +244,31 @@ class LiveRepresentation:
             self._points = LivePoints((), self.lattice, self.settings.order)
         for a, b, c, d in self._points.update(document.points, removed, added):
             changed[a:b, c:d] = True
+
+
+def _recoloured(before: Document, after: Document, changes: ChangeSet) -> tuple[int, ...] | None:
+    """Indices of the curves whose stops changed colour and nothing else, or None for any other change."""
+    replaced = changes.added_curves
+    if len(before.curves) != len(after.curves) or changes.removed_curves != replaced:
+        return None
+    for index in replaced:
+        old, new = before.curves[index], after.curves[index]
+        if not (np.array_equal(old.control_points, new.control_points)
+                and [s.position for s in old.left] == [s.position for s in new.left]
+                and [s.position for s in old.right] == [s.position for s in new.right]):
+            return None
+    chosen = set(replaced)
+    unchanged = tuple(before.curves[i] if i in chosen else curve for i, curve in enumerate(after.curves))
+    return replaced if unchanged == before.curves else None
+
+
+def _with_colors(segments: Segments, document: Document, curves: tuple[int, ...]) -> Segments:
+    """``segments`` with the colours of those from ``curves`` taken afresh from ``document``."""
+    jump, mean = segments.jump.copy(), segments.mean.copy()
+    for index in curves:
+        mine = segments.origin[:, 0] == index
+        jump[mine], mean[mine] = curve_colors(segments.take(mine), document.curves[index])
+    return replace(segments, jump=jump, mean=mean)
 
 
 def build(document: Document, settings: Settings = Settings(), progress: Progress | None = None) -> Representation:

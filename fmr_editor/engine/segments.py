@@ -34,6 +34,10 @@ class Segments:
     flux : numpy.ndarray
         ``(n, 3)`` normal-derivative jump ``E`` (zero until solved; always
         zero on the border).
+    origin : numpy.ndarray, optional
+        ``(n, 2)`` where each segment's colours come from: the index of its
+        curve in the document and the position (piece units) its colours
+        were taken at; ``(-1, nan)`` for the border and unknown origins.
     """
 
     p: np.ndarray
@@ -42,6 +46,11 @@ class Segments:
     mean: np.ndarray
     on_border: np.ndarray
     flux: np.ndarray
+    origin: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        if self.origin is None:
+            object.__setattr__(self, "origin", np.tile([-1.0, np.nan], (len(self.p), 1)))
 
     def __len__(self) -> int:
         return len(self.p)
@@ -77,7 +86,7 @@ class Segments:
         )
 
 
-_FIELDS = ("p", "q", "jump", "mean", "on_border", "flux")
+_FIELDS = ("p", "q", "jump", "mean", "on_border", "flux", "origin")
 
 
 def concatenate(parts: list[Segments]) -> Segments:
@@ -139,7 +148,7 @@ def flatten_curve(curve: DiffusionCurve, tolerance: float, max_length: float) ->
 
     points = curve.point_at(s)
     middle = 0.5 * (s[:-1] + s[1:])
-    left, right = curve.left_colors_at(middle), curve.right_colors_at(middle)
+    left, right = curve.left_colors_at(middle), curve.right_colors_at(middle)  # as curve_colors
     keep = np.hypot(*np.diff(points, axis=0).T) > 1e-9
     n = int(keep.sum())
     return Segments(
@@ -149,6 +158,7 @@ def flatten_curve(curve: DiffusionCurve, tolerance: float, max_length: float) ->
         mean=(0.5 * (left + right))[keep],
         on_border=np.zeros(n, bool),
         flux=np.zeros((n, 3)),
+        origin=np.column_stack([np.full(n, -1.0), middle[keep]]),
     )
 
 
@@ -232,6 +242,17 @@ def cut_at_cells(segments: Segments, cell_size: float) -> Segments:
     return segments.split(owner[pair], t[pair], t[pair + 1])
 
 
+def from_curve(segments: Segments, index: int) -> Segments:
+    """``segments`` with ``index`` as the curve of their origin."""
+    return replace(segments, origin=np.column_stack([np.full(len(segments), float(index)), segments.origin[:, 1]]))
+
+
+def curve_colors(segments: Segments, curve: DiffusionCurve) -> tuple[np.ndarray, np.ndarray]:
+    """``jump`` and ``mean`` ``(n, 3)`` that ``curve``'s stops give ``segments`` at their origins' positions."""
+    left, right = curve.left_colors_at(segments.origin[:, 1]), curve.right_colors_at(segments.origin[:, 1])
+    return left - right, 0.5 * (left + right)
+
+
 def curve_segments(
     document: Document,
     tolerance: float = 0.05,
@@ -255,7 +276,7 @@ def curve_segments(
     """
     from .overlaps import drop_covered_parts
 
-    curves = [flatten(curve, tolerance, max_length) for curve in document.curves]
+    curves = [from_curve(flatten(curve, tolerance, max_length), index) for index, curve in enumerate(document.curves)]
     clipped = clip_to_canvas(concatenate([empty_segments(), *curves]), document.width, document.height)
     return drop_covered_parts(clipped)
 

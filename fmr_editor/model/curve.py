@@ -143,8 +143,13 @@ class DiffusionCurve:
         )
 
     def __hash__(self) -> int:
-        # + 0.0 turns -0.0 into 0.0, which __eq__ already treats as equal
-        return hash(((self.control_points + 0.0).tobytes(), self.left, self.right, self.blur))
+        try:
+            return self.__dict__["_hash"]
+        except KeyError:
+            # + 0.0 turns -0.0 into 0.0, which __eq__ already treats as equal
+            value = hash(((self.control_points + 0.0).tobytes(), self.left, self.right, self.blur))
+            self.__dict__["_hash"] = value  # immutable, so computed once (edits diff curves often)
+            return value
 
 
 def interpolate_stops(stops: tuple[ColorStop, ...], s: np.ndarray) -> np.ndarray:
