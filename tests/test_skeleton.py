@@ -64,3 +64,14 @@ def test_it_fails_early_when_the_factors_would_not_fit(system, monkeypatch):
     monkeypatch.setattr(bem, "available_memory", lambda: 200_000)
     with pytest.raises(SolveTooLargeError, match="compressed factorisation needs more than"):
         SkeletonFactorization(segments, 1e-8, leaf_size=24, top_size=100)
+
+
+def test_threads_give_the_serial_factorisation(system):
+    segments, _, rhs, _ = system
+    serial, threaded = (SkeletonFactorization(segments, 1e-6, leaf_size=24, top_size=100, workers=workers)
+                        for workers in (1, 2))
+    assert len(serial.levels) >= 2 and len(threaded.levels) == len(serial.levels)  # it did compress, alike
+    np.testing.assert_array_equal(threaded.top, serial.top)
+    assert threaded.stored_bytes == serial.stored_bytes
+    x = serial.solve(rhs)
+    np.testing.assert_allclose(threaded.solve(rhs), x, rtol=0, atol=1e-13 * np.abs(x).max())

@@ -20,6 +20,10 @@ the stacked rows and transposed columns gives a skeleton serving both::
 Eliminating R then only changes the box's own skeleton block, so every other
 entry the next levels need is an original matrix entry, computed on demand.
 
+The boxes of one level are compressed independently (each sees its
+neighbours as they were when the level began), on as many threads as numba
+uses: the entry kernels release the GIL, and so do BLAS and LAPACK.
+
 The factorisation costs far less than dense LU for large systems; its
 accuracy follows ``tolerance``.  ``fast_solve`` uses it to precondition
 GMRES (or to solve outright).
@@ -29,17 +33,17 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numba
 import numpy as np
 import scipy.linalg
-import scipy.sparse
 from threadpoolctl import threadpool_limits
 
 from . import bem
 from .fastmath import POLY_MATH
-from .kernels import _layers, _segment_table
+from .kernels import FAST_MATH, _layers, _segment_table
 from .segments import Segments
 
 #: Proxy circle radius over box width.
@@ -61,9 +65,10 @@ def _entries_row(x, y, own, columns, table, border, row):
 
 
 # Small blocks run serially: waking threads costs more than they save, and
-# stalls behind BLAS's spinning threads on a busy machine.  (Two functions, not
-# one compiled twice: numba's cache would confuse the two.)
-@numba.njit(cache=True, fastmath=POLY_MATH, error_model="numpy")
+# stalls behind BLAS's spinning threads on a busy machine.  The serial kernel
+# releases the GIL, so threads compressing different boxes run it side by side.
+# (Two functions, not one compiled twice: numba's cache would confuse the two.)
+@numba.njit(cache=True, nogil=True, fastmath=POLY_MATH, error_model="numpy")
 def _entries_serial(targets, target_ids, columns, table, border, out):
     for a in range(targets.shape[0]):
         _entries_row(targets[a, 0], targets[a, 1], target_ids[a], columns, table, border, out[a])
@@ -93,17 +98,74 @@ class CollocationEntries:
         self.midpoints = segments.midpoints
         self.length = self.table[6]
 
-    def block(self, rows: np.ndarray, columns: np.ndarray) -> np.ndarray:
-        """``A[rows][:, columns]``, ``(len(rows), len(columns))``."""
-        return self.at(self.midpoints[rows], columns, rows)
+    def block(self, rows: np.ndarray, columns: np.ndarray, parallel: bool = True) -> np.ndarray:
+        """``A[rows][:, columns]``, ``(len(rows), len(columns))``; see ``at`` for ``parallel``."""
+        return self.at(self.midpoints[rows], columns, rows, parallel)
 
-    def at(self, points: np.ndarray, columns: np.ndarray, ids: np.ndarray | None = None) -> np.ndarray:
-        """Field of unit densities on ``columns`` at ``points`` (not on those segments unless ``ids`` says so)."""
+    def at(
+        self, points: np.ndarray, columns: np.ndarray, ids: np.ndarray | None = None, parallel: bool = True
+    ) -> np.ndarray:
+        """Field of unit densities on ``columns`` at ``points`` (not on those segments unless ``ids`` says so).
+
+        Large blocks are computed on numba's threads unless ``parallel`` is
+        false (for callers that run on threads of their own).
+        """
         out = np.empty((len(points), len(columns)))
         ids = np.full(len(points), -1, np.int64) if ids is None else ids
-        kernel = _entries_parallel if out.size >= PARALLEL_PAIRS else _entries_serial
+        kernel = _entries_parallel if parallel and out.size >= PARALLEL_PAIRS else _entries_serial
         table = np.ascontiguousarray(self.table[:, columns])  # fancy indexing may not give C order
         kernel(np.ascontiguousarray(points), ids, columns, table, self.border[columns], out)
+        return out
+
+
+#: Nonzeros in each column of a ``SparseSign`` (Martinsson and Tropp recommend 8).
+SPARSE_SIGNS = 8
+
+
+@numba.njit(inline="always")
+def _hash(key):
+    """splitmix64's finaliser: 64 well-mixed bits of the ``uint64`` ``key``."""
+    key = (key ^ (key >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+    key = (key ^ (key >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+    return key ^ (key >> np.uint64(31))
+
+
+@numba.njit(cache=True, nogil=True, fastmath=FAST_MATH)
+def _apply_sparse_sign(matrix, rows, seed, out):
+    """``out += S @ matrix`` for the ``SparseSign`` ``S`` of ``rows`` rows and ``seed``."""
+    blocks = min(SPARSE_SIGNS, rows)
+    starts = np.arange(blocks + 1) * rows // blocks
+    key = np.uint64(seed) * np.uint64(0x9E3779B97F4A7C15)
+    for i in range(matrix.shape[0]):
+        for k in range(blocks):
+            bits = _hash(key + np.uint64(i * blocks + k))
+            size = np.uint64(starts[k + 1] - starts[k])
+            row = starts[k] + np.int64(((bits >> np.uint64(32)) * size) >> np.uint64(32))  # in [0, size)
+            sign = 1.0 if bits & np.uint64(1) else -1.0
+            for j in range(matrix.shape[1]):
+                out[row, j] += sign * matrix[i, j]
+
+
+class SparseSign:
+    """A random ``rows x columns`` sparse sign matrix, to sketch tall matrices with.
+
+    Its rows are cut into ``min(SPARSE_SIGNS, rows)`` blocks and each column
+    has one +-1 in each block, at a position and with a sign hashed from the
+    column, block and ``seed``.  It embeds a subspace about as well as a
+    Gaussian matrix of the same size (Martinsson and Tropp 2020, section 9.2)
+    but applies in ``SPARSE_SIGNS`` operations an entry instead of ``rows``;
+    applying it releases the GIL.  Only ``rows`` and ``seed`` matter: any
+    column count gives the leading columns of one matrix.
+    """
+
+    def __init__(self, rows: int, columns: int, seed: int = 0) -> None:
+        self.shape, self.seed = (rows, columns), seed
+
+    def __matmul__(self, matrix: np.ndarray) -> np.ndarray:
+        if matrix.shape[0] != self.shape[1]:
+            raise ValueError(f"a {self.shape} sketch cannot multiply {matrix.shape}")
+        out = np.zeros((self.shape[0], matrix.shape[1]))
+        _apply_sparse_sign(np.ascontiguousarray(matrix, dtype=np.float64), self.shape[0], self.seed, out)
         return out
 
 
@@ -116,12 +178,12 @@ def _pivoted_qr(matrix: np.ndarray, tolerance: float) -> tuple[np.ndarray, np.nd
 
 
 def interpolative(
-    matrix: np.ndarray, tolerance: float, sketch: Callable[[int, int], np.ndarray] | None = None
+    matrix: np.ndarray, tolerance: float, sketch: Callable[[int, int], np.ndarray | SparseSign] | None = None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Column interpolative decomposition by pivoted QR.
 
-    ``sketch(rows, columns)``, when given, supplies Gaussian matrices for
-    sketching a tall ``matrix`` first.
+    ``sketch(rows, columns)``, when given, supplies random matrices
+    (Gaussian, or ``SparseSign``) for sketching a tall ``matrix`` first.
 
     Returns
     -------
@@ -133,9 +195,10 @@ def interpolative(
     """
     rows, columns = matrix.shape
     if sketch is not None and rows > 4 * columns:
-        # A Gaussian sketch with twice as many rows as columns keeps the
+        # A random sketch with twice as many rows as columns keeps the
         # column relations, well conditioned, and turns a tall pivoted QR
-        # into one matrix product (measured 2-3x faster).
+        # into one matrix product (with a Gaussian, measured 2-3x faster;
+        # a sparse sign matrix is cheaper still).
         matrix = sketch(2 * columns, rows) @ matrix
     r_factor, order, rank = _pivoted_qr(matrix, tolerance)
     T = scipy.linalg.solve_triangular(r_factor[:rank, :rank], r_factor[:rank, rank:], check_finite=False)
@@ -171,36 +234,97 @@ def eliminate(block: np.ndarray, skeleton: np.ndarray, redundant: np.ndarray, T:
     return inverse, m_sr, upper, a_ss - m_sr @ upper
 
 
+@numba.njit(cache=True, nogil=True, fastmath=FAST_MATH, error_model="numpy")
+def _forward(x, redundant, red_start, skeleton, skel_start, interpolation, inverse, lower, rs_start, rr_start):
+    """``LevelSteps.forward``: box b's unknowns are ``redundant[red_start[b]:red_start[b + 1]]`` and
+    likewise its skeleton; its factors start at ``rs_start[b]`` (T, M_SR) and ``rr_start[b]`` (M_RR^-1)."""
+    for b in range(len(red_start) - 1):
+        r0, nr = red_start[b], red_start[b + 1] - red_start[b]
+        s0, ns = skel_start[b], skel_start[b + 1] - skel_start[b]
+        t, m, low = interpolation[rs_start[b]:], inverse[rr_start[b]:], lower[rs_start[b]:]
+        xr, xs, y = np.empty(nr), np.empty(ns), np.empty(nr)
+        for c in range(x.shape[1]):
+            for i in range(nr):
+                xr[i] = x[redundant[r0 + i], c]
+            for j in range(ns):
+                xs[j] = x[skeleton[s0 + j], c]
+            for j in range(ns):  # x_R -= T^T x_S
+                for i in range(nr):
+                    xr[i] -= t[j * nr + i] * xs[j]
+            for i in range(nr):  # x_R <- M_RR^-1 x_R
+                acc = 0.0
+                for j in range(nr):
+                    acc += m[i * nr + j] * xr[j]
+                y[i] = acc
+                x[redundant[r0 + i], c] = acc
+            for i in range(ns):  # x_S -= M_SR x_R
+                acc = 0.0
+                for j in range(nr):
+                    acc += low[i * nr + j] * y[j]
+                x[skeleton[s0 + i], c] = xs[i] - acc
+
+
+@numba.njit(cache=True, nogil=True, fastmath=FAST_MATH, error_model="numpy")
+def _backward(x, redundant, red_start, skeleton, skel_start, interpolation, upper, rs_start):
+    """``LevelSteps.backward``, laid out as for ``_forward``."""
+    for b in range(len(red_start) - 1):
+        r0, nr = red_start[b], red_start[b + 1] - red_start[b]
+        s0, ns = skel_start[b], skel_start[b + 1] - skel_start[b]
+        t, up = interpolation[rs_start[b]:], upper[rs_start[b]:]
+        xr, xs = np.empty(nr), np.empty(ns)
+        for c in range(x.shape[1]):
+            for i in range(nr):
+                xr[i] = x[redundant[r0 + i], c]
+            for j in range(ns):
+                xs[j] = x[skeleton[s0 + j], c]
+            for i in range(nr):  # x_R -= M_RR^-1 M_RS x_S
+                acc = 0.0
+                for j in range(ns):
+                    acc += up[i * ns + j] * xs[j]
+                xr[i] -= acc
+                x[redundant[r0 + i], c] = xr[i]
+            for i in range(ns):  # x_S -= T x_R
+                acc = 0.0
+                for j in range(nr):
+                    acc += t[i * nr + j] * xr[j]
+                x[skeleton[s0 + i], c] = xs[i] - acc
+
+
 class LevelSteps:
-    """One level's eliminations as sparse ``n x n`` matrices, applied at once.
+    """One level's eliminations, packed, applied box by box.
 
     The boxes of a level own disjoint unknowns, so their steps commute.
+    Each box's dense factors are stored row by row, one box after another.
+    The compiled loops run on one thread: a few milliseconds of short boxes,
+    which numba's threads slowed several times over whenever another thread
+    (BLAS's, spinning after the FMM's products, or another process's) held a
+    core.
     """
 
-    def __init__(self, steps: list[Elimination], size: int) -> None:
-        def sparse(pairs):
-            rows = np.concatenate([np.repeat(r, len(c)) for r, c, _ in pairs])
-            columns = np.concatenate([np.tile(c, len(r)) for r, c, _ in pairs])
-            values = np.concatenate([block.ravel() for _, _, block in pairs])
-            return scipy.sparse.csr_matrix((values, (rows, columns)), shape=(size, size))
+    def __init__(self, steps: list[Elimination]) -> None:
+        def starts(counts):
+            return np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
 
-        self.redundant = np.concatenate([s.redundant for s in steps])
-        self.interpolation = sparse([(s.skeleton, s.redundant, s.interpolation) for s in steps])
-        self.interpolation_t = self.interpolation.T.tocsr()
-        self.inverse = sparse([(s.redundant, s.redundant, s.inverse) for s in steps])
-        self.lower = sparse([(s.skeleton, s.redundant, s.lower) for s in steps])
-        self.upper = sparse([(s.redundant, s.skeleton, s.upper) for s in steps])
+        def packed(name):
+            return np.concatenate([np.ravel(getattr(s, name)) for s in steps])
+
+        self.redundant, self.skeleton = packed("redundant"), packed("skeleton")
+        self.red_start = starts([len(s.redundant) for s in steps])
+        self.skel_start = starts([len(s.skeleton) for s in steps])
+        self.rs_start = starts([len(s.redundant) * len(s.skeleton) for s in steps])
+        self.rr_start = starts([len(s.redundant) ** 2 for s in steps])
+        self.interpolation, self.inverse = packed("interpolation"), packed("inverse")
+        self.lower, self.upper = packed("lower"), packed("upper")
 
     def forward(self, x: np.ndarray) -> None:
-        """``x <- E L_T x`` and the redundant part of ``D^-1``, in place."""
-        x -= self.interpolation_t @ x
-        x[self.redundant] = (self.inverse @ x)[self.redundant]
-        x -= self.lower @ x
+        """``x <- E L_T x`` and the redundant part of ``D^-1``, in place; ``x`` is ``(n, k)``."""
+        _forward(x, self.redundant, self.red_start, self.skeleton, self.skel_start, self.interpolation,
+                 self.inverse, self.lower, self.rs_start, self.rr_start)
 
     def backward(self, x: np.ndarray) -> None:
-        """``x <- U_T F x``, in place."""
-        x -= self.upper @ x
-        x -= self.interpolation @ x
+        """``x <- U_T F x``, in place; ``x`` is ``(n, k)``."""
+        _backward(x, self.redundant, self.red_start, self.skeleton, self.skel_start, self.interpolation,
+                  self.upper, self.rs_start)
 
 
 @dataclass
@@ -223,6 +347,10 @@ class SkeletonFactorization:
         Stop compressing when at most this many unknowns remain.
     progress : callable, optional
         Called with the fraction of the work done.
+    workers : int, optional
+        Threads compressing boxes side by side; by default numba's thread
+        count (``NUMBA_NUM_THREADS``: the number of cores unless set).  The
+        result does not depend on it.
     """
 
     def __init__(
@@ -232,6 +360,7 @@ class SkeletonFactorization:
         leaf_size: int = 64,
         top_size: int = 1500,
         progress: Callable[[float], None] | None = None,
+        workers: int | None = None,
     ) -> None:
         self.size = len(segments)
         self.entries = CollocationEntries(segments)
@@ -239,7 +368,7 @@ class SkeletonFactorization:
         self.levels: list[LevelSteps] = []
         self.stored_bytes = 0
         self.memory_limit = bem.MEMORY_SHARE * bem.available_memory()
-        self._random = np.zeros((0, 0))
+        self.workers = max(1, numba.get_num_threads() if workers is None else workers)
         mids = self.entries.midpoints
         self.origin = mids.min(axis=0) if len(mids) else np.zeros(2)
         self.side = float(np.ptp(mids, axis=0).max()) * (1 + 1e-9) + 1e-9 if len(mids) else 1.0
@@ -247,26 +376,24 @@ class SkeletonFactorization:
         levels = leaf_levels(mids, self.origin, self.side, leaf_size)
         boxes = {key: _Box(idx, self.entries.block(idx, idx)) for key, idx in _group(mids, self.origin, self.side, levels)}
         # Each box's algebra is small: BLAS threads would only wait on each other.
-        with threadpool_limits(1, user_api="blas"):
-            for level in range(levels, 1, -1):
-                if sum(len(b.indices) for b in boxes.values()) <= top_size:
-                    break
-                if level < levels:
-                    boxes = self._merge(boxes)
-                self._compress_level(boxes, level)
-                if progress:
-                    progress((levels - level + 1) / levels)
+        pool = ThreadPoolExecutor(self.workers) if self.workers > 1 else None
+        try:
+            with threadpool_limits(1, user_api="blas"):
+                for level in range(levels, 1, -1):
+                    if sum(len(b.indices) for b in boxes.values()) <= top_size:
+                        break
+                    if level < levels:
+                        boxes = self._merge(boxes)
+                    self._compress_level(boxes, level, pool)
+                    if progress:
+                        progress((levels - level + 1) / levels)
+        finally:
+            if pool:
+                pool.shutdown(cancel_futures=True)  # after a failure, start no more boxes
         self.top = np.concatenate([b.indices for b in boxes.values()]) if boxes else np.zeros(0, np.int64)
         self._account(8 * len(self.top) ** 2)
         top_block = self._merged_block(list(boxes.values()))
         self.top_lu = scipy.linalg.lu_factor(top_block, overwrite_a=True, check_finite=False) if len(self.top) else None
-
-    def _gaussian(self, rows: int, columns: int) -> np.ndarray:
-        """A Gaussian matrix, cut from one drawn array (drawing dominated the sketches' cost)."""
-        if rows > self._random.shape[0] or columns > self._random.shape[1]:
-            shape = (max(rows, 2 * self._random.shape[0]), max(columns, 2 * self._random.shape[1]))
-            self._random = np.random.default_rng(len(self._random)).standard_normal(shape)
-        return self._random[:rows, :columns]
 
     def _account(self, size: int) -> None:
         """Count ``size`` more bytes kept; fail early, before the machine runs out."""
@@ -294,50 +421,82 @@ class SkeletonFactorization:
         return {key: _Box(np.concatenate([c.indices for c in kids]), self._merged_block(kids))
                 for key, kids in parents.items()}
 
-    def _compress_level(self, boxes: dict, level: int) -> None:
+    def _compress_level(self, boxes: dict, level: int, pool: ThreadPoolExecutor | None) -> None:
+        """Compress every box of ``level`` (on ``pool``'s threads if given) and keep the level's steps.
+
+        Each box sees its neighbours' unknowns as they were when the level
+        began.  Outside a box's own block every entry is an original matrix
+        entry, so a neighbour's unknowns eliminated meanwhile only add rows to
+        the decomposition: the boxes are independent.
+        """
         width = self.side / 2**level
+        active = {key: box.indices for key, box in boxes.items()}
+        keys = [key for key, box in boxes.items() if len(box.indices) >= 2]
+        # Largest first, so that no thread is left with a big box at the end.
+        order = sorted(keys, key=lambda key: -len(boxes[key].indices))
+
+        def compress(key):
+            return self._compress_box(key, boxes[key], active, width)
+
+        results = {}
+        for key, result in zip(order, pool.map(compress, order) if pool else map(compress, order)):
+            if result is not None:
+                step = result[0]
+                self._account(sum(a.nbytes for a in (step.interpolation, step.inverse, step.lower, step.upper)))
+                results[key] = result
+        steps = []
+        for key in keys:  # in box order: the same on any number of threads
+            if key in results:
+                step, block = results[key]
+                boxes[key].indices, boxes[key].block = step.skeleton, block
+                steps.append(step)
+        if steps:
+            self.levels.append(LevelSteps(steps))
+
+    def _compress_box(
+        self, key: tuple[int, int], box: _Box, active: dict, width: float
+    ) -> tuple[Elimination, np.ndarray] | None:
+        """One box's elimination step and its skeleton's new block (None if nothing is redundant).
+
+        ``active`` maps each box of the level to its unknowns.  The entries
+        are computed on the calling thread only (the same kernel whatever
+        ``workers`` is, so the same bits).
+        """
+        kx, ky = key
         radius = PROXY_RADIUS * width
-        angles = 2 * np.pi * np.arange(PROXY_POINTS) / PROXY_POINTS
-        circle = radius * np.stack([np.cos(angles), np.sin(angles)], axis=1)
         span = int(math.ceil((radius + self.reach) / width))
         mids = self.entries.midpoints
-        steps = []
-        for (kx, ky), box in boxes.items():
-            if len(box.indices) < 2:
-                continue
-            centre = self.origin + (np.array([kx, ky]) + 0.5) * width
-            near = [boxes[(kx + dx, ky + dy)].indices for dx in range(-span, span + 1) for dy in range(-span, span + 1)
-                    if (dx or dy) and (kx + dx, ky + dy) in boxes]
-            near = np.concatenate(near) if near else np.zeros(0, np.int64)
-            near = near[np.hypot(*(mids[near] - centre).T) < radius + self.reach]
-            proxy = centre + circle
-            own = mids[box.indices]
-            charges = np.log(np.hypot(own[:, None, 0] - proxy[None, :, 0], own[:, None, 1] - proxy[None, :, 1]))
-            stacked = np.concatenate([
-                self.entries.block(near, box.indices),
-                self.entries.at(proxy, box.indices),
-                self.entries.block(box.indices, near).T,
-                charges.T,
-            ])
-            skeleton, redundant, T = interpolative(stacked, self.tolerance, self._gaussian)
-            if len(redundant) == 0:
-                continue
-            inverse, lower, upper, block = eliminate(box.block, skeleton, redundant, T)
-            steps.append(Elimination(box.indices[redundant], box.indices[skeleton], T, inverse, lower, upper))
-            self._account(2 * sum(a.nbytes for a in (T, inverse, lower, upper)))  # values and sparse indices
-            box.indices, box.block = box.indices[skeleton], block
-        if steps:
-            self.levels.append(LevelSteps(steps, self.size))
+        centre = self.origin + (np.array([kx, ky]) + 0.5) * width
+        near = [active[(kx + dx, ky + dy)] for dx in range(-span, span + 1) for dy in range(-span, span + 1)
+                if (dx or dy) and (kx + dx, ky + dy) in active]
+        near = np.concatenate(near) if near else np.zeros(0, np.int64)
+        near = near[np.hypot(*(mids[near] - centre).T) < radius + self.reach]
+        angles = 2 * np.pi * np.arange(PROXY_POINTS) / PROXY_POINTS
+        proxy = centre + radius * np.stack([np.cos(angles), np.sin(angles)], axis=1)
+        own = mids[box.indices]
+        charges = np.log(np.hypot(own[:, None, 0] - proxy[None, :, 0], own[:, None, 1] - proxy[None, :, 1]))
+        stacked = np.concatenate([
+            self.entries.block(near, box.indices, parallel=False),
+            self.entries.at(proxy, box.indices, parallel=False),
+            self.entries.block(box.indices, near, parallel=False).T,
+            charges.T,
+        ])
+        skeleton, redundant, T = interpolative(stacked, self.tolerance, SparseSign)
+        if len(redundant) == 0:
+            return None
+        inverse, lower, upper, block = eliminate(box.block, skeleton, redundant, T)
+        return Elimination(box.indices[redundant], box.indices[skeleton], T, inverse, lower, upper), block
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
         """Approximate ``A^-1 rhs`` for ``rhs`` of shape ``(n,)`` or ``(n, k)``."""
         x = np.array(rhs, dtype=float, copy=True)
+        columns = x.reshape(len(x), -1)  # a view: the levels work on it in place
         for level in self.levels:
-            level.forward(x)
+            level.forward(columns)
         if len(self.top):
             x[self.top] = scipy.linalg.lu_solve(self.top_lu, x[self.top], check_finite=False)
         for level in reversed(self.levels):
-            level.backward(x)
+            level.backward(columns)
         return x
 
 
