@@ -11,7 +11,7 @@ __version__ = "0.1.0"
 
 
 def load(path):
-    """Load a document from ``path`` (Orzan CurveSetXML ``.xml``).
+    """Load a document from ``path`` (``.fmr``, or Orzan CurveSetXML ``.xml``).
 
     Raises
     ------

@@ -20,7 +20,7 @@ def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="fmr-editor", description="Diffusion-curve images on the fast multipole representation.")
     commands = parser.add_subparsers(dest="command", required=True)
     render = commands.add_parser("render", help="render documents to PNG")
-    render.add_argument("inputs", nargs="+", metavar="INPUT", help="documents to render (Orzan CurveSetXML .xml)")
+    render.add_argument("inputs", nargs="+", metavar="INPUT", help="documents to render (.fmr, or Orzan CurveSetXML .xml)")
     render.add_argument("-o", "--output", required=True,
                         help="PNG file to write, or with several inputs a folder (made if missing) for NAME.png each")
     render.add_argument("--width", type=_positive, help="output width (default: canvas width)")
@@ -47,21 +47,30 @@ class StderrProgress:
 
 
 def render_one(source: str, output: str, args: argparse.Namespace) -> int:
-    """Render ``source`` to the PNG ``output``; 0, or 2 after one line on stderr."""
+    """Render ``source`` to the PNG ``output``; 0, or 2 after one line on stderr.
+
+    A ``.fmr`` file's saved representation is rendered as it is (no solve),
+    unless ``--order`` or ``--method direct`` ask for another.
+    """
     from . import load, render
-    from .io import DocumentLoadError
+    from .engine import rasterise
+    from .io import DocumentLoadError, load_fmr
     from .io.png import save_png
 
     try:
-        document = load(source)
+        saved = load_fmr(source) if Path(source).suffix.lower() == ".fmr" else None
+        document = saved.document if saved is not None else load(source)
     except DocumentLoadError as error:
         print(f"fmr-editor: cannot open {error}", file=sys.stderr)
         return 2
+    progress = StderrProgress()
     try:
-        image = render(
-            document, args.width, args.height, samples=args.samples,
-            order=args.order, method=args.method, progress=StderrProgress(),
-        )
+        if saved is not None and saved.representation is not None and args.order is None and args.method == "fmr":
+            image = rasterise(saved.representation, args.width, args.height, samples=args.samples, progress=progress)
+            image = image.clip(0.0, 1.0)
+        else:
+            image = render(document, args.width, args.height, samples=args.samples,
+                           order=args.order, method=args.method, progress=progress)
     except (ValueError, MemoryError) as error:
         print(f"fmr-editor: cannot render {source}: {error}", file=sys.stderr)
         return 2

@@ -34,7 +34,7 @@ from shapes import circle_points, uniform_curve
 
 import fmr_editor
 from fmr_editor.cli import main
-from fmr_editor.engine import build
+from fmr_editor.engine import build, rasterise
 from fmr_editor.io import save_fmr
 from fmr_editor.io.png import save_png, to_rgb8
 from fmr_editor.model import Document
@@ -153,12 +153,14 @@ def test_height_alone_keeps_the_aspect_ratio(tmp_path, split_canvas):
     assert read_png(out).shape == (10, 15, 3)
 
 
-def test_render_command_reads_a_saved_fmr_file(tmp_path, split_canvas):
+def test_render_command_reads_a_saved_fmr_file(tmp_path, split_canvas, monkeypatch):
     document = fmr_editor.load(split_canvas)
     saved = save_fmr(tmp_path / "split.fmr", document, build(document))
     out = tmp_path / "split.png"
+    monkeypatch.setattr(fmr_editor, "render", lambda *args, **kwargs: pytest.fail("the saved representation was not used"))
     assert main(["render", str(saved), "-o", str(out), "--width", "30", "--samples", "1"]) == 0
-    np.testing.assert_array_equal(read_png(out), to_rgb8(fmr_editor.render(document, 30, 20, samples=1)))
+    expected = to_rgb8(rasterise(build(document), 30, 20, samples=1))
+    np.testing.assert_array_equal(read_png(out), expected)
 
 
 def test_python_dash_m_renders_and_reports_progress_on_stderr(tmp_path):

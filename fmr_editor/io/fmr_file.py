@@ -23,7 +23,6 @@ import io
 import json
 import os
 import time
-import uuid
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -35,6 +34,7 @@ from PIL import Image
 from ..engine.raster import rasterise
 from ..engine.representation import Representation, Settings
 from ..model import Document
+from .atomic import write_atomically
 from .document_json import dumps_document, loads_document
 from .errors import DocumentLoadError
 from .json_checks import NewerVersionError, SchemaError, as_object, check_version, parse_json
@@ -137,26 +137,11 @@ def save_fmr(
     OSError
         If the file cannot be written.
     """
-    target = Path(os.path.realpath(path))
     document_bytes = dumps_document(document)
     manifest, arrays = describe(representation, document, settings) if representation is not None else (None, {})
     if manifest is not None:
         manifest["document_sha256"] = _digest(document_bytes)
-    temporary = target.with_name(f".{target.name}.{uuid.uuid4().hex[:12]}.tmp")
-    descriptor = os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0), 0o666)
-    try:
-        with os.fdopen(descriptor, "wb") as stream:
-            _write_archive(stream, document_bytes, manifest, arrays, representation)
-            stream.flush()
-            os.fsync(stream.fileno())
-        if target.exists():
-            os.chmod(temporary, target.stat().st_mode & 0o7777)
-        os.replace(temporary, target)
-    except BaseException:
-        temporary.unlink(missing_ok=True)
-        raise
-    _sync_folder(target.parent)
-    return target
+    return write_atomically(path, lambda stream: _write_archive(stream, document_bytes, manifest, arrays, representation))
 
 
 def _write_archive(stream: BinaryIO, document_bytes: bytes, manifest: dict | None, arrays: dict,
@@ -202,20 +187,6 @@ def thumbnail_png(rep: Representation) -> bytes:
     buffer = io.BytesIO()
     Image.fromarray(to_rgb8(image)).save(buffer, format="PNG", compress_level=1)
     return buffer.getvalue()
-
-
-def _sync_folder(folder: Path) -> None:
-    """Make the rename durable where the system allows syncing a folder (best effort)."""
-    try:
-        descriptor = os.open(folder, os.O_RDONLY)
-    except OSError:
-        return
-    try:
-        os.fsync(descriptor)
-    except OSError:
-        pass
-    finally:
-        os.close(descriptor)
 
 
 # --- opening -------------------------------------------------------------------------------------

@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 from PIL import Image
+
+from .atomic import write_atomically
 
 
 def to_rgb8(image: np.ndarray) -> np.ndarray:
@@ -28,12 +29,4 @@ def save_png(image: np.ndarray, path: str | os.PathLike) -> Path:
     """
     path = Path(path).absolute()
     path.parent.mkdir(parents=True, exist_ok=True)
-    handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(handle, "wb") as stream:
-            Image.fromarray(to_rgb8(image), mode="RGB").save(stream, format="PNG")
-        os.replace(temporary, path)
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
-    return path
+    return write_atomically(path, lambda stream: Image.fromarray(to_rgb8(image), mode="RGB").save(stream, format="PNG"))
