@@ -101,6 +101,15 @@ class Editing(RuleBasedStateMachine):
         index = data.draw(st.integers(0, len(self.history.document.points) - 1))
         self.history.apply(edits.remove_points(self.history.document, [index]), "Delete Point")
 
+    @precondition(lambda self: self.history.document.points)
+    @rule(data=st.data(), x=coordinates, y=coordinates)
+    def move_point(self, data, x, y):
+        document = self.history.document
+        index = data.draw(st.integers(0, len(document.points) - 1))
+        old = document.points[index]
+        moved = DiffusionPoint((x, y), old.radius, old.color, old.amplitude)
+        self.history.apply(edits.add_points(edits.remove_points(document, [index]), [moved]), "Move Point")
+
     @rule()
     def undo(self):
         self.history.undo()

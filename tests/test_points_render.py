@@ -64,3 +64,20 @@ def test_documents_check_their_points():
         Document(16, 16, points=[(1.0, 2.0)])
     doc = Document(16, 16).with_points([DiffusionPoint((1, 2), 3.0, (1, 0, 0))])
     assert doc.points[0].radius == 3.0 and doc.curves == ()
+
+
+def test_the_work_per_pixel_does_not_grow_with_the_number_of_points():
+    """Figure 10 of the paper, structurally: more points, same lattice and no exact near points.
+
+    Pixels then cost one cell polynomial each whatever the count (bench/bench_points.py times it).
+    """
+    rng = np.random.default_rng(3)
+    shapes = set()
+    for count in (1_000, 10_000, 100_000):
+        radii = np.exp(rng.uniform(np.log(12), np.log(96), count))
+        points = [DiffusionPoint(tuple(xy), r, (0.5, 0.5, 0.5), 0.01)
+                  for xy, r in zip(rng.uniform(0, 1024, (count, 2)), radii)]
+        rep = build(Document(1024, 1024, points=points))
+        assert len(rep.points.near) == 0
+        shapes.add(rep.polynomials().shape)
+    assert len(shapes) == 1
