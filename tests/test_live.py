@@ -138,3 +138,23 @@ def test_delta_downward_pass_matches_the_full_pass():
     delta[cells[:, 0], cells[:, 1]] = rng.standard_normal((12, 3, order + 1)) + 1j * rng.standard_normal((12, 3, order + 1))
     expected = downward_pass(coarser_multipoles(delta, order), lattice, order)
     np.testing.assert_allclose(delta_local(delta, lattice, order), expected, rtol=0, atol=1e-13 * np.abs(expected).max())
+
+
+def test_resuming_a_saved_representation_solves_only_when_an_edit_needs_it(monkeypatch, tmp_path):
+    from fmr_editor.engine import live
+    from fmr_editor.io import load_fmr, save_fmr
+    from shapes import scattered_document
+
+    document = scattered_document(64, circles=3, seed=6)
+    saved = load_fmr(save_fmr(tmp_path / "doc.fmr", document, build(document))).representation
+    solvers = []
+    original = live.BoundarySolver
+    monkeypatch.setattr(live, "BoundarySolver", lambda *args, **kwargs: solvers.append(1) or original(*args, **kwargs))
+    resumed = LiveRepresentation(document, saved=saved)
+    assert solvers == [] and resumed.timings.keys() == {"resume"}
+    np.testing.assert_array_equal(rasterise(resumed.representation, 32, 32, 1), rasterise(saved, 32, 32, 1))
+    edited = edits.set_stop_color(document, 2, "left", 0, (0.0, 1.0, 0.0))
+    assert resumed.update(edited).kind == "colours" and solvers == [1]
+    assert_same_as_rebuild(resumed, edited)
+    other = scattered_document(64, circles=3, seed=7)
+    assert LiveRepresentation(other, saved=saved).timings.keys() != {"resume"}  # not its representation: built

@@ -76,6 +76,11 @@ class LiveRepresentation:
     settings : Settings
     progress : callable, optional
         Called as ``progress(stage, fraction)`` during (re)builds.
+    saved : Representation, optional
+        ``document``'s representation as saved (``io.load_fmr``): taken as it
+        is, so that opening a file repeats no solve; the boundary system is
+        factorised only when a colour edit first needs it.  Ignored (a build)
+        if it does not belong to ``document`` with ``settings``.
 
     Attributes
     ----------
@@ -85,10 +90,19 @@ class LiveRepresentation:
         The current FMR (its arrays are updated in place by ``update``).
     """
 
-    def __init__(self, document: Document, settings: Settings = Settings(), progress: Progress | None = None) -> None:
+    def __init__(self, document: Document, settings: Settings = Settings(), progress: Progress | None = None,
+                 saved: Representation | None = None) -> None:
         self.settings = settings
         self._flattened: dict[DiffusionCurve, Segments] = {}
-        self._rebuild(document, progress)
+        if saved is None or not self._resume(document, saved):
+            self._rebuild(document, progress)
+
+    @property
+    def solver(self) -> BoundarySolver:
+        """The boundary system's solver, factorised when first needed after ``saved`` (see the constructor)."""
+        if self._solver is None:
+            self._solver = self._new_solver()
+        return self._solver
 
     # -- building ----------------------------------------------------------------------------
     def _flatten(self, curve: DiffusionCurve, tolerance: float, max_length: float) -> Segments:
@@ -123,12 +137,7 @@ class LiveRepresentation:
             report(stage, fraction)
 
         settings = self.settings
-        self.document = document
-        self._side = float(max(document.width, document.height))
-        self._curves = self._curve_segments(document)
-        self._radii = np.sort([point.radius for point in document.points])
-        self.lattice = Lattice(self._levels(self._curves, self._radii), self._side)
-        self._boundary = boundary_segments(self._curves, document, self.lattice.cell_size, settings.border_spacing)
+        self._discretise(document)
         lap("discretise", 0.1)
         self._solver = self._new_solver(lambda fraction: report("solve", 0.1 + 0.5 * fraction))
         boundary = self._boundary
@@ -147,6 +156,40 @@ class LiveRepresentation:
             lap("points", 1.0)
         self.timings = timings
         self._forget_curves(document.curves)
+
+    def _discretise(self, document: Document) -> None:
+        self.document = document
+        self._side = float(max(document.width, document.height))
+        self._curves = self._curve_segments(document)
+        self._radii = np.sort([point.radius for point in document.points])
+        self.lattice = Lattice(self._levels(self._curves, self._radii), self._side)
+        self._boundary = boundary_segments(self._curves, document, self.lattice.cell_size, self.settings.border_spacing)
+
+    def _resume(self, document: Document, saved: Representation) -> bool:
+        """Take the solution and expansions of ``saved`` (of ``document``); False if they do not fit it."""
+        start = time.perf_counter()
+        self._discretise(document)
+        if saved.lattice != self.lattice or len(saved.segments) != len(self._boundary):
+            return False
+        cells = self.lattice.cell_of(self._boundary.midpoints)
+        order = np.argsort(cells[:, 0] * self.lattice.cells_per_side + cells[:, 1], kind="stable")
+        ordered = self._boundary.take(order)
+        curve = ~ordered.on_border
+        if not (all(np.array_equal(getattr(ordered, name), getattr(saved.segments, name))
+                    for name in ("p", "q", "on_border", "mean"))
+                and np.array_equal(ordered.jump[curve], saved.segments.jump[curve])):
+            return False
+        self._unknowns = np.empty_like(ordered.flux)
+        self._unknowns[order] = saved.segments.unknowns()
+        self._solver = None
+        self._sort_solution()
+        self._fine = self._fine_moments()
+        self._local = np.array(saved.local, dtype=complex)
+        self._unreported = np.zeros(self._local.shape[:2])
+        self._points = LivePoints(document.points, self.lattice, self.settings.order) if document.points else None
+        self.timings = {"resume": time.perf_counter() - start}
+        self._forget_curves(document.curves)
+        return True
 
     def _new_solver(self, progress: Callable[[float], None] | None = None) -> BoundarySolver:
         solve_lattice = Lattice(choose_levels(self._curves, self._side, SOLVE_SEGMENTS_PER_CELL), self._side)
@@ -216,15 +259,15 @@ class LiveRepresentation:
                 np.array_equal(getattr(new, name), getattr(old, name)) for name in ("p", "q", "on_border"))
         self._boundary, self._curves = new, curves
         if same_geometry:
-            rhs_change = self._solver.right_hand_side(new.jump - old.jump, new.mean - old.mean)
-            self._unknowns = self._unknowns + self._solver.solve(rhs_change, iterate=False)
+            rhs_change = self.solver.right_hand_side(new.jump - old.jump, new.mean - old.mean)
+            self._unknowns = self._unknowns + self.solver.solve(rhs_change, iterate=False)
         else:
             self._solver = self._new_solver()
             self._unknowns = self._solver.solve(self._solver.right_hand_side(new.jump, new.mean))
         self._sort_solution()
         delta = self._fine_moments() - self._fine
         size = np.abs(delta).max(axis=(2, 3))
-        negligible = NEGLIGIBLE * self._solver.accuracy(iterate=not same_geometry)
+        negligible = NEGLIGIBLE * self.solver.accuracy(iterate=not same_geometry)
         moved = size > negligible * max(float(np.abs(self._fine).max(initial=0.0)), 1e-300)
         delta[~moved] = 0.0
         self._fine += delta
