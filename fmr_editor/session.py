@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from .engine import LiveRepresentation, Representation, Settings, Update, rasterise
-from .io import load_document
+from .io import load_document, load_fmr, save_fmr
 from .io.png import save_png
 from .model import Document
 from .model.history import History
@@ -40,30 +40,40 @@ class Session:
     settings : Settings
     progress : callable, optional
         ``progress(stage, fraction)`` during the first build and rebuilds.
+    saved : Representation, optional
+        ``document``'s saved representation, taken instead of a build.
 
     Attributes
     ----------
     history : History
         The undo history; changing its current document updates the FMR.
+    live : LiveRepresentation
+        The document's representation, kept up to date.
     last_update : Update or None
         What the most recent change did (None before any).
     """
 
     def __init__(self, document: Document, settings: Settings = Settings(),
-                 progress: Callable[[str, float], None] | None = None) -> None:
+                 progress: Callable[[str, float], None] | None = None, saved: Representation | None = None) -> None:
         self.history = History(document)
         self._progress = progress
-        self._live = LiveRepresentation(document, settings, progress)
+        self.live = LiveRepresentation(document, settings, progress, saved)
         self.last_update: Update | None = None
         self.history.subscribe(self._follow)
 
     @classmethod
     def open(cls, path: str | os.PathLike, settings: Settings = Settings()) -> Session:
-        """A session on the document in ``path`` (raises ``io.DocumentLoadError``)."""
+        """A session on the document in ``path`` (raises ``io.DocumentLoadError``).
+
+        A ``.fmr`` file's saved representation is taken as it is (no solve).
+        """
+        if Path(path).suffix.lower() == ".fmr":
+            saved = load_fmr(path)
+            return cls(saved.document, saved.settings or settings, saved=saved.representation)
         return cls(load_document(path), settings)
 
     def _follow(self, before: Document, after: Document) -> None:
-        self.last_update = self._live.update(after, self._progress)
+        self.last_update = self.live.update(after, self._progress)
 
     @property
     def document(self) -> Document:
@@ -71,7 +81,7 @@ class Session:
 
     @property
     def representation(self) -> Representation:
-        return self._live.representation
+        return self.live.representation
 
     def apply(self, edit: Edit | Document, label: str, merge_key: Hashable | None = None) -> Update | None:
         """Apply ``edit`` (a function of the document, or the new document) as one undo step.
@@ -105,6 +115,12 @@ class Session:
     def cells(self, order: int | None = None) -> np.ndarray:
         """The cells' polynomials ``c[row, column, channel, i, j]`` (see ``Representation.polynomials``)."""
         return self.representation.polynomials(order)
+
+    def save(self, path: str | os.PathLike) -> Path:
+        """Save the document with its representation as ``.fmr`` (atomically) and mark it saved."""
+        written = save_fmr(path, self.document, self.representation, settings=self.live.settings)
+        self.history.mark_saved()
+        return written
 
     def save_png(self, path: str | os.PathLike, width: int | None = None, height: int | None = None,
                  samples: int = 3) -> Path:

@@ -48,3 +48,15 @@ def test_cells_not_reported_changed_keep_their_pixels():
         assert update.kind != "rebuild"
         assert difference[update.changed].max() > 1e-6  # something did change where it says so
         assert difference[~update.changed].max(initial=0.0) < 1e-6
+
+
+def test_save_and_reopen_gives_the_same_document_and_pixels(tmp_path):
+    session = Session(scattered_document(64, circles=2, seed=8))
+    session.apply(lambda d: edits.add_points(d, [DiffusionPoint((30.0, 30.0), 5.0, (0.1, 0.2, 0.9))]), "Paint")
+    assert session.history.modified
+    path = session.save(tmp_path / "drawing.fmr")
+    assert not session.history.modified
+    reopened = Session.open(path)
+    assert reopened.document == session.document
+    assert reopened.live.timings.keys() == {"resume"}  # no solve on opening
+    np.testing.assert_array_equal(reopened.image(), session.image())
