@@ -125,3 +125,73 @@ def test_edits_change_only_what_they_name():
         edits.set_stop_color(doc, 0, "up", 0, (0, 0, 0))
     fewer = edits.remove_stop(edits.add_stop(doc, 0, "left", ColorStop(0.5, (0, 0, 0))), 0, "left", 0)
     assert len(fewer.curves[0].left) == len(doc.curves[0].left)
+
+
+def test_translate_moves_only_the_named_items():
+    doc = scattered_document(64, circles=2, seed=3).with_points([dot(1), dot(2)])
+    moved = edits.translate(doc, (2.0, -1.0), curves=[0], control_points=[(1, 3), (0, 1)], points=[1])
+    np.testing.assert_allclose(moved.curves[0].control_points, doc.curves[0].control_points + (2, -1))
+    delta = moved.curves[1].control_points - doc.curves[1].control_points
+    assert np.array_equal(np.flatnonzero(delta.any(axis=1)), [3]) and np.allclose(delta[3], (2, -1))
+    assert moved.points == (dot(1), DiffusionPoint((4.0, 9.0), 4.0, (1.0, 0.5, 0.0)))
+    assert moved.curves[2] is doc.curves[2] and moved.curves[0].left == doc.curves[0].left
+    assert edits.translate(doc, (0, 0), curves=[0]) is doc
+    assert edits.translate(doc, (1, 1), curves=[0]).points is doc.points  # points untouched: same tuple
+
+
+def test_move_stop_resorts_the_stops():
+    doc = scattered_document(64, circles=1, seed=3)  # left stops at 0, 2, 4
+    moved = edits.move_stop(doc, 0, "left", 0, 3.0)
+    left = moved.curves[0].left
+    assert [s.position for s in left] == [2.0, 3.0, 4.0] and left[1].color == doc.curves[0].left[0].color
+    assert edits.move_stop(doc, 0, "left", 1, 99.0).curves[0].left[2].position == 4.0  # clamped to k
+    assert moved.curves[0].right == doc.curves[0].right
+
+
+def _same_stops_on(old, new, mapping):
+    """Every stop of ``new`` is a stop of ``old`` moved by ``mapping``, at the same place on the curve."""
+    for side in ("left", "right"):
+        before, after = getattr(old, side), getattr(new, side)
+        assert [b.color for b in before] == [a.color for a in after]
+        expected = [mapping(b.position) for b in before]
+        np.testing.assert_allclose([a.position for a in after], expected, atol=1e-12)
+        np.testing.assert_allclose(new.point_at(np.array(expected)),
+                                   old.point_at(np.array([b.position for b in before])), atol=1e-9)
+
+
+def test_insert_anchor_keeps_the_shape_and_the_stops_places():
+    doc = scattered_document(64, circles=1, seed=4)  # a 4-piece circle, stops at 0, 2, 4
+    doc = edits.add_stop(edits.add_stop(doc, 0, "left", ColorStop(1.1, (1, 0, 0))), 0, "right",
+                         ColorStop(1.5, (0, 1, 0)))
+    old = doc.curves[0]
+    new = edits.insert_anchor(doc, 0, 1.25).curves[0]
+    assert new.piece_count == 5
+
+    def split(s):
+        u = s - 1
+        return np.select([s <= 1, s <= 1.25, s <= 2], [s, 1 + u / 0.25, 2 + (u - 0.25) / 0.75], s + 1)
+
+    s = np.linspace(0, 4, 33)
+    np.testing.assert_allclose(new.point_at(split(s)), old.point_at(s), atol=1e-12)
+    _same_stops_on(old, new, lambda x: float(split(np.array(x))))
+    assert edits.insert_anchor(doc, 0, 2.0) is doc and edits.insert_anchor(doc, 0, 4.0) is doc
+
+
+def test_remove_anchors_joins_inner_pieces_and_cuts_end_pieces():
+    doc = scattered_document(64, circles=1, seed=4)  # stops at 0, 2, 4
+    old = doc.curves[0]
+    points = old.control_points
+    joined = edits.remove_anchors(doc, 0, [6]).curves[0]  # anchor 2 of 0..4: pieces 1 and 2 join
+    np.testing.assert_allclose(joined.control_points, np.delete(points, [5, 6, 7], axis=0))
+    assert [s.position for s in joined.left] == [0.0, 1.5, 3.0]
+    assert [s.color for s in joined.left] == [s.color for s in old.left]
+    cut = edits.remove_anchors(doc, 0, [0, 12]).curves[0]  # both end pieces go
+    np.testing.assert_allclose(cut.control_points, points[3:-3])
+    s = np.linspace(1, 3, 9)
+    for side in ("left_colors_at", "right_colors_at"):  # colours along what remains are unchanged
+        np.testing.assert_allclose(getattr(cut, side)(s - 1), getattr(old, side)(s), atol=1e-12)
+    assert [s.position for s in cut.left] == [0.0, 1.0, 2.0]  # cut ends keep the colour there
+    with pytest.raises(ValueError):
+        edits.remove_anchors(doc, 0, [4])  # a handle
+    with pytest.raises(ValueError):
+        edits.remove_anchors(doc, 0, [0, 3, 6, 9])  # one anchor would remain

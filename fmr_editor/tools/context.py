@@ -1,0 +1,181 @@
+"""What every tool works with: the history, the selection, the view's zoom and the options.
+
+No globals: the ui builds one ``ToolContext`` per document window and hands
+it to every tool it creates.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field, replace
+
+from ..model import Document
+from ..model.curve import Color
+from ..model.history import History
+from .hit import CurveIndex
+
+Sampler = Callable[[float, float], Color]
+ColorChooser = Callable[[Color], "Color | None"]
+
+
+@dataclass
+class ToolOptions:
+    """The tools' settings, shown and changed by the ui's panels.
+
+    Attributes
+    ----------
+    color : tuple of float
+        The foreground colour: new stops, brush dabs, a new curve's left side;
+        the eyedropper sets it.
+    secondary_color : tuple of float
+        The background colour: a new curve's right side; the eyedropper sets
+        it with Alt held.
+    brush_radius : float
+        Gaussian radius of each dab, document pixels.
+    brush_amplitude : float
+        Amplitude of each dab (negative subtracts colour).
+    brush_spacing : float
+        Distance between dabs along a stroke, document pixels.
+    """
+
+    color: Color = (0.0, 0.0, 0.0)
+    secondary_color: Color = (1.0, 1.0, 1.0)
+    brush_radius: float = 20.0
+    brush_amplitude: float = 0.5
+    brush_spacing: float = 10.0
+
+
+def _set(items) -> frozenset:
+    return frozenset(tuple(i) if isinstance(i, list) else i for i in items)
+
+
+@dataclass(frozen=True)
+class Selection:
+    """What is selected, by index into the current document.
+
+    Attributes
+    ----------
+    curves : frozenset of int
+        Curves selected whole.
+    control_points : frozenset of (int, int)
+        ``(curve, index)`` anchors and handles.
+    stops : frozenset of (int, str, int)
+        ``(curve, side, index)`` colour stops.
+    points : frozenset of int
+        Diffusion points.
+    """
+
+    curves: frozenset[int] = frozenset()
+    control_points: frozenset[tuple[int, int]] = frozenset()
+    stops: frozenset[tuple[int, str, int]] = frozenset()
+    points: frozenset[int] = frozenset()
+
+    @classmethod
+    def of(cls, curves: Iterable = (), control_points: Iterable = (), stops: Iterable = (),
+           points: Iterable = ()) -> Selection:
+        """A selection of the given items (any iterables)."""
+        return cls(_set(curves), _set(control_points), _set(stops), _set(points))
+
+    @property
+    def empty(self) -> bool:
+        return not (self.curves or self.control_points or self.stops or self.points)
+
+    def active_curves(self) -> frozenset[int]:
+        """Curves shown with their nodes and stops: selected whole or through a part."""
+        return self.curves | {c for c, _ in self.control_points} | {c for c, _, _ in self.stops}
+
+    def __or__(self, other: Selection) -> Selection:
+        return Selection(self.curves | other.curves, self.control_points | other.control_points,
+                         self.stops | other.stops, self.points | other.points)
+
+    def __xor__(self, other: Selection) -> Selection:
+        return Selection(self.curves ^ other.curves, self.control_points ^ other.control_points,
+                         self.stops ^ other.stops, self.points ^ other.points)
+
+    def __le__(self, other: Selection) -> bool:
+        return (self.curves <= other.curves and self.control_points <= other.control_points
+                and self.stops <= other.stops and self.points <= other.points)
+
+    def within(self, document: Document) -> Selection:
+        """This selection without the indices ``document`` does not have."""
+        n = len(document.curves)
+        curves = document.curves
+        return replace(
+            self,
+            curves=frozenset(c for c in self.curves if c < n),
+            control_points=frozenset(
+                (c, i) for c, i in self.control_points if c < n and i < len(curves[c].control_points)
+            ),
+            stops=frozenset((c, s, i) for c, s, i in self.stops if c < n and i < len(getattr(curves[c], s))),
+            points=frozenset(p for p in self.points if p < len(document.points)),
+        )
+
+
+@dataclass(eq=False)
+class ToolContext:
+    """Shared state of the tools of one document view.
+
+    Parameters
+    ----------
+    history : History
+        Where edits go (a drag: ``begin``, ``preview``..., ``commit`` or ``cancel``).
+    sample : callable, optional
+        ``sample(x, y) -> (r, g, b)``: the rendered colour at a document
+        point, for the eyedropper.
+    choose_color : callable, optional
+        ``choose_color(current) -> colour or None``: asks the user for a
+        colour (the ui opens a dialog); None (the default, or the user
+        cancelled) changes nothing.
+    options : ToolOptions
+    selection : Selection
+        Kept within the current document on every change (undo included).
+    zoom : float
+        Screen pixels per document pixel; the view keeps it current.
+    tolerance_px, marker_offset_px, drag_threshold_px : float
+        Hit radius, distance of stop markers from their curve, and how far
+        the pointer must travel before a press becomes a drag, in screen pixels.
+    """
+
+    history: History
+    sample: Sampler = lambda x, y: (0.0, 0.0, 0.0)
+    choose_color: ColorChooser | None = None
+    options: ToolOptions = field(default_factory=ToolOptions)
+    selection: Selection = field(default_factory=Selection)
+    zoom: float = 1.0
+    tolerance_px: float = 6.0
+    marker_offset_px: float = 8.0
+    drag_threshold_px: float = 3.0
+
+    def __post_init__(self) -> None:
+        self._index: CurveIndex | None = None
+        self.history.subscribe(self._follow)
+
+    def _follow(self, before: Document, after: Document) -> None:
+        self.selection = self.selection.within(after)
+
+    @property
+    def document(self) -> Document:
+        """The history's current document (a drag's preview while one is open)."""
+        return self.history.document
+
+    @property
+    def tolerance(self) -> float:
+        """The hit radius in document pixels."""
+        return self.tolerance_px / self.zoom
+
+    @property
+    def marker_offset(self) -> float:
+        """Distance of stop markers from their curve in document pixels."""
+        return self.marker_offset_px / self.zoom
+
+    def curve_index(self) -> CurveIndex:
+        """Nearest-point index of the current document's curves (rebuilt when they change)."""
+        curves = self.document.curves
+        if self._index is None or self._index.curves is not curves:
+            self._index = CurveIndex(curves)
+        return self._index
+
+    def moved_far(self, origin, position) -> bool:
+        """True once ``position`` is at least the drag threshold from ``origin`` on screen."""
+        dx, dy = position[0] - origin[0], position[1] - origin[1]
+        return (dx * dx + dy * dy) ** 0.5 * self.zoom >= self.drag_threshold_px

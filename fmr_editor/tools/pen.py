@@ -1,0 +1,169 @@
+"""The pen: draw a diffusion curve of cubic Bezier pieces, anchor by anchor.
+
+- A click places a corner anchor; a press and drag places a smooth anchor
+  whose outgoing handle follows the pointer and whose incoming handle mirrors
+  it (Alt while dragging leaves the incoming side a corner; Shift keeps the
+  handle at a multiple of 45 degrees).
+- The pieces next to a corner get handles a third of the way along them, so
+  straight pieces are evenly parametrised and every handle can be grabbed.
+- Enter, a double click, or switching tools ends the curve (two anchors at
+  least); a click on the first anchor closes it.  Esc drops the curve being
+  drawn; BackSpace or Delete removes its last anchor.
+- The finished curve is one undo step "Draw Curve" and gets the foreground
+  colour on its left side and the background colour on its right; it is
+  then selected.  Nothing reaches the document before it is finished.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..model import ColorStop, DiffusionCurve, edits
+from .base import Tool
+from .context import Selection, ToolContext
+from .events import BACKSPACE, DELETE, ENTER, ESCAPE, RETURN, PointerEvent
+from .hit import polyline
+from .moving import constrain
+from .overlay import Marker, Polyline
+
+
+@dataclass
+class Anchor:
+    """An anchor being drawn; a handle of None is retracted (a corner on that side)."""
+
+    position: np.ndarray
+    handle_in: np.ndarray | None = None
+    handle_out: np.ndarray | None = None
+
+
+def control_points(anchors: list[Anchor]) -> np.ndarray:
+    """The ``(3k + 1, 2)`` control points through ``anchors`` (at least two).
+
+    A retracted handle goes a third of the way toward the piece's other
+    handle (or anchor, when that is retracted too).
+    """
+    out = [anchors[0].position]
+    for a, b in zip(anchors[:-1], anchors[1:]):
+        far_a = b.handle_in if b.handle_in is not None else b.position
+        far_b = a.handle_out if a.handle_out is not None else a.position
+        first = a.handle_out if a.handle_out is not None else a.position + (far_a - a.position) / 3
+        second = b.handle_in if b.handle_in is not None else b.position + (far_b - b.position) / 3
+        out += [first, second, b.position]
+    return np.array(out, dtype=np.float64)
+
+
+class PenTool(Tool):
+    """Draw Bezier curves."""
+
+    name = "pen"
+    title = "Pen"
+    shortcut = "P"
+    cursor = "pen"
+
+    def __init__(self, context: ToolContext) -> None:
+        super().__init__(context)
+        self.anchors: list[Anchor] = []
+        self.dragging: Anchor | None = None  # the anchor whose handles the held pointer sets
+        self.pressed_at: tuple[float, float] | None = None
+        self.closing = False
+
+    @property
+    def busy(self) -> bool:
+        return bool(self.anchors)
+
+    # -- events ------------------------------------------------------------------------------
+    def press(self, event: PointerEvent) -> None:
+        self.pointer = event.position
+        if event.button != "left" or self.dragging is not None:
+            return
+        if event.clicks == 2:  # the first click of the double click placed the last anchor
+            self.finish()
+            return
+        p = np.array(event.position)
+        self.pressed_at = event.position
+        if len(self.anchors) >= 2 and np.hypot(*(p - self.anchors[0].position)) <= self.context.tolerance:
+            self.closing = True
+            self.dragging = Anchor(self.anchors[0].position.copy())
+        else:
+            self.dragging = Anchor(p)
+        self.anchors.append(self.dragging)
+
+    def move(self, event: PointerEvent) -> None:
+        self.pointer = event.position
+        anchor = self.dragging
+        if anchor is None or not (anchor.handle_out is not None
+                                  or self.context.moved_far(self.pressed_at, event.position)):
+            return
+        offset = np.array(event.position) - anchor.position
+        if event.shift:
+            offset = np.array(constrain(tuple(offset)))
+        if self.closing:  # the drag shapes the closing joint: first anchor's out handle, mirrored in
+            self.anchors[0].handle_out = anchor.position + offset
+            anchor.handle_in = anchor.position - offset
+            return
+        anchor.handle_out = anchor.position + offset
+        anchor.handle_in = None if event.alt else anchor.position - offset
+
+    def release(self, event: PointerEvent) -> None:
+        self.pointer = event.position
+        if self.dragging is None or event.button not in ("left", "none"):
+            return
+        self.dragging = None
+        if self.closing:
+            self.finish()
+
+    def key(self, name: str, modifiers: frozenset[str] = frozenset()) -> bool:
+        if not self.anchors:
+            return False
+        if name == ESCAPE:
+            self.cancel()
+        elif name in (RETURN, ENTER):
+            self.finish()
+        elif name in (BACKSPACE, DELETE) and self.dragging is None:
+            self.anchors.pop()
+        else:
+            return False
+        return True
+
+    def cancel(self) -> None:
+        """Drop the curve being drawn."""
+        self.anchors, self.dragging, self.closing = [], None, False
+
+    def finish(self) -> None:
+        """Add the curve being drawn (two anchors at least) as the step "Draw Curve"."""
+        anchors = self.anchors
+        self.cancel()
+        if len(anchors) < 2:
+            return
+        context = self.context
+        options = context.options
+        curve = DiffusionCurve(
+            control_points(anchors),
+            left=(ColorStop(0.0, tuple(float(v) for v in options.color)),),
+            right=(ColorStop(0.0, tuple(float(v) for v in options.secondary_color)),),
+        )
+        context.history.apply(edits.add_curve(context.document, curve), "Draw Curve")
+        context.selection = Selection.of(curves=[len(context.document.curves) - 1])
+
+    # -- drawing -----------------------------------------------------------------------------
+    def draw(self) -> list:
+        anchors = list(self.anchors)
+        if not anchors:
+            return []
+        out: list = []
+        if self.dragging is None and self.pointer is not None:  # the piece the next click would add
+            preview = anchors + [Anchor(np.array(self.pointer))]
+            points = control_points(preview)[-4:]
+            out.append(Polyline(polyline(DiffusionCurve(points)), "preview"))
+        if len(anchors) >= 2:
+            out.append(Polyline(polyline(DiffusionCurve(control_points(anchors))), "selected"))
+        for i, anchor in enumerate(anchors):
+            out.append(Marker(tuple(map(float, anchor.position)), "anchor", i == len(anchors) - 1))
+        last = anchors[-1]
+        for handle in (last.handle_in, last.handle_out):
+            if handle is not None:
+                out.append(Polyline(np.array([last.position, handle]), "handle"))
+                out.append(Marker(tuple(map(float, handle)), "handle"))
+        return out
