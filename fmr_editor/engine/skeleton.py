@@ -120,6 +120,8 @@ class CollocationEntries:
 
 #: Nonzeros in each column of a ``SparseSign`` (Martinsson and Tropp recommend 8).
 SPARSE_SIGNS = 8
+#: Sketch rows beyond the columns (the largest rank possible) in ``interpolative``.
+SKETCH_OVERSAMPLING = 16
 
 
 @numba.njit(inline="always")
@@ -195,11 +197,12 @@ def interpolative(
     """
     rows, columns = matrix.shape
     if sketch is not None and rows > 4 * columns:
-        # A random sketch with twice as many rows as columns keeps the
-        # column relations, well conditioned, and turns a tall pivoted QR
-        # into one matrix product (with a Gaussian, measured 2-3x faster;
-        # a sparse sign matrix is cheaper still).
-        matrix = sketch(2 * columns, rows) @ matrix
+        # A random sketch with a few more rows than the rank can be keeps the
+        # column relations and turns a tall pivoted QR into one matrix
+        # product (with a Gaussian, measured 2-3x faster; a sparse sign
+        # matrix is cheaper still).  Twice as many rows as columns cost 15-25%
+        # more in all on fruits and roses, for 10-30% smaller errors.
+        matrix = sketch(min(2 * columns, columns + SKETCH_OVERSAMPLING), rows) @ matrix
     r_factor, order, rank = _pivoted_qr(matrix, tolerance)
     T = scipy.linalg.solve_triangular(r_factor[:rank, :rank], r_factor[:rank, rank:], check_finite=False)
     return order[:rank], order[rank:], T
