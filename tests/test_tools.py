@@ -11,7 +11,7 @@ from fmr_editor.tools import (
     TOOLS, BrushTool, EyedropperTool, PenTool, PointerEvent, SelectTool, Selection, StopsTool,
     ToolContext, create_tools, recolor_stops,
 )
-from fmr_editor.tools.overlay import Circle, Marker, Polyline, Rectangle
+from fmr_editor.tools.overlay import Circle, Markers, Polyline, Rectangle
 
 from shapes import straight_chain
 
@@ -518,7 +518,9 @@ def test_eyedropper_sets_the_colour_from_the_sampler_and_never_the_document(line
     assert context.options.secondary_color == (0.6, 0.1, 0.5) and context.options.color == (0.3, 0.4, 0.5)
     drag(tool, [(10, 10), (90, 90)], release=False)
     assert context.options.color == (0.9, 0.9, 0.5)
-    assert any(isinstance(p, Marker) and p.kind == "sample" for p in tool.overlay())
+    (sample,) = [p for p in tool.overlay() if isinstance(p, Markers) and p.kind == "sample"]
+    np.testing.assert_allclose(sample.positions, [(90, 90)])
+    np.testing.assert_allclose(sample.colors, [(0.9, 0.9, 0.5)])
     assert tool.key("Escape")
     assert context.options.color == (0.3, 0.4, 0.5)
     assert context.document is line_doc and context.history.index == 0
@@ -539,3 +541,62 @@ def test_pointer_events_reject_unknown_buttons_and_modifiers():
     with pytest.raises(ValueError):
         PointerEvent((0, 0), modifiers=frozenset({"meta"}))
     assert PointerEvent((1, 2), modifiers={"shift"}).shift
+
+
+def test_pen_pressing_the_last_anchor_again_pulls_out_its_handle_and_adds_no_piece():
+    context = make_context(Document(100, 100))
+    pen = PenTool(context)
+    click(pen, 10, 10)
+    click(pen, 50, 10)
+    click(pen, 51, 11)  # a second click on the last anchor: no zero-length piece
+    drag(pen, [(50, 10), (60, 30)])  # pulls its outgoing handle out
+    click(pen, 90, 10)
+    pen.finish()
+    points = context.document.curves[0].control_points
+    assert context.document.curves[0].piece_count == 2
+    np.testing.assert_allclose(points[[2, 4]], [(50 - 40 / 3, 10), (60, 30)])  # in side stays a corner
+
+
+def test_the_ends_of_a_closed_curve_move_together():
+    context = make_context(Document(100, 100))
+    pen = PenTool(context)
+    for x, y in [(10, 10), (60, 10), (60, 60), (10, 10)]:
+        click(pen, x, y)
+    before = context.document.curves[0].control_points
+    context.selection = Selection.of(control_points=[(0, 0)])
+    drag(SelectTool(context), [(10, 10), (20, 5)])
+    points = context.document.curves[0].control_points
+    np.testing.assert_allclose(points[[0, -1]], [(20, 5), (20, 5)])
+    np.testing.assert_allclose(points[[1, -2]] - before[[1, -2]], [(10, -5), (10, -5)])
+    np.testing.assert_array_equal(points[2:-2], before[2:-2])
+    assert context.history.labels == ("", "Draw Curve", "Move Anchor")
+
+
+def test_select_overlay_shows_the_selected_curve_with_nodes_and_stops_on_their_sides(line_doc):
+    context = make_context(line_doc)
+    tool = SelectTool(context)
+    click(tool, 30, 50)
+    click(tool, 50, 50)  # the middle anchor
+    marks = {p.kind: p for p in tool.overlay() if isinstance(p, Markers)}
+    np.testing.assert_allclose(marks["anchor"].positions, [(20, 50), (50, 50), (80, 50)])
+    assert marks["anchor"].selected.tolist() == [False, True, False]
+    assert len(marks["handle"].positions) == 4 and not marks["handle"].selected.any()
+    # left stop (red, s = 0.5) above the line, right stop (blue, s = 1) below: 8 screen pixels off
+    np.testing.assert_allclose(marks["stop"].positions, [(35, 42), (50, 58)])
+    np.testing.assert_allclose(marks["stop"].colors, [RED, BLUE])
+    context.zoom = 2.0
+    np.testing.assert_allclose(
+        [p for p in tool.overlay() if isinstance(p, Markers) and p.kind == "stop"][0].positions, [(35, 46), (50, 54)]
+    )
+
+
+def test_stops_tool_shows_where_a_click_would_add_a_stop():
+    context = make_context(Document(100, 100, (line_curve(),)))
+    context.options.color = GREEN
+    tool = StopsTool(context)
+    tool.move(event(65, 53, button="none"))  # below a rightward line: its right side
+    (ghost,) = [p for p in tool.overlay() if isinstance(p, Markers)]
+    np.testing.assert_allclose(ghost.positions, [(65, 58)])
+    np.testing.assert_allclose(ghost.colors, [GREEN])
+    tool.move(event(65, 80, button="none"))
+    assert not any(isinstance(p, Markers) for p in tool.overlay())

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field, replace
 from ..model import Document
 from ..model.curve import Color
 from ..model.history import History
-from .hit import CurveIndex
+from .hit import CurveIndex, CurveSet
 
 Sampler = Callable[[float, float], Color]
 ColorChooser = Callable[[Color], "Color | None"]
@@ -148,6 +148,7 @@ class ToolContext:
 
     def __post_init__(self) -> None:
         self._index: CurveIndex | None = None
+        self._sets: tuple[tuple, dict[tuple[int, ...], CurveSet]] = ((), {})
         self.history.subscribe(self._follow)
 
     def _follow(self, before: Document, after: Document) -> None:
@@ -174,6 +175,19 @@ class ToolContext:
         if self._index is None or self._index.curves is not curves:
             self._index = CurveIndex(curves)
         return self._index
+
+    def curve_set(self, ids) -> CurveSet:
+        """The current document's curves ``ids`` with outlines and stop markers (cached until they change)."""
+        curves = self.document.curves
+        key = tuple(sorted(ids))
+        if self._sets[0] is not curves:
+            self._sets = (curves, {})
+        cache = self._sets[1]
+        if key not in cache:
+            if len(cache) >= 4:
+                cache.clear()
+            cache[key] = CurveSet(self.document, key)
+        return cache[key]
 
     def moved_far(self, origin, position) -> bool:
         """True once ``position`` is at least the drag threshold from ``origin`` on screen."""

@@ -10,7 +10,7 @@ from __future__ import annotations
 from .base import Drag, Tool
 from .context import ToolContext
 from .events import PointerEvent
-from .overlay import Marker
+from .overlay import Markers
 
 
 class Sampling(Drag):
@@ -34,7 +34,7 @@ class Sampling(Drag):
         setattr(self.context.options, self.attribute, self.before)
 
     def overlay(self) -> list:
-        return [Marker(self.position, "sample", False, getattr(self.context.options, self.attribute))]
+        return [Markers.of([self.position], "sample", colors=[getattr(self.context.options, self.attribute)])]
 
 
 class EyedropperTool(Tool):

@@ -79,6 +79,38 @@ class CurveIndex:
             self.pieces = np.zeros((0, 4, 2))
             self.owner = self.number = np.zeros(0, dtype=np.int64)
         self.low, self.high = self.pieces.min(axis=1), self.pieces.max(axis=1)  # hull boxes
+        self.counts = np.array([c.piece_count for c in self.curves], dtype=np.int64)
+        self.first = np.cumsum(self.counts) - self.counts  # each curve's first row
+
+    def evaluate(self, curve, s) -> tuple[np.ndarray, np.ndarray]:
+        """Points and unit tangents of curves ``curve`` (indices into ``curves``) at positions ``s``."""
+        curve = np.asarray(curve, dtype=np.int64)
+        k = self.counts[curve]
+        s = np.clip(np.asarray(s, dtype=np.float64), 0.0, k)
+        piece = np.minimum(np.floor(s).astype(np.int64), k - 1)
+        pieces, t = self.pieces[self.first[curve] + piece], s - piece
+        return bezier(pieces, t[:, None])[:, 0], unit_tangents(pieces, t)
+
+    def stop_markers(self, offset: float) -> list[tuple[int, str, int, np.ndarray]]:
+        """``(curve, side, index, marker position)`` of every stop, ``offset`` pixels off its curve."""
+        keys = [(c, side, i, stop.position) for c, curve in enumerate(self.curves)
+                for side in ("left", "right") for i, stop in enumerate(getattr(curve, side))]
+        if not keys:
+            return []
+        owner, sides, _, s = zip(*keys)
+        points, tangent = self.evaluate(owner, s)
+        sign = np.where(np.array(sides) == "left", 1.0, -1.0)[:, None]
+        markers = points + sign * offset * np.stack([tangent[:, 1], -tangent[:, 0]], axis=1)
+        return [(c, side, i, marker) for (c, side, i, _), marker in zip(keys, markers)]
+
+    def outlines(self, per_piece: int = 24) -> list[np.ndarray]:
+        """Each curve sampled evenly in each piece's parameter, ``(per_piece * k + 1, 2)`` apiece."""
+        grid = np.linspace(0.0, 1.0, per_piece + 1)
+        samples = bezier(self.pieces, np.broadcast_to(grid, (len(self.pieces), len(grid))))
+        return [
+            np.concatenate([samples[a : a + k, :-1].reshape(-1, 2), samples[a + k - 1, -1:]])
+            for a, k in zip(self.first, self.counts)
+        ]
 
     def nearest(self, point, tolerance: float = np.inf, only: Iterable[int] | None = None) -> CurveHit | None:
         """The curve point nearest to ``point`` within ``tolerance``, or None.
@@ -110,6 +142,49 @@ class CurveIndex:
         return CurveHit(int(self.owner[row]), s, foot, float(distance[best]), side_of(curve, s, p))
 
 
+class CurveSet:
+    """Some curves of a document, by document index, with their outlines and stop markers (computed once).
+
+    Parameters
+    ----------
+    document : Document
+    ids : iterable of int
+        Indices of the curves in ``document``.
+    """
+
+    def __init__(self, document: Document, ids: Iterable[int]) -> None:
+        self.ids = tuple(sorted(ids))
+        self.index = CurveIndex([document.curves[c] for c in self.ids])
+        self._markers: dict[float, list] = {}
+        self._outlines: dict[int, np.ndarray] | None = None
+        self._control: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+
+    def control_points(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """All the curves' control points ``(n, 2)``, with each one's curve (document index) and index."""
+        if self._control is None:
+            curves = self.index.curves
+            if curves:
+                points = np.concatenate([c.control_points for c in curves])
+                owner = np.repeat(np.array(self.ids), [len(c.control_points) for c in curves])
+                index = np.concatenate([np.arange(len(c.control_points)) for c in curves])
+            else:
+                points, owner, index = np.zeros((0, 2)), np.zeros(0, np.int64), np.zeros(0, np.int64)
+            self._control = (points, owner, index)
+        return self._control
+
+    def outlines(self) -> dict[int, np.ndarray]:
+        """Sampled outline of each curve, by document index."""
+        if self._outlines is None:
+            self._outlines = dict(zip(self.ids, self.index.outlines()))
+        return self._outlines
+
+    def stop_markers(self, offset: float) -> list[tuple[int, str, int, np.ndarray]]:
+        """``(curve, side, index, marker position)`` of the curves' stops, by document index."""
+        if offset not in self._markers:
+            self._markers[offset] = [(self.ids[c], side, i, m) for c, side, i, m in self.index.stop_markers(offset)]
+        return self._markers[offset]
+
+
 def _refine(pieces: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Parameter and distance of each piece's point nearest to ``p``: sample, then Newton steps."""
     grid = np.linspace(0.0, 1.0, SAMPLES + 1)
@@ -132,22 +207,25 @@ def _refine(pieces: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.where(better, t, t0), np.where(better, refined, sampled)
 
 
-def tangent(curve: DiffusionCurve, s: float) -> np.ndarray:
-    """Unit tangent of ``curve`` at position ``s`` (along increasing s)."""
-    k = curve.piece_count
-    piece = min(int(np.floor(s)), k - 1)
-    first, _ = _derivatives(curve.pieces()[piece : piece + 1], np.array([s - piece]))
-    direction = first[0]
-    if np.hypot(*direction) < 1e-9:  # a retracted handle: use a short chord
-        ends = curve.point_at(np.array([max(s - 1e-3, 0.0), min(s + 1e-3, k)]))
-        direction = ends[1] - ends[0]
-    length = np.hypot(*direction)
-    return direction / length if length > 0 else np.array([1.0, 0.0])
+def unit_tangents(pieces: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Unit tangents of pieces ``(n, 4, 2)`` at one ``t`` each, ``(n, 2)``.
+
+    Where the derivative vanishes (a retracted handle) a short chord inside
+    the piece gives the direction; a piece shrunk to a point gives ``(1, 0)``.
+    """
+    direction, _ = _derivatives(pieces, t)
+    flat = np.hypot(*direction.T) < 1e-9
+    if flat.any():
+        ends = [bezier(pieces[flat], np.clip(t[flat] + d, 0.0, 1.0)[:, None])[:, 0] for d in (-1e-3, 1e-3)]
+        direction[flat] = ends[1] - ends[0]
+    length = np.hypot(*direction.T)[:, None]
+    return np.where(length > 0, direction / np.where(length > 0, length, 1.0), [1.0, 0.0])
 
 
 def left_normal(curve: DiffusionCurve, s: float) -> np.ndarray:
     """Unit normal at ``s`` pointing into the curve's left side: ``(t_y, -t_x)`` with y down."""
-    t = tangent(curve, s)
+    piece = min(int(np.floor(s)), curve.piece_count - 1)
+    t = unit_tangents(curve.pieces()[piece : piece + 1], np.array([s - piece]))[0]
     return np.array([t[1], -t[0]])
 
 
@@ -193,26 +271,14 @@ def nearest_control_point(document: Document, curves: Iterable[int], point, tole
     return best
 
 
-def stop_markers(curve: DiffusionCurve, offset: float) -> list[tuple[str, int, np.ndarray]]:
-    """``(side, index, marker position)`` of every stop of ``curve``."""
-    return [
-        (side, i, stop_marker(curve, side, stop.position, offset))
-        for side in ("left", "right")
-        for i, stop in enumerate(getattr(curve, side))
-    ]
-
-
-def nearest_stop(document: Document, curves: Iterable[int], point, tolerance: float,
-                 offset: float) -> tuple[int, str, int] | None:
-    """``(curve, side, index)`` of the stop marker of ``curves`` nearest to ``point``, or None."""
-    best, best_distance = None, tolerance
-    p = np.asarray(point, dtype=np.float64)
-    for c in sorted(curves):
-        for side, i, marker in stop_markers(document.curves[c], offset):
-            distance = float(np.hypot(*(marker - p)))
-            if distance <= best_distance:
-                best, best_distance = (c, side, i), distance
-    return best
+def nearest_stop(markers: list[tuple[int, str, int, np.ndarray]], point,
+                 tolerance: float) -> tuple[int, str, int] | None:
+    """``(curve, side, index)`` of the marker (``CurveIndex.stop_markers``) nearest to ``point``, or None."""
+    if not markers:
+        return None
+    distance = np.hypot(*(np.array([m[3] for m in markers]) - np.asarray(point, dtype=np.float64)).T)
+    best = int(np.argmin(distance))
+    return markers[best][:3] if distance[best] <= tolerance else None
 
 
 def nearest_point(document: Document, point, tolerance: float) -> int | None:

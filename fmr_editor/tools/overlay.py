@@ -14,8 +14,7 @@ import numpy as np
 
 from ..model import Document
 from ..model.curve import Color
-from .context import Selection
-from .hit import polyline, stop_markers
+from .context import Selection, ToolContext
 
 ROLES = ("selected", "hover", "preview", "handle", "rubber-band", "brush")
 
@@ -29,25 +28,43 @@ class Polyline:
     closed: bool = False
 
 
-@dataclass(frozen=True)
-class Marker:
-    """A fixed-size mark at ``position``.
+@dataclass(frozen=True, eq=False)
+class Segments:
+    """Separate line segments ``(n, 2, 2)`` (e.g. handle lines from anchors to handles)."""
+
+    ends: np.ndarray
+    role: str = "handle"
+
+
+@dataclass(frozen=True, eq=False)
+class Markers:
+    """Fixed-size marks of one kind at ``positions``.
 
     Attributes
     ----------
+    positions : numpy.ndarray
+        ``(n, 2)`` document pixels.
     kind : str
         ``"anchor"`` (square), ``"handle"`` (round), ``"stop"`` (filled with
-        ``color``), ``"point"`` (a diffusion point's centre), ``"sample"``
-        (the eyedropper's pick, filled with ``color``).
-    selected : bool
-    color : tuple of float or None
-        The stop's or point's colour.
+        its colour), ``"point"`` (a diffusion point's centre), ``"sample"``
+        (the eyedropper's pick, filled with its colour).
+    selected : numpy.ndarray
+        ``(n,)`` booleans.
+    colors : numpy.ndarray or None
+        ``(n, 3)`` fill colours (stops, points, samples).
     """
 
-    position: tuple[float, float]
+    positions: np.ndarray
     kind: str
-    selected: bool = False
-    color: Color | None = None
+    selected: np.ndarray
+    colors: np.ndarray | None = None
+
+    @classmethod
+    def of(cls, positions, kind: str, selected=None, colors=None) -> Markers:
+        """Markers from sequences; none selected unless ``selected`` says so."""
+        positions = np.asarray(positions, dtype=np.float64).reshape(-1, 2)
+        chosen = np.zeros(len(positions), bool) if selected is None else np.asarray(selected, bool)
+        return cls(positions, kind, chosen, None if colors is None else np.asarray(colors, np.float64).reshape(-1, 3))
 
 
 @dataclass(frozen=True)
@@ -68,50 +85,46 @@ class Circle:
     role: str = "brush"
 
 
-def _xy(p) -> tuple[float, float]:
-    return (float(p[0]), float(p[1]))
-
-
-def curve_marks(document: Document, curves: Iterable[int], selection: Selection, offset: float,
-                nodes: bool = True, stops: bool = True, role: str = "selected") -> list:
-    """Outline, control polygon, anchors, handles and stop markers of ``curves``.
+def curve_marks(context: ToolContext, curves: Iterable[int], nodes: bool = True, stops: bool = True,
+                role: str = "selected") -> list:
+    """Outlines, handle lines, anchors, handles and stop markers of ``curves``.
 
     Parameters
     ----------
-    offset : float
-        Stop markers' distance from the curve, document pixels.
+    context : ToolContext
+        The document, the selection (drawn selected) and the stop markers' offset.
+    curves : iterable of int
     nodes, stops : bool
         Whether to show control points and stop markers.
     role : str
-        The outline's role ("selected" or "hover").
+        The outlines' role ("selected" or "hover").
     """
-    out: list = []
-    for c in sorted(curves):
-        curve = document.curves[c]
-        out.append(Polyline(polyline(curve), role))
-        if nodes:
-            control = curve.control_points
-            for i in range(0, len(control) - 1, 3):  # handle lines: anchor to its handles
-                out.append(Polyline(control[i : i + 2].copy(), "handle"))
-                out.append(Polyline(control[i + 2 : i + 4].copy(), "handle"))
-            out += [
-                Marker(_xy(p), "handle" if i % 3 else "anchor", (c, i) in selection.control_points)
-                for i, p in enumerate(control)
-            ]
-        if stops:
-            out += [
-                Marker(_xy(position), "stop", (c, side, i) in selection.stops, getattr(curve, side)[i].color)
-                for side, i, position in stop_markers(curve, offset)
-            ]
+    shown = context.curve_set(curves)
+    document, selection = context.document, context.selection
+    out: list = [Polyline(line, role) for line in shown.outlines().values()]
+    if nodes and shown.ids:
+        points, owner, index = shown.control_points()
+        handle = index % 3 != 0
+        own_anchor = np.flatnonzero(handle) - index[handle] + 3 * ((index[handle] + 1) // 3)
+        out.append(Segments(np.stack([points[own_anchor], points[handle]], axis=1), "handle"))
+        chosen = np.array([(int(c), int(i)) in selection.control_points for c, i in zip(owner, index)], bool)
+        out.append(Markers(points[handle], "handle", chosen[handle]))
+        out.append(Markers(points[~handle], "anchor", chosen[~handle]))
+    markers = shown.stop_markers(context.marker_offset) if stops else []
+    if markers:
+        out.append(Markers.of(
+            [m[3] for m in markers], "stop", [m[:3] in selection.stops for m in markers],
+            [getattr(document.curves[c], side)[i].color for c, side, i, _ in markers],
+        ))
     return out
 
 
 def point_marks(document: Document, selection: Selection) -> list:
     """Centres of all diffusion points, and the radius of the selected ones."""
-    out: list = []
-    for i, point in enumerate(document.points):
-        chosen = i in selection.points
-        out.append(Marker(point.position, "point", chosen, point.color))
-        if chosen:
-            out.append(Circle(point.position, point.radius, "selected"))
+    if not document.points:
+        return []
+    points = document.points
+    out: list = [Markers.of([p.position for p in points], "point", [i in selection.points for i in range(len(points))],
+                            [p.color for p in points])]
+    out += [Circle(points[i].position, points[i].radius, "selected") for i in sorted(selection.points)]
     return out

@@ -7,7 +7,8 @@
 - The pieces next to a corner get handles a third of the way along them, so
   straight pieces are evenly parametrised and every handle can be grabbed.
 - Enter, a double click, or switching tools ends the curve (two anchors at
-  least); a click on the first anchor closes it.  Esc drops the curve being
+  least); a click on the first anchor closes it.  Pressing the last anchor
+  again adds no anchor: dragging from it pulls out its outgoing handle.  Esc drops the curve being
   drawn; BackSpace or Delete removes its last anchor.
 - The finished curve is one undo step "Draw Curve" and gets the foreground
   colour on its left side and the background colour on its right; it is
@@ -26,7 +27,7 @@ from .context import Selection, ToolContext
 from .events import BACKSPACE, DELETE, ENTER, ESCAPE, RETURN, PointerEvent
 from .hit import polyline
 from .moving import constrain
-from .overlay import Marker, Polyline
+from .overlay import Markers, Polyline, Segments
 
 
 @dataclass
@@ -68,6 +69,8 @@ class PenTool(Tool):
         self.dragging: Anchor | None = None  # the anchor whose handles the held pointer sets
         self.pressed_at: tuple[float, float] | None = None
         self.closing = False
+        self.reshaping = False  # dragging the last anchor's outgoing handle out again
+        self.moved = False  # the held pointer has passed the drag threshold
 
     @property
     def busy(self) -> bool:
@@ -82,20 +85,27 @@ class PenTool(Tool):
             self.finish()
             return
         p = np.array(event.position)
-        self.pressed_at = event.position
-        if len(self.anchors) >= 2 and np.hypot(*(p - self.anchors[0].position)) <= self.context.tolerance:
+        self.pressed_at, self.moved = event.position, False
+        if self.anchors and self.near(self.anchors[-1], p):  # no zero-length piece: reshape the last anchor
+            self.reshaping = True
+            self.dragging = self.anchors[-1]
+            return
+        if len(self.anchors) >= 2 and self.near(self.anchors[0], p):
             self.closing = True
             self.dragging = Anchor(self.anchors[0].position.copy())
         else:
             self.dragging = Anchor(p)
         self.anchors.append(self.dragging)
 
+    def near(self, anchor: Anchor, p: np.ndarray) -> bool:
+        return bool(np.hypot(*(p - anchor.position)) <= self.context.tolerance)
+
     def move(self, event: PointerEvent) -> None:
         self.pointer = event.position
         anchor = self.dragging
-        if anchor is None or not (anchor.handle_out is not None
-                                  or self.context.moved_far(self.pressed_at, event.position)):
+        if anchor is None or not (self.moved or self.context.moved_far(self.pressed_at, event.position)):
             return
+        self.moved = True
         offset = np.array(event.position) - anchor.position
         if event.shift:
             offset = np.array(constrain(tuple(offset)))
@@ -104,13 +114,15 @@ class PenTool(Tool):
             anchor.handle_in = anchor.position - offset
             return
         anchor.handle_out = anchor.position + offset
+        if self.reshaping:
+            return
         anchor.handle_in = None if event.alt else anchor.position - offset
 
     def release(self, event: PointerEvent) -> None:
         self.pointer = event.position
         if self.dragging is None or event.button not in ("left", "none"):
             return
-        self.dragging = None
+        self.dragging, self.reshaping, self.moved = None, False, False
         if self.closing:
             self.finish()
 
@@ -129,7 +141,7 @@ class PenTool(Tool):
 
     def cancel(self) -> None:
         """Drop the curve being drawn."""
-        self.anchors, self.dragging, self.closing = [], None, False
+        self.anchors, self.dragging, self.closing, self.reshaping = [], None, False, False
 
     def finish(self) -> None:
         """Add the curve being drawn (two anchors at least) as the step "Draw Curve"."""
@@ -159,11 +171,11 @@ class PenTool(Tool):
             out.append(Polyline(polyline(DiffusionCurve(points)), "preview"))
         if len(anchors) >= 2:
             out.append(Polyline(polyline(DiffusionCurve(control_points(anchors))), "selected"))
-        for i, anchor in enumerate(anchors):
-            out.append(Marker(tuple(map(float, anchor.position)), "anchor", i == len(anchors) - 1))
+        last_one = np.arange(len(anchors)) == len(anchors) - 1
+        out.append(Markers.of([a.position for a in anchors], "anchor", last_one))
         last = anchors[-1]
-        for handle in (last.handle_in, last.handle_out):
-            if handle is not None:
-                out.append(Polyline(np.array([last.position, handle]), "handle"))
-                out.append(Marker(tuple(map(float, handle)), "handle"))
+        handles = [h for h in (last.handle_in, last.handle_out) if h is not None]
+        if handles:
+            out.append(Segments(np.array([(last.position, h) for h in handles]), "handle"))
+            out.append(Markers.of(handles, "handle"))
         return out

@@ -66,7 +66,7 @@ def banded(context: ToolContext, corner, opposite) -> Selection:
     """What a rubber band from ``corner`` to ``opposite`` selects."""
     document = context.document
     points = [i for i, ok in enumerate(inside(corner, opposite, [p.position for p in document.points])) if ok]
-    curves = [i for i, c in enumerate(document.curves) if inside(corner, opposite, polyline(c, 8)).all()]
+    curves = [i for i, c in enumerate(document.curves) if _wholly_inside(c, corner, opposite)]
     shown = context.selection.active_curves() - set(curves)
     control = [
         (c, int(i))
@@ -74,6 +74,16 @@ def banded(context: ToolContext, corner, opposite) -> Selection:
         for i in np.flatnonzero(inside(corner, opposite, document.curves[c].control_points))
     ]
     return Selection.of(curves, control, (), points)
+
+
+def _wholly_inside(curve, corner, opposite) -> bool:
+    """Whether ``curve`` lies inside the rectangle (its hull first, then its outline)."""
+    control = curve.control_points
+    if inside(corner, opposite, control).all():  # the curve lies in its control points' hull
+        return True
+    if not inside(corner, opposite, control[::3]).all():  # anchors lie on the curve
+        return False
+    return bool(inside(corner, opposite, polyline(curve, 8)).all())
 
 
 class SelectTool(Tool):
@@ -151,7 +161,7 @@ class SelectTool(Tool):
         context = self.context
         document = context.document
         out = point_marks(document, context.selection)
-        out += curve_marks(document, context.selection.active_curves(), context.selection, context.marker_offset)
+        out += curve_marks(context, context.selection.active_curves())
         if self.drag is None and self.pointer is not None:
             found = self.under(self.pointer)
             if found is not None and found[0] == "curve" and found[1].curve not in context.selection.active_curves():

@@ -20,7 +20,7 @@ from .base import Drag, EditDrag, Tool
 from .context import Selection, ToolContext
 from .events import BACKSPACE, DELETE, PointerEvent
 from .hit import CurveIndex, nearest_stop, stop_marker
-from .overlay import Marker, curve_marks
+from .overlay import Markers, curve_marks
 
 
 def find_stop(document: Document, curve: int, side: str, position: float, color) -> int:
@@ -65,7 +65,7 @@ def pick_stop_color(context: ToolContext, stop: tuple[int, str, int]) -> bool:
 
 def stop_under(context: ToolContext, position, curves) -> tuple[int, str, int] | None:
     """The stop whose marker is under ``position``, among ``curves``."""
-    return nearest_stop(context.document, curves, position, context.tolerance, context.marker_offset)
+    return nearest_stop(context.curve_set(curves).stop_markers(context.marker_offset), position, context.tolerance)
 
 
 class StopsTool(Tool):
@@ -121,12 +121,11 @@ class StopsTool(Tool):
     def draw(self) -> list:
         context = self.context
         document = context.document
-        out = curve_marks(document, self.shown_curves(self.pointer), context.selection,
-                          context.marker_offset, nodes=False)
+        out = curve_marks(context, self.shown_curves(self.pointer), nodes=False)
         if self.drag is None and self.pointer is not None:
             stop = stop_under(context, self.pointer, self.shown_curves(self.pointer))
             hit = context.curve_index().nearest(self.pointer, self.reach())
             if stop is None and hit is not None:  # where a click would add a stop
                 where = stop_marker(document.curves[hit.curve], hit.side, hit.s, context.marker_offset)
-                out.append(Marker((float(where[0]), float(where[1])), "stop", False, context.options.color))
+                out.append(Markers.of([where], "stop", colors=[context.options.color]))
         return out
