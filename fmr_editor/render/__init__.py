@@ -1,0 +1,13 @@
+"""The only user of OpenGL: the canvas's shader renderer and its small GL wrappers.
+
+``CanvasRenderer`` evaluates a representation per window pixel in
+``shaders/canvas.frag`` (any zoom stays sharp) and re-evaluates only what
+changed; ``View`` is the pan and zoom.  Nothing here imports Qt: the caller
+owns the OpenGL context and makes it current.
+"""
+
+from .canvas_renderer import CanvasRenderer
+from .gl import ShaderError
+from .view import View
+
+__all__ = ["CanvasRenderer", "ShaderError", "View"]

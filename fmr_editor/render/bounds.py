@@ -1,0 +1,78 @@
+"""Bounds on how much a cell's pixels moved, so a view re-evaluates only what shows (numpy only).
+
+The engine reports a cell changed once its far field moved by about 1e-7;
+a colour edit moves nearly every cell by that much (the solve is global),
+but most by far less than the eye or an 8-bit pixel can see.  These bounds
+let the renderer re-evaluate only the cells whose pixels may have moved by
+more than a tolerance, while it uploads every reported change.
+
+For a cell, with ``|xi|, |eta| <= 1/2`` inside it:
+
+- far field, harmonic form: ``|Re dK_l z^l| <= |dK_l| 2^(-l/2)``; tensor form:
+  ``|dc_ij xi^i eta^j| <= |dc_ij| 2^(-i-j)``;
+- near field: a segment of length ``h`` in the 3x3 block changes a pixel by at
+  most ``|dE| max|S| + |dC| / 2``, ``|S| <= (h ln+ R + 2m (1 - ln m)) / 2pi``
+  with ``R = 2 sqrt(2)`` cells the farthest a pixel of the cell gets from its
+  block and ``m = min(h / 2, 1)`` (the logarithm's integrable singularity).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..engine import Representation
+
+
+def far_bound(delta: np.ndarray, order: int, harmonic: bool) -> np.ndarray:
+    """Largest change of any channel of a cell's far field, ``(m,)``, from packed coefficient changes.
+
+    Parameters
+    ----------
+    delta : numpy.ndarray
+        ``(m, floats)`` changes of cells' packed coefficients (``packing.cell_coefficients``, one row a cell).
+    order : int
+    harmonic : bool
+    """
+    delta = np.abs(np.asarray(delta, np.float64))
+    terms = order + 1
+    if harmonic:
+        k = delta[:, : 6 * terms].reshape(-1, terms, 2, 3)
+        size = np.hypot(k[:, :, 0], k[:, :, 1])  # (m, l, channel)
+        weight = 2.0 ** (-0.5 * np.arange(terms))
+    else:
+        size = delta[:, : 3 * terms**2].reshape(-1, terms**2, 3)
+        degree = np.add.outer(np.arange(terms), np.arange(terms)).ravel()
+        weight = 2.0 ** (-degree.astype(np.float64))
+    return (size * weight[None, :, None]).sum(axis=1).max(axis=1, initial=0.0)
+
+
+def single_layer_bound(length: np.ndarray, cell_size: float) -> np.ndarray:
+    """Bound on ``|S|`` of segments of ``length`` over the pixels of any cell in whose 3x3 block they lie."""
+    far = 2.0 * np.sqrt(2.0) * cell_size
+    m = np.minimum(np.asarray(length, np.float64) / 2, 1.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        singular = np.where(m > 0, 2 * m * (1 - np.log(m)), 0.0)
+    return (length * max(np.log(far), 0.0) + singular) / (2 * np.pi)
+
+
+def near_bound(before: Representation, after: Representation) -> np.ndarray | None:
+    """Largest change of the segments' near field over each cell's pixels, ``(2^L, 2^L)``.
+
+    None when the segments' geometry (or cell lists) differ: then no bound is
+    known and every reported cell has to be evaluated again.
+    """
+    old, new = before.segments, after.segments
+    if old is new:
+        return np.zeros((after.lattice.cells_per_side,) * 2)
+    if not (np.array_equal(before.cell_start, after.cell_start) and np.array_equal(old.p, new.p)
+            and np.array_equal(old.q, new.q)):
+        return None
+    n = after.lattice.cells_per_side
+    flux = np.abs(new.flux - old.flux).max(axis=1)
+    jump = np.abs(new.jump - old.jump).max(axis=1)
+    length = np.hypot(*(new.q - new.p).T)
+    per_segment = flux * single_layer_bound(length, after.lattice.cell_size) + jump / 2
+    own = np.repeat(np.arange(n * n), np.diff(after.cell_start))
+    per_cell = np.bincount(own, per_segment, minlength=n * n).reshape(n, n)
+    padded = np.pad(per_cell, 1)
+    return sum(padded[1 + dy : 1 + dy + n, 1 + dx : 1 + dx + n] for dy in (-1, 0, 1) for dx in (-1, 0, 1))

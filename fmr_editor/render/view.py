@@ -1,0 +1,79 @@
+"""The canvas view: how document pixels map to window pixels (pan and zoom), without GL.
+
+``window = document * scale + offset``, both with y down and the origin at the
+top-left corner; window pixel ``(i, j)`` (row, column) covers
+``[j, j + 1] x [i, i + 1]`` and is evaluated at its centre.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+#: Zoom limits (window pixels per document pixel).
+MIN_SCALE = 1e-3
+MAX_SCALE = 1e5
+
+
+@dataclass(frozen=True)
+class View:
+    """Pan, zoom and window size.
+
+    Attributes
+    ----------
+    scale : float
+        Window pixels per document pixel.
+    offset_x, offset_y : float
+        Window position of the document's origin.
+    width, height : int
+        Window size in pixels.
+    """
+
+    scale: float = 1.0
+    offset_x: float = 0.0
+    offset_y: float = 0.0
+    width: int = 1
+    height: int = 1
+
+    def __post_init__(self) -> None:
+        if not self.scale > 0:
+            raise ValueError("scale must be positive")
+        if self.width < 1 or self.height < 1:
+            raise ValueError("window size must be positive")
+
+    @classmethod
+    def fit(cls, canvas_width: float, canvas_height: float, width: int, height: int, margin: float = 0.0) -> View:
+        """The view showing the whole canvas centred in a ``width x height`` window.
+
+        Parameters
+        ----------
+        margin : float
+            Window pixels left free on every side (when the window is big enough).
+        """
+        free_w, free_h = max(width - 2 * margin, 1.0), max(height - 2 * margin, 1.0)
+        scale = min(free_w / canvas_width, free_h / canvas_height)
+        return cls(scale, (width - canvas_width * scale) / 2, (height - canvas_height * scale) / 2, width, height)
+
+    def to_document(self, x: float, y: float) -> tuple[float, float]:
+        """Document position of window point ``(x, y)``."""
+        return (x - self.offset_x) / self.scale, (y - self.offset_y) / self.scale
+
+    def to_window(self, x: float, y: float) -> tuple[float, float]:
+        """Window position of document point ``(x, y)``."""
+        return x * self.scale + self.offset_x, y * self.scale + self.offset_y
+
+    def panned(self, dx: float, dy: float) -> View:
+        """This view moved by ``(dx, dy)`` window pixels."""
+        return replace(self, offset_x=self.offset_x + dx, offset_y=self.offset_y + dy)
+
+    def zoomed(self, factor: float, x: float, y: float) -> View:
+        """This view zoomed by ``factor`` about window point ``(x, y)``, which stays put.
+
+        The scale is kept within ``[MIN_SCALE, MAX_SCALE]``.
+        """
+        scale = min(max(self.scale * factor, MIN_SCALE), MAX_SCALE)
+        doc_x, doc_y = self.to_document(x, y)
+        return replace(self, scale=scale, offset_x=x - doc_x * scale, offset_y=y - doc_y * scale)
+
+    def resized(self, width: int, height: int) -> View:
+        """This view in a window of another size (the document stays where it was, from the top-left)."""
+        return replace(self, width=int(width), height=int(height))

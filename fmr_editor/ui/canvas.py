@@ -1,0 +1,260 @@
+"""The canvas widget: a representation drawn by the shader renderer, with pan, zoom and pointer signals.
+
+``Canvas`` owns a ``render.CanvasRenderer`` in its OpenGL context; give it a
+representation with ``set_representation`` and, after an engine update, the
+new one with ``update_representation(rep, update.changed)``.  Both only record
+the request; the renderer uploads and draws in ``paintGL``.
+
+Navigation: the wheel zooms about the cursor, Ctrl+plus / Ctrl+minus about
+the centre, Ctrl+0 fits the canvas; the middle button, or the left one while
+Space is held, pans.  Every other press, move, release and double click is
+emitted in document pixels for the tools.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from PySide6.QtCore import QPointF, Qt, Signal
+from PySide6.QtGui import QImage, QSurfaceFormat
+from PySide6.QtOpenGLWidgets import QOpenGLWidget
+
+from ..engine import Representation
+from ..render import CanvasRenderer, View
+
+#: Zoom factor of one wheel notch and of Ctrl+plus.
+ZOOM_STEP = 1.25
+#: Window pixels left around the canvas when fitting it.
+FIT_MARGIN = 16
+
+
+def surface_format() -> QSurfaceFormat:
+    """The OpenGL format the canvas asks for: 4.1 core (the shader reads doubles and texture buffers)."""
+    fmt = QSurfaceFormat()
+    fmt.setVersion(4, 1)
+    fmt.setProfile(QSurfaceFormat.OpenGLContextProfile.CoreProfile)
+    return fmt
+
+
+class Canvas(QOpenGLWidget):
+    """Shows a representation; pans, zooms and reports pointer events in document pixels.
+
+    Signals carry ``(x, y, buttons, modifiers)``: document coordinates (floats,
+    y down), ``Qt.MouseButton`` flags (for a release: the button released)
+    and ``Qt.KeyboardModifier`` flags.
+
+    Parameters
+    ----------
+    parent : QWidget, optional
+    """
+
+    pressed = Signal(float, float, object, object)
+    moved = Signal(float, float, object, object)
+    released = Signal(float, float, object, object)
+    double_clicked = Signal(float, float, object, object)
+    #: Emitted after the view (pan, zoom, size) changed.
+    view_changed = Signal()
+
+    def __init__(self, parent=None) -> None:
+        super().__init__(parent)
+        self.setFormat(surface_format())
+        self.setMouseTracking(True)
+        self.setFocusPolicy(Qt.FocusPolicy.StrongFocus)
+        self.renderer: CanvasRenderer | None = None
+        self.error: str | None = None  # why nothing can be drawn (no suitable OpenGL)
+        self._rep: Representation | None = None
+        self._full_upload = False
+        self._changed: np.ndarray | None = None
+        self._polynomials: np.ndarray | None = None
+        self._view = View(width=max(self.width(), 1), height=max(self.height(), 1))
+        self._fitted = True  # the view follows the widget's size until the user pans or zooms
+        self._pan_from: QPointF | None = None
+        self._space = False
+
+    # -- content ------------------------------------------------------------------------------
+    @property
+    def representation(self) -> Representation | None:
+        return self._rep
+
+    def set_representation(self, rep: Representation | None, fit: bool = True,
+                           polynomials: np.ndarray | None = None) -> None:
+        """Show ``rep`` (all of it is uploaded); ``fit`` fits its canvas in the window.
+
+        ``polynomials``, if given, is ``rep.polynomials()`` (e.g. ``ui.engine_thread.Frame.polynomials``),
+        read instead of ``rep``'s expansions, which a live representation changes in place.
+        """
+        self._rep, self._full_upload, self._changed, self._polynomials = rep, True, None, polynomials
+        if fit and rep is not None:
+            self.fit()
+        self.update()
+
+    def update_representation(self, rep: Representation, changed: np.ndarray,
+                              polynomials: np.ndarray | None = None) -> None:
+        """Show ``rep``, which differs from the shown one only in the ``changed`` cells (``engine.Update.changed``).
+
+        ``polynomials`` as for ``set_representation``.
+        """
+        if not self._full_upload:
+            if self._changed is not None and self._changed.shape != changed.shape:
+                self._full_upload = True
+            else:
+                self._changed = changed.copy() if self._changed is None else self._changed | changed
+        self._rep, self._polynomials = rep, polynomials
+        self.update()
+
+    # -- view ---------------------------------------------------------------------------------
+    @property
+    def view(self) -> View:
+        """Pan and zoom in widget (logical) pixels."""
+        return self._view
+
+    def set_view(self, view: View) -> None:
+        self._fitted = False
+        self._set_view(view)
+
+    def _set_view(self, view: View) -> None:
+        if view != self._view:
+            self._view = view
+            self.update()
+            self.view_changed.emit()
+
+    def fit(self) -> None:
+        """Show the whole canvas, centred (Ctrl+0); the view then follows the widget's size."""
+        self._fitted = True
+        if self._rep is not None:
+            self._set_view(View.fit(self._rep.width, self._rep.height, max(self.width(), 1), max(self.height(), 1),
+                                    FIT_MARGIN))
+
+    def zoom(self, factor: float, x: float | None = None, y: float | None = None) -> None:
+        """Zoom by ``factor`` about widget point ``(x, y)`` (default: the centre)."""
+        x = self.width() / 2 if x is None else x
+        y = self.height() / 2 if y is None else y
+        self.set_view(self._view.zoomed(factor, x, y))
+
+    def zoom_in(self) -> None:
+        self.zoom(ZOOM_STEP)
+
+    def zoom_out(self) -> None:
+        self.zoom(1 / ZOOM_STEP)
+
+    def pan(self, dx: float, dy: float) -> None:
+        """Move the view by ``(dx, dy)`` widget pixels."""
+        self.set_view(self._view.panned(dx, dy))
+
+    def to_document(self, x: float, y: float) -> tuple[float, float]:
+        """Document position of widget point ``(x, y)``."""
+        return self._view.to_document(x, y)
+
+    def device_view(self) -> View:
+        """The view in framebuffer (device) pixels, as the renderer draws it."""
+        ratio = self.devicePixelRatioF()
+        v = self._view
+        return View(v.scale * ratio, v.offset_x * ratio, v.offset_y * ratio,
+                    max(round(self.width() * ratio), 1), max(round(self.height() * ratio), 1))
+
+    # -- OpenGL ---------------------------------------------------------------------------------
+    def initializeGL(self) -> None:
+        fmt = self.context().format()
+        if (fmt.majorVersion(), fmt.minorVersion()) < (4, 1) \
+                or fmt.profile() != QSurfaceFormat.OpenGLContextProfile.CoreProfile:
+            self.error = f"the canvas needs OpenGL 4.1 core; got {fmt.majorVersion()}.{fmt.minorVersion()}"
+            return
+        self.renderer = CanvasRenderer()
+        self._full_upload = self._rep is not None
+        self.context().aboutToBeDestroyed.connect(self._release)
+
+    def _release(self) -> None:
+        if self.renderer is not None:
+            self.makeCurrent()
+            self.renderer.release()
+            self.renderer = None
+            self.doneCurrent()
+
+    def resizeGL(self, width: int, height: int) -> None:
+        if self._fitted and self._rep is not None:
+            self.fit()
+        else:
+            self._set_view(self._view.resized(max(self.width(), 1), max(self.height(), 1)))
+
+    def paintGL(self) -> None:
+        renderer = self.renderer
+        if renderer is None:
+            return
+        if self._rep is not None:
+            if self._full_upload:
+                renderer.upload(self._rep, self._polynomials)
+            elif self._changed is not None:
+                renderer.update(self._rep, self._changed, self._polynomials)
+        self._full_upload, self._changed = False, None
+        if self._rep is None:
+            return
+        if self._view.width != max(self.width(), 1) or self._view.height != max(self.height(), 1):
+            self._view = self._view.resized(max(self.width(), 1), max(self.height(), 1))
+        renderer.draw(self.device_view(), self.defaultFramebufferObject())
+
+    def grab_image(self) -> np.ndarray:
+        """What the canvas shows, ``(height, width, 3)`` uint8 in device pixels (``grabFramebuffer``)."""
+        image = self.grabFramebuffer().convertToFormat(QImage.Format.Format_RGB888)
+        width, height = image.width(), image.height()
+        data = np.frombuffer(image.constBits(), np.uint8, count=image.bytesPerLine() * height)
+        return data.reshape(height, image.bytesPerLine())[:, : width * 3].reshape(height, width, 3).copy()
+
+    # -- input ----------------------------------------------------------------------------------
+    def _emit(self, signal, event, buttons) -> None:
+        position = event.position()
+        x, y = self.to_document(position.x(), position.y())
+        signal.emit(x, y, buttons, event.modifiers())
+
+    def mousePressEvent(self, event) -> None:
+        button = event.button()
+        if button == Qt.MouseButton.MiddleButton or (button == Qt.MouseButton.LeftButton and self._space):
+            self._pan_from = event.position()
+            self.setCursor(Qt.CursorShape.ClosedHandCursor)
+            return
+        self._emit(self.pressed, event, event.buttons())
+
+    def mouseMoveEvent(self, event) -> None:
+        if self._pan_from is not None:
+            position = event.position()
+            self.pan(position.x() - self._pan_from.x(), position.y() - self._pan_from.y())
+            self._pan_from = position
+            return
+        self._emit(self.moved, event, event.buttons())
+
+    def mouseReleaseEvent(self, event) -> None:
+        if self._pan_from is not None:
+            if not event.buttons() & (Qt.MouseButton.MiddleButton | Qt.MouseButton.LeftButton):
+                self._pan_from = None
+                self.unsetCursor()
+            return
+        self._emit(self.released, event, event.button())
+
+    def mouseDoubleClickEvent(self, event) -> None:
+        if event.button() == Qt.MouseButton.MiddleButton or self._space:
+            return
+        self._emit(self.double_clicked, event, event.buttons())
+
+    def wheelEvent(self, event) -> None:
+        steps = event.angleDelta().y() / 120
+        if steps:
+            position = event.position()
+            self.zoom(ZOOM_STEP**steps, position.x(), position.y())
+        event.accept()
+
+    def keyPressEvent(self, event) -> None:
+        key, ctrl = event.key(), bool(event.modifiers() & Qt.KeyboardModifier.ControlModifier)
+        if key == Qt.Key.Key_Space and not event.isAutoRepeat():
+            self._space = True
+        elif ctrl and key in (Qt.Key.Key_Plus, Qt.Key.Key_Equal):
+            self.zoom_in()
+        elif ctrl and key == Qt.Key.Key_Minus:
+            self.zoom_out()
+        elif ctrl and key == Qt.Key.Key_0:
+            self.fit()
+        else:
+            super().keyPressEvent(event)
+
+    def keyReleaseEvent(self, event) -> None:
+        if event.key() == Qt.Key.Key_Space and not event.isAutoRepeat():
+            self._space = False
+        else:
+            super().keyReleaseEvent(event)

@@ -1,0 +1,144 @@
+#version 410 core
+// The FMR colour of a window pixel, as engine.rasterise computes it (samples=1, at the pixel centre):
+//     far field (the cell's polynomial) + the 3x3 block's segments (closed forms) + the cell's near points.
+// Outside the canvas: a checkerboard.
+//
+// The loader (fmr_editor/render/programs.py) inserts after the #version line:
+//     #define ORDER n             polynomial degree P
+//     #define HARMONIC 0|1        1: coefficients are the complex local expansion K_l = L_l / 2pi,
+//                                 u = Re sum_l K_l (xi + i eta)^l, packed per l as Re rgb, Im rgb;
+//                                 0: the full tensor c[i][j] (rgb) of xi^i eta^j, packed per (i, j)
+//     #define COEFF_TEXELS m      RGBA texels per cell of u_coeffs
+// Data (texture buffers, layouts written by fmr_editor/render/packing.py):
+//     u_coeffs           RGBA32F, COEFF_TEXELS texels per cell, cells row-major
+//     u_segment_start    R32I, CSR offsets of each cell's segments (cells^2 + 1)
+//     u_segments         RGBA32F, 3 texels per segment: (p, q) relative to its own cell's centre,
+//                        (E rgb, length), (C rgb, 0); document pixels
+//     u_point_start      R32I, CSR offsets of each cell's near points (cells^2 + 1)
+//     u_point_members    R32I, indices into u_points
+//     u_points           RGBA32F, 2 texels per near point: (x, y, 1 / r^2, 0), (weight rgb, 0)
+// Precision: the window-to-document map and the cell lookup are in double, everything else in float;
+// segment integrals work in coordinates relative to the pixel's cell so nothing large cancels.
+
+uniform dvec2 u_origin;        // document position of the window's top-left corner
+uniform double u_step;         // document pixels per window pixel
+uniform float u_window_height;
+uniform vec2 u_canvas;         // canvas width, height in document pixels
+uniform int u_cells;           // fine cells per side, 2^L
+uniform double u_cell_size;    // document pixels
+uniform float u_checker;       // checkerboard square, window pixels
+
+uniform samplerBuffer u_coeffs;
+uniform isamplerBuffer u_segment_start;
+uniform samplerBuffer u_segments;
+uniform isamplerBuffer u_point_start;
+uniform isamplerBuffer u_point_members;
+uniform samplerBuffer u_points;
+
+out vec4 colour;
+
+const float INV_TWO_PI = 0.15915494309189535;
+const float INV_FOUR_PI = 0.07957747154594767;
+
+#define COEFF(k) coeffs[(k) >> 2][(k) & 3]
+
+vec3 far_field(int cell, vec2 xi) {
+    vec4 coeffs[COEFF_TEXELS];
+    int base = cell * COEFF_TEXELS;
+    for (int k = 0; k < COEFF_TEXELS; ++k) {
+        coeffs[k] = texelFetch(u_coeffs, base + k);
+    }
+#if HARMONIC
+    // Horner in z = xi + i eta, three channels at once
+    vec3 re = vec3(COEFF(6 * ORDER), COEFF(6 * ORDER + 1), COEFF(6 * ORDER + 2));
+    vec3 im = vec3(COEFF(6 * ORDER + 3), COEFF(6 * ORDER + 4), COEFF(6 * ORDER + 5));
+    for (int l = ORDER - 1; l >= 0; --l) {
+        vec3 next = re * xi.x - im * xi.y + vec3(COEFF(6 * l), COEFF(6 * l + 1), COEFF(6 * l + 2));
+        im = re * xi.y + im * xi.x + vec3(COEFF(6 * l + 3), COEFF(6 * l + 4), COEFF(6 * l + 5));
+        re = next;
+    }
+    return re;
+#else
+    vec3 value = vec3(0.0);
+    for (int i = ORDER; i >= 0; --i) {
+        vec3 row = vec3(0.0);
+        for (int j = ORDER; j >= 0; --j) {
+            int k = 3 * (i * (ORDER + 1) + j);
+            row = row * xi.y + vec3(COEFF(k), COEFF(k + 1), COEFF(k + 2));
+        }
+        value = value * xi.x + row;
+    }
+    return value;
+#endif
+}
+
+// E S - C D of the segments listed in cells [first, last) of one row; their (p, q) are relative to their
+// own cell's centre, `shift` is (that centre - this pixel) for the first of them, cells `size` apart.
+vec3 segment_run(int first, int last, vec2 shift, float size) {
+    vec3 sum = vec3(0.0);
+    for (int cell = first; cell < last; ++cell, shift.x += size) {
+        int end = texelFetch(u_segment_start, cell + 1).r;
+        for (int k = texelFetch(u_segment_start, cell).r; k < end; ++k) {
+            vec4 ends = texelFetch(u_segments, 3 * k);
+            vec4 flux_length = texelFetch(u_segments, 3 * k + 1);
+            vec3 jump = texelFetch(u_segments, 3 * k + 2).rgb;
+            float h = flux_length.w;
+            vec2 v0 = ends.xy + shift;
+            vec2 v1 = ends.zw + shift;
+            vec2 t = (ends.zw - ends.xy) / h;
+            float a = -dot(v0, t);
+            float b = abs(v0.x * t.y - v0.y * t.x);
+            float cross_ = v0.x * v1.y - v0.y * v1.x;
+            float dot_ = dot(v0, v1);
+            // the angle subtended; 0 (the principal value) on the segment itself and on its line outside it
+            float angle = (cross_ != 0.0 || dot_ > 0.0) ? atan(cross_, dot_) : 0.0;
+            float log_p = log(max(dot(v0, v0), 1e-30));
+            float log_q = log(max(dot(v1, v1), 1e-30));
+            float single = ((h - a) * log_q + a * log_p - 2.0 * h + 2.0 * b * abs(angle)) * INV_FOUR_PI;
+            sum += flux_length.rgb * single - jump * (angle * INV_TWO_PI);
+        }
+    }
+    return sum;
+}
+
+vec3 near_segments(ivec2 cell, vec2 local, float size) {
+    vec3 sum = vec3(0.0);
+    int first = max(cell.x - 1, 0);
+    int last = min(cell.x + 2, u_cells);
+    for (int row = max(cell.y - 1, 0); row < min(cell.y + 2, u_cells); ++row) {
+        vec2 shift = vec2(float(first - cell.x), float(row - cell.y)) * size - local;
+        sum += segment_run(row * u_cells + first, row * u_cells + last, shift, size);
+    }
+    return sum;
+}
+
+vec3 near_points(int cell, dvec2 position) {
+    vec3 sum = vec3(0.0);
+    int end = texelFetch(u_point_start, cell + 1).r;
+    for (int e = texelFetch(u_point_start, cell).r; e < end; ++e) {
+        int p = texelFetch(u_point_members, e).r;
+        vec4 centre = texelFetch(u_points, 2 * p);
+        vec3 weight = texelFetch(u_points, 2 * p + 1).rgb;
+        vec2 d = vec2(position - dvec2(centre.xy));
+        sum += weight * exp(-dot(d, d) * centre.z);
+    }
+    return sum;
+}
+
+void main() {
+    vec2 window = vec2(gl_FragCoord.x, u_window_height - gl_FragCoord.y);
+    dvec2 position = u_origin + dvec2(window) * u_step;
+    if (position.x < 0.0 || position.y < 0.0 || position.x > double(u_canvas.x) || position.y > double(u_canvas.y)) {
+        ivec2 square = ivec2(floor(window / u_checker));
+        colour = vec4(vec3(((square.x + square.y) & 1) == 0 ? 0.8 : 0.6), 1.0);
+        return;
+    }
+    ivec2 cell = clamp(ivec2(floor(position / u_cell_size)), ivec2(0), ivec2(u_cells - 1));
+    float size = float(u_cell_size);
+    vec2 local = vec2(position - (dvec2(cell) + 0.5) * u_cell_size);  // from the cell's centre
+    int flat_cell = cell.y * u_cells + cell.x;
+    vec3 value = far_field(flat_cell, local / size);
+    value += near_segments(cell, local, size);
+    value += near_points(flat_cell, position);
+    colour = vec4(value, 1.0);
+}

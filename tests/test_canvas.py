@@ -1,0 +1,238 @@
+"""The shader-rendered canvas against the CPU rasteriser, under Xvfb (OpenGL through Mesa).
+
+Every check reads back what the widget shows (``grabFramebuffer``, 8 bits) and
+wants at most 1/255 per channel against ``engine.rasterise`` (or
+``evaluate_points``) at the pixel centres; a float copy of the same
+evaluation measures the shader's own error, far below that.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from shapes import scattered_document
+
+pytest.importorskip("pytestqt", reason="pytest-qt is in the [test] extra")
+
+from PySide6.QtCore import QPoint, QPointF, Qt  # noqa: E402
+from PySide6.QtGui import QWheelEvent  # noqa: E402
+from PySide6.QtWidgets import QApplication  # noqa: E402
+
+from fmr_editor.engine import LiveRepresentation, evaluate_points, rasterise  # noqa: E402
+from fmr_editor.io import load_document  # noqa: E402
+from fmr_editor.model import DiffusionPoint, edits  # noqa: E402
+from fmr_editor.render import View  # noqa: E402
+
+pytestmark = pytest.mark.gui
+
+LEVEL = 1 / 255
+#: Checkerboard grey levels outside the canvas (shaders/canvas.frag), in 8 bits.
+CHECKER = {round(0.8 * 255), round(0.6 * 255)}
+
+
+def lady_bug_path(shared_data):
+    path = shared_data / "orzan_xml" / "berkbavas" / "lady_bug.xml"
+    if not path.exists():
+        pytest.skip(f"{path} is absent")
+    return path
+
+
+@pytest.fixture(scope="module")
+def lady_bug(shared_data):
+    return LiveRepresentation(load_document(lady_bug_path(shared_data))).representation
+
+
+def points_document():
+    """Curves plus points from well below a cell (exact near points) to many cells wide, both signs."""
+    rng = np.random.default_rng(7)
+    radii = np.exp(rng.uniform(np.log(0.6), np.log(50.0), 40))
+    points = [DiffusionPoint(tuple(rng.uniform(-5, 165, 2)), float(r), tuple(rng.random(3)),
+                             float(rng.choice([-1.0, 1.0]) * rng.uniform(0.3, 0.9))) for r in radii]
+    return scattered_document(160, circles=3, seed=4).with_points(points)
+
+
+@pytest.fixture
+def canvas(gl_display, qtbot):
+    from fmr_editor.ui.canvas import Canvas
+
+    widget = Canvas()
+    qtbot.addWidget(widget)
+    return widget
+
+
+def show(canvas, qtbot, rep, view: View):
+    """Show ``rep`` in ``canvas`` sized and viewed as ``view``; skips without a usable OpenGL context."""
+    canvas.resize(view.width, view.height)
+    canvas.show()
+    qtbot.waitExposed(canvas)
+    canvas.set_representation(rep, fit=False)
+    canvas.set_view(view)
+    image = canvas.grab_image()
+    if canvas.renderer is None:
+        pytest.skip(f"no usable OpenGL context: {canvas.error or 'the widget did not initialise'}")
+    assert image.shape == (view.height, view.width, 3)
+    return image
+
+
+def float_image(canvas, rep, view: View) -> np.ndarray:
+    """The same evaluation into a float cache, unclamped: the shader's own accuracy."""
+    from OpenGL import GL
+
+    from fmr_editor.render import CanvasRenderer
+
+    canvas.makeCurrent()
+    renderer = CanvasRenderer(cache_format=GL.GL_RGBA32F)
+    try:
+        renderer.upload(rep)
+        renderer.evaluate(view)
+        return renderer.read()[..., :3].astype(np.float64)
+    finally:
+        renderer.release()
+        canvas.doneCurrent()
+
+
+def window_samples(view: View) -> np.ndarray:
+    """Document positions of every window pixel's centre, ``(height * width, 2)``, row by row."""
+    xs = (np.arange(view.width) + 0.5 - view.offset_x) / view.scale
+    ys = (np.arange(view.height) + 0.5 - view.offset_y) / view.scale
+    return np.stack(np.broadcast_arrays(xs[None, :], ys[:, None]), axis=-1).reshape(-1, 2)
+
+
+def error_levels(shown: np.ndarray, expected: np.ndarray) -> float:
+    """Largest difference of an 8-bit image from a float one, in 8-bit levels."""
+    return float(np.abs(shown.astype(np.float64) - np.clip(expected, 0, 1) * 255).max())
+
+
+def test_lady_bug_matches_the_cpu_rasteriser(canvas, qtbot, lady_bug):
+    view = View(1.0, 0.0, 0.0, lady_bug.width, lady_bug.height)
+    shown = show(canvas, qtbot, lady_bug, view)
+    cpu = rasterise(lady_bug, samples=1)
+    assert error_levels(shown, cpu) <= 1.0
+    assert np.abs(float_image(canvas, lady_bug, view) - cpu).max() <= 0.1 * LEVEL
+    assert shown.std() > 20  # a picture, not a flat colour
+
+
+def test_points_match_the_cpu_rasteriser(canvas, qtbot):
+    rep = LiveRepresentation(points_document()).representation
+    assert rep.points is not None and len(rep.points.near) > 0  # some points are exact near points
+    view = View(2.0, 0.0, 0.0, 2 * rep.width, 2 * rep.height)
+    shown = show(canvas, qtbot, rep, view)
+    cpu = rasterise(rep, view.width, view.height, samples=1)
+    assert error_levels(shown, cpu) <= 1.0
+    assert np.abs(float_image(canvas, rep, view) - cpu).max() <= 0.1 * LEVEL
+
+
+def test_a_zoomed_view_evaluates_the_document_at_its_pixels(canvas, qtbot, lady_bug):
+    view = View(5.7, -1400.3, -1655.9, 200, 160)  # about (250, 290) to (285, 318) in the document
+    shown = show(canvas, qtbot, lady_bug, view)
+    expected = evaluate_points(lady_bug, window_samples(view)).reshape(view.height, view.width, 3)
+    assert error_levels(shown, expected) <= 1.0
+    assert np.abs(float_image(canvas, lady_bug, view) - expected).max() <= 0.1 * LEVEL
+
+
+def test_outside_the_canvas_is_a_checkerboard(canvas, qtbot, lady_bug):
+    view = View(0.37, 60.0, 20.0, 300, 260)
+    shown = show(canvas, qtbot, lady_bug, view)
+    samples = window_samples(view)
+    inside = ((samples >= 0) & (samples <= [lady_bug.width, lady_bug.height])).all(axis=1)
+    outside = shown.reshape(-1, 3)[~inside]
+    assert len(outside) > 0 and set(np.unique(outside)) == CHECKER
+    expected = evaluate_points(lady_bug, samples[inside])
+    assert error_levels(shown.reshape(-1, 3)[inside], expected) <= 1.0
+
+
+def test_a_stop_colour_change_updates_only_what_changed(canvas, qtbot, shared_data):
+    live = LiveRepresentation(load_document(lady_bug_path(shared_data)))
+    view = View(1.0, 0.0, 0.0, live.document.width, live.document.height)
+    before = show(canvas, qtbot, live.representation, view)
+    for curve in (30, 0):  # a small curve (few cells move visibly), then the background one (all cells)
+        old = live.document.curves[curve].left[0].color
+        update = live.update(edits.set_stop_color(live.document, curve, "left", 0, tuple(1 - np.asarray(old))))
+        assert update.kind == "colours"
+        canvas.update_representation(live.representation, update.changed)
+        shown = canvas.grab_image()
+        assert error_levels(shown, rasterise(live.representation, samples=1)) <= 1.0
+        assert np.abs(shown.astype(int) - before).max() > 50  # the edit shows
+        if curve == 30:
+            assert canvas.renderer.last_evaluation == "cells"
+        before = shown
+
+
+def test_a_brush_dab_updates_the_image(canvas, qtbot):
+    live = LiveRepresentation(points_document())
+    view = View(2.0, 0.0, 0.0, 2 * live.document.width, 2 * live.document.height)
+    show(canvas, qtbot, live.representation, view)
+    dab = [DiffusionPoint((70.0 + 3 * i, 90.0 - 2 * i), radius, (0.9, 0.1, 0.3), 0.8)
+           for i, radius in enumerate((0.7, 2.0, 6.0))]
+    update = live.update(edits.add_points(live.document, dab))
+    assert update.kind == "points" and 0 < update.changed.sum() < update.changed.size
+    canvas.update_representation(live.representation, update.changed)
+    shown = canvas.grab_image()
+    assert canvas.renderer.last_evaluation == "cells"
+    assert error_levels(shown, rasterise(live.representation, view.width, view.height, samples=1)) <= 1.0
+
+
+def test_panning_moves_the_cached_image(canvas, qtbot, lady_bug):
+    show(canvas, qtbot, lady_bug, View(1.5, -100.0, -50.0, 256, 256))
+    canvas.pan(17, -9)
+    moved = canvas.grab_image()
+    assert canvas.renderer.last_evaluation == "shift"
+    canvas.renderer.invalidate()
+    fresh = canvas.grab_image()
+    assert canvas.renderer.last_evaluation == "full"
+    assert np.abs(moved.astype(int) - fresh).max() <= 1
+    canvas.grab_image()
+    assert canvas.renderer.last_evaluation == "none"  # a plain redraw is a copy
+
+
+def test_pointer_events_arrive_in_document_pixels(canvas, qtbot, lady_bug):
+    show(canvas, qtbot, lady_bug, View(2.0, 10.0, 20.0, 300, 300))
+    events = []
+    for name in ("pressed", "moved", "released", "double_clicked"):
+        getattr(canvas, name).connect(lambda x, y, buttons, modifiers, name=name: events.append((name, x, y, buttons)))
+    qtbot.mousePress(canvas, Qt.MouseButton.LeftButton, pos=QPoint(50, 60))
+    qtbot.mouseMove(canvas, QPoint(70, 60))
+    qtbot.mouseRelease(canvas, Qt.MouseButton.LeftButton, pos=QPoint(70, 60))
+    assert events[0][:3] == ("pressed", 20.0, 20.0) and events[0][3] & Qt.MouseButton.LeftButton
+    assert ("moved", 30.0, 20.0) in [e[:3] for e in events]
+    assert events[-1][:3] == ("released", 30.0, 20.0)
+    events.clear()
+    qtbot.mouseDClick(canvas, Qt.MouseButton.LeftButton, pos=QPoint(12, 22))
+    assert ("double_clicked", 1.0, 1.0) in [e[:3] for e in events]
+
+
+def test_middle_drag_and_space_drag_pan(canvas, qtbot, lady_bug):
+    show(canvas, qtbot, lady_bug, View(2.0, 10.0, 20.0, 300, 300))
+    events = []
+    canvas.pressed.connect(lambda *args: events.append(args))
+    qtbot.mousePress(canvas, Qt.MouseButton.MiddleButton, pos=QPoint(100, 100))
+    qtbot.mouseMove(canvas, QPoint(130, 90))
+    qtbot.mouseRelease(canvas, Qt.MouseButton.MiddleButton, pos=QPoint(130, 90))
+    assert (canvas.view.offset_x, canvas.view.offset_y) == (40.0, 10.0)
+    qtbot.keyPress(canvas, Qt.Key.Key_Space)
+    qtbot.mousePress(canvas, Qt.MouseButton.LeftButton, pos=QPoint(100, 100))
+    qtbot.mouseMove(canvas, QPoint(90, 95))
+    qtbot.mouseRelease(canvas, Qt.MouseButton.LeftButton, pos=QPoint(90, 95))
+    qtbot.keyRelease(canvas, Qt.Key.Key_Space)
+    assert (canvas.view.offset_x, canvas.view.offset_y) == (30.0, 5.0)
+    assert events == []  # pans are not tool events
+
+
+def test_wheel_and_keys_zoom(canvas, qtbot, lady_bug):
+    show(canvas, qtbot, lady_bug, View(2.0, 10.0, 20.0, 300, 300))
+    under = canvas.to_document(120.0, 80.0)
+    wheel = QWheelEvent(QPointF(120, 80), QPointF(canvas.mapToGlobal(QPoint(120, 80))), QPoint(0, 0), QPoint(0, 120),
+                        Qt.MouseButton.NoButton, Qt.KeyboardModifier.NoModifier, Qt.ScrollPhase.NoScrollPhase, False)
+    QApplication.sendEvent(canvas, wheel)
+    assert canvas.view.scale == pytest.approx(2.5)
+    assert canvas.to_document(120.0, 80.0) == pytest.approx(under)
+    qtbot.keyClick(canvas, Qt.Key.Key_Minus, Qt.KeyboardModifier.ControlModifier)
+    assert canvas.view.scale == pytest.approx(2.0)
+    qtbot.keyClick(canvas, Qt.Key.Key_0, Qt.KeyboardModifier.ControlModifier)
+    fitted = canvas.view
+    assert fitted.to_window(lady_bug.width / 2, lady_bug.height / 2) == pytest.approx((150.0, 150.0))
+    assert fitted.scale == pytest.approx((300 - 32) / 512)
+    shown = canvas.grab_image()
+    assert canvas.renderer.last_evaluation == "full"
+    corner = shown[:8, :8].reshape(-1, 3)
+    assert set(np.unique(corner)) <= CHECKER  # the margin around the fitted canvas

@@ -1,0 +1,181 @@
+"""The canvas's data for the shader (packing), its change bounds and the view, without OpenGL."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from shapes import scattered_document
+
+from fmr_editor.engine import LiveRepresentation, build
+from fmr_editor.engine.kernels import near_sum
+from fmr_editor.model import DiffusionPoint, edits
+from fmr_editor.render import bounds, packing
+from fmr_editor.render.view import View
+
+
+@pytest.fixture(scope="module")
+def curves():
+    return build(scattered_document(128, circles=4, seed=3))
+
+
+@pytest.fixture(scope="module")
+def with_points():
+    doc = scattered_document(128, circles=2, seed=5)
+    points = [DiffusionPoint((30.0 + 9 * i, 50.0 + 5 * i), radius, (0.2, 0.5, 0.9), 0.7)
+              for i, radius in enumerate((0.8, 1.5, 3.0, 12.0, 40.0))]
+    return build(doc.with_points(points))
+
+
+def unpack_harmonic(rep, texels):
+    """``K_l`` (cells, channel, l) complex from packed harmonic texels."""
+    n, order = rep.lattice.cells_per_side, rep.order
+    values = texels.reshape(n * n, -1)[:, : 6 * (order + 1)].reshape(n * n, order + 1, 2, 3)
+    return (values[:, :, 0] + 1j * values[:, :, 1]).transpose(0, 2, 1)
+
+
+def unpack_tensor(rep, texels):
+    n, order = rep.lattice.cells_per_side, rep.order
+    values = texels.reshape(n * n, -1)[:, : 3 * (order + 1) ** 2].reshape(n * n, order + 1, order + 1, 3)
+    return values.transpose(0, 3, 1, 2).reshape(n, n, 3, order + 1, order + 1)
+
+
+def test_harmonic_form_evaluates_like_the_polynomials(curves):
+    assert packing.uses_harmonic(curves)
+    texels = packing.cell_coefficients(curves)
+    assert texels.dtype == np.float32 and texels.shape[1] == 4
+    k = unpack_harmonic(curves, texels)
+    rng = np.random.default_rng(0)
+    xi, eta = rng.uniform(-0.5, 0.5, (2, 20))
+    z = (xi + 1j * eta)[None, :] ** np.arange(curves.order + 1)[:, None]  # (l, samples)
+    harmonic = np.einsum("kcl,lm->kcm", k, z).real
+    poly = curves.polynomials().reshape(len(k), 3, curves.order + 1, curves.order + 1)
+    tensor = np.einsum("kcij,im,jm->kcm", poly, xi[None] ** np.arange(curves.order + 1)[:, None],
+                       eta[None] ** np.arange(curves.order + 1)[:, None])
+    scale = np.abs(tensor).max()
+    assert np.abs(harmonic - tensor).max() <= 1e-6 * scale
+
+
+def test_harmonic_form_from_a_polynomial_copy_is_the_same(curves):
+    direct = packing.cell_coefficients(curves)
+    copied = packing.cell_coefficients(curves, polynomials=curves.polynomials().copy())
+    np.testing.assert_allclose(copied, direct, rtol=1e-6, atol=1e-7 * np.abs(direct).max())
+
+
+def test_tensor_form_is_the_polynomials(with_points):
+    assert not packing.uses_harmonic(with_points)
+    texels = packing.cell_coefficients(with_points)
+    np.testing.assert_allclose(unpack_tensor(with_points, texels), with_points.polynomials(), rtol=1e-6, atol=1e-6)
+    copied = packing.cell_coefficients(with_points, polynomials=with_points.polynomials())
+    np.testing.assert_array_equal(copied, texels)
+    with pytest.raises(ValueError):
+        packing.cell_coefficients(with_points, harmonic=True)
+
+
+def test_some_cells_pack_like_all_of_them(with_points, curves):
+    for rep in (with_points, curves):
+        per_cell = packing.cell_coefficients(rep).reshape(rep.lattice.cells_per_side**2, -1)
+        cells = np.array([0, 3, 4, 17, per_cell.shape[0] - 1])
+        np.testing.assert_array_equal(packing.cell_coefficients(rep, cells).reshape(len(cells), -1), per_cell[cells])
+
+
+def test_segments_are_relative_to_their_cell(curves):
+    table = packing.segment_table(curves)
+    seg, lattice = curves.segments, curves.lattice
+    rows = table.texels.reshape(-1, 3, 4)
+    n = lattice.cells_per_side
+    own = np.repeat(np.arange(n * n), np.diff(curves.cell_start))
+    centre = np.stack([own % n + 0.5, own // n + 0.5], axis=1) * lattice.cell_size
+    np.testing.assert_allclose(rows[:, 0, :2] + centre, seg.p, atol=1e-4)
+    np.testing.assert_allclose(rows[:, 0, 2:] + centre, seg.q, atol=1e-4)
+    assert np.abs(rows[:, 0]).max() <= 1.5 * lattice.cell_size  # small coordinates: no cancellation
+    np.testing.assert_allclose(rows[:, 1, :3], seg.flux, rtol=1e-6)
+    np.testing.assert_allclose(rows[:, 2, :3], seg.jump, rtol=1e-6)
+    np.testing.assert_array_equal(table.cell_start, curves.cell_start)
+
+
+def test_near_points_table(with_points, curves):
+    table = packing.point_table(with_points)
+    near = with_points.points.near
+    assert len(near) >= 1  # the 0.8 px point at least
+    rows = table.texels.reshape(-1, 2, 4)
+    np.testing.assert_allclose(rows[:, 0, :2], near.points.positions, rtol=1e-6)
+    np.testing.assert_allclose(rows[:, 0, 2], 1 / near.points.radii**2, rtol=1e-6)
+    np.testing.assert_array_equal(table.members, near.members)
+    empty = packing.point_table(curves)
+    assert len(empty.members) == 0 and len(empty.start) == curves.lattice.cells_per_side**2 + 1
+
+
+def test_cell_runs():
+    assert packing.cell_runs(np.array([], int)) == []
+    assert packing.cell_runs(np.array([2, 3, 4, 9, 11, 12])) == [(2, 5), (9, 10), (11, 13)]
+    assert packing.cell_runs(np.arange(0, 200, 2), max_runs=10) == [(0, 199)]
+
+
+def test_far_bound_bounds_the_change_of_the_far_field(curves, with_points):
+    rng = np.random.default_rng(1)
+    for rep in (curves, with_points):
+        harmonic = packing.uses_harmonic(rep)
+        per_cell = packing.cell_coefficients(rep).reshape(rep.lattice.cells_per_side**2, -1).astype(np.float64)
+        delta = rng.normal(size=per_cell.shape) * 1e-3
+        bound = bounds.far_bound(delta, rep.order, harmonic)
+        # evaluate the change at corners and random points of each cell
+        xi, eta = np.concatenate([rng.uniform(-0.5, 0.5, (2, 30)), [[-0.5, 0.5, 0.5, -0.5], [-0.5, -0.5, 0.5, 0.5]]], 1)
+        p = rep.order + 1
+        if harmonic:
+            values = delta[:, : 6 * p].reshape(-1, p, 2, 3)
+            k = values[:, :, 0] + 1j * values[:, :, 1]
+            change = np.einsum("klc,lm->kcm", k, (xi + 1j * eta)[None] ** np.arange(p)[:, None]).real
+        else:
+            c = delta[:, : 3 * p * p].reshape(-1, p, p, 3)
+            change = np.einsum("kijc,im,jm->kcm", c, xi[None] ** np.arange(p)[:, None], eta[None] ** np.arange(p)[:, None])
+        assert (np.abs(change).max(axis=(1, 2)) <= bound * (1 + 1e-12)).all()
+        assert (np.abs(change).max(axis=(1, 2)) >= 0.05 * bound).all()  # and not hopelessly loose
+
+
+def test_near_bound_bounds_the_change_of_the_near_field():
+    doc = scattered_document(128, circles=4, seed=3)
+    live = LiveRepresentation(doc)
+    before = live.representation
+    stops = doc.curves[1].left
+    live.update(edits.set_stop_color(doc, 1, "left", 0, tuple(1 - np.asarray(stops[0].color))))
+    after = live.representation
+    bound = bounds.near_bound(before, after)
+    assert bound is not None and bound.max() > 0
+    lattice = after.lattice
+    rng = np.random.default_rng(2)
+    targets = rng.uniform(0, 128, (4000, 2))
+    args = (lattice.cells_per_side, lattice.cell_size, after.cell_start)
+    old = near_sum(targets, *args, before.segments.p, before.segments.q, before.segments.flux, before.segments.jump)
+    new = near_sum(targets, *args, after.segments.p, after.segments.q, after.segments.flux, after.segments.jump)
+    cells = lattice.cell_of(targets)
+    assert (np.abs(new - old).max(axis=1) <= bound[cells[:, 0], cells[:, 1]] + 1e-12).all()
+    moved = live.update(edits.move_control_point(live.document, 1, 0, (10.0, 10.0)))
+    assert moved.kind == "geometry" and bounds.near_bound(after, live.representation) is None
+
+
+def test_single_layer_bound():
+    from fmr_editor.engine.layers import pair_integrals
+
+    rng = np.random.default_rng(3)
+    size = 8.0
+    for length in (0.01, 0.5, 2.0, 7.0):
+        p = rng.uniform(-1.5 * size, 1.5 * size - length, (200, 2))
+        q = p + np.array([length, 0.0])
+        targets = rng.uniform(-0.5 * size, 0.5 * size, (300, 2))
+        single, _ = pair_integrals(targets, p, q)
+        assert np.abs(single).max() <= bounds.single_layer_bound(np.array([length]), size)[0]
+
+
+def test_view_maps_both_ways():
+    view = View(2.5, -30.0, 12.0, 640, 480)
+    x, y = view.to_window(*view.to_document(100.0, 37.0))
+    assert (x, y) == pytest.approx((100.0, 37.0))
+    zoomed = view.zoomed(3.0, 200.0, 150.0)
+    assert zoomed.to_document(200.0, 150.0) == pytest.approx(view.to_document(200.0, 150.0))
+    assert zoomed.scale == pytest.approx(7.5)
+    assert view.panned(5, -3).to_document(105.0, 34.0) == pytest.approx(view.to_document(100.0, 37.0))
+    fit = View.fit(512, 256, 300, 300, margin=10)
+    assert fit.scale == pytest.approx(280 / 512)
+    assert fit.to_window(256, 128) == pytest.approx((150.0, 150.0))
+    with pytest.raises(ValueError):
+        View(0.0)
