@@ -600,3 +600,27 @@ def test_stops_tool_shows_where_a_click_would_add_a_stop():
     np.testing.assert_allclose(ghost.colors, [GREEN])
     tool.move(event(65, 80, button="none"))
     assert not any(isinstance(p, Markers) for p in tool.overlay())
+
+
+def test_escape_puts_the_selection_back_with_the_document():
+    stops = (ColorStop(0.5, RED), ColorStop(1.0, GREEN))
+    document = Document(100, 100, (line_curve(left=stops),))
+    context = make_context(document)
+    tool = StopsTool(context)
+    click(tool, 35, 42)  # select the red stop
+    drag(tool, [(35, 42), (70, 42)], release=False)  # past the green one: the selection follows it
+    assert context.selection == Selection.of(stops=[(0, "left", 1)])
+    tool.key("Escape")
+    assert context.selection == Selection.of(stops=[(0, "left", 0)]) and context.document is document
+    drag(tool, [(65, 56), (70, 56)], release=False)  # a new stop on the right side
+    assert context.selection == Selection.of(stops=[(0, "right", 0)])
+    tool.key("Escape")
+    assert context.selection == Selection.of(stops=[(0, "left", 0)]) and context.document is document
+
+
+def test_the_stops_tool_deletes_only_stops(line_doc):
+    context = make_context(line_doc)
+    context.selection = Selection.of(curves=[0], stops=[(0, "right", 0)])
+    assert StopsTool(context).key("Delete")
+    assert context.document.curves[0].right == () and len(context.document.curves) == 1
+    assert context.history.labels == ("", "Delete Stop")

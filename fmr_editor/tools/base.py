@@ -62,6 +62,7 @@ class EditDrag(Drag):
         super().__init__(context, event)
         self.label = label
         self.start = context.document
+        self.selection = context.selection  # restored by cancel
         self.base = pressed if pressed is not None else self.start
         self.open = False
         if pressed is not None:
@@ -96,6 +97,7 @@ class EditDrag(Drag):
         if self.open:
             self.open = False
             self.context.history.cancel()
+            self.context.selection = self.selection.within(self.context.document)
 
 
 class Tool:

@@ -93,7 +93,6 @@ class MoveDrag(EditDrag):
     def __init__(self, context: ToolContext, event: PointerEvent) -> None:
         selection = context.selection
         super().__init__(context, event, move_label(context.document, selection))
-        self.selection = selection
         carried = sorted(moving_control_points(self.start, selection))
         single = carried[0] if len(carried) == 1 and not (selection.curves or selection.points) else None
         self.smooth = None

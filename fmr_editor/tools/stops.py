@@ -37,17 +37,14 @@ class StopDrag(EditDrag):
         super().__init__(context, event, label, pressed)
         self.curve, self.side, self.index = stop
         self.stop = getattr(self.base.curves[self.curve], self.side)[self.index]
-        self.where = (self.stop.position, self.stop.color)
         self.track = CurveIndex([self.base.curves[self.curve]])
 
     def edited(self, event: PointerEvent) -> Document:
         s = self.track.nearest(event.position).s
-        self.where = (s, self.stop.color)
-        return edits.move_stop(self.base, self.curve, self.side, self.index, s)
-
-    def committed(self) -> None:
-        index = find_stop(self.context.document, self.curve, self.side, *self.where)
+        document = edits.move_stop(self.base, self.curve, self.side, self.index, s)
+        index = find_stop(document, self.curve, self.side, s, self.stop.color)  # the stops were sorted again
         self.context.selection = Selection.of(stops=[(self.curve, self.side, index)])
+        return document
 
 
 def pick_stop_color(context: ToolContext, stop: tuple[int, str, int]) -> bool:
@@ -110,11 +107,13 @@ class StopsTool(Tool):
         new = ColorStop(hit.s, tuple(float(v) for v in context.options.color))
         document = edits.add_stop(context.document, hit.curve, hit.side, new)
         self.added = (hit.curve, hit.side, find_stop(document, hit.curve, hit.side, new.position, new.color))
+        drag = StopDrag(context, event, self.added, "Add Stop", pressed=document)
         context.selection = Selection.of(stops=[self.added])
-        return StopDrag(context, event, self.added, "Add Stop", pressed=document)
+        return drag
 
     def on_key(self, name: str, modifiers: frozenset[str]) -> bool:
         if name in (DELETE, BACKSPACE) and self.context.selection.stops:
+            self.context.selection = Selection(stops=self.context.selection.stops)  # this tool deletes stops only
             return delete_selection(self.context)
         return False
 
