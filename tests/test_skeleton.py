@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 import pytest
 from shapes import scattered_document
 
-from fmr_editor.engine import bem
+from fmr_editor.engine import bem, skeleton
 from fmr_editor.engine.bem import SolveTooLargeError, assemble
 from fmr_editor.engine.lattice import Lattice
 from fmr_editor.engine.segments import boundary_segments, curve_segments
@@ -66,10 +68,20 @@ def test_it_fails_early_when_the_factors_would_not_fit(system, monkeypatch):
         SkeletonFactorization(segments, 1e-8, leaf_size=24, top_size=100)
 
 
-def test_threads_give_the_serial_factorisation(system):
+def test_threads_give_the_serial_factorisation(system, monkeypatch):
     segments, _, rhs, _ = system
-    serial, threaded = (SkeletonFactorization(segments, 1e-6, leaf_size=24, top_size=100, workers=workers)
-                        for workers in (1, 2))
+    monkeypatch.setattr(skeleton, "THREADED_BOX", 0)  # threads on every level, however small its boxes
+    compress, threads = SkeletonFactorization._compress_box, set()
+
+    def spy(*args):
+        threads.add(threading.get_ident())
+        return compress(*args)
+
+    monkeypatch.setattr(SkeletonFactorization, "_compress_box", spy)
+    serial = SkeletonFactorization(segments, 1e-6, leaf_size=24, top_size=100, workers=1)
+    assert threads == {threading.get_ident()}
+    threaded = SkeletonFactorization(segments, 1e-6, leaf_size=24, top_size=100, workers=2)
+    assert len(threads) > 1  # boxes ran on the pool
     assert len(serial.levels) >= 2 and len(threaded.levels) == len(serial.levels)  # it did compress, alike
     np.testing.assert_array_equal(threaded.top, serial.top)
     assert threaded.stored_bytes == serial.stored_bytes
