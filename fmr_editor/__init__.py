@@ -1,12 +1,12 @@
 """fmr-editor: diffusion-curve images on the fast multipole representation.
 
->>> from fmr_editor import load, render
->>> image = render(load("drawing.xml"), width=512)   # float32 (H, W, 3) in [0, 1]
+>>> from fmr_editor import load, render_image
+>>> image = render_image(load("drawing.xml"), width=512)   # float32 (H, W, 3) in [0, 1]
 """
 
 from __future__ import annotations
 
-__all__ = ["load", "render"]
+__all__ = ["load", "render_image"]
 __version__ = "0.1.0"
 
 
@@ -23,7 +23,7 @@ def load(path):
     return load_document(path)
 
 
-def render(document, width=None, height=None, samples=3, *, order=None, method="fmr", progress=None):
+def render_image(document, width=None, height=None, samples=3, *, order=None, method="fmr", progress=None):
     """Render ``document`` to a float32 ``(height, width, 3)`` array in [0, 1].
 
     Parameters

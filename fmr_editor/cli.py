@@ -52,7 +52,7 @@ def render_one(source: str, output: str, args: argparse.Namespace) -> int:
     A ``.fmr`` file's saved representation is rendered as it is (no solve),
     unless ``--order`` or ``--method direct`` ask for another.
     """
-    from . import load, render
+    from . import load, render_image
     from .engine import rasterise
     from .io import DocumentLoadError, load_fmr
     from .io.png import save_png
@@ -69,7 +69,7 @@ def render_one(source: str, output: str, args: argparse.Namespace) -> int:
             image = rasterise(saved.representation, args.width, args.height, samples=args.samples, progress=progress)
             image = image.clip(0.0, 1.0)
         else:
-            image = render(document, args.width, args.height, samples=args.samples,
+            image = render_image(document, args.width, args.height, samples=args.samples,
                            order=args.order, method=args.method, progress=progress)
     except (ValueError, MemoryError) as error:
         print(f"fmr-editor: cannot render {source}: {error}", file=sys.stderr)

@@ -5,12 +5,12 @@ Checks
 * ``fmr-editor render IN -o OUT.png`` (through ``fmr_editor.cli.main`` and as
   ``python -m fmr_editor``) writes a PNG of the requested size, keeping the
   aspect ratio when only ``--width`` is given, whose pixels are exactly the
-  8-bit rounding of ``fmr_editor.render``; progress goes to stderr.
+  8-bit rounding of ``fmr_editor.render_image``; progress goes to stderr.
 * A saved ``.fmr`` file renders like the document it holds.
 * ``--method direct`` agrees with the FMR to one 8-bit level.
 * Bad input (malformed or missing file) and an unwritable output path end with
   exit code 2 and a one-line message, without a traceback or an output file.
-* ``fmr_editor.render`` returns float32 ``(H, W, 3)`` in ``[0, 1]`` and
+* ``fmr_editor.render_image`` returns float32 ``(H, W, 3)`` in ``[0, 1]`` and
   reproduces closed-form solutions: a constant colour, and a straight line
   across the canvas splitting it into two constant halves.
 * ``save_png`` never leaves a temporary file behind and never half-writes.
@@ -98,8 +98,8 @@ def orzan_xml(width: int, height: int, curves: list[dict]) -> str:
 
 @pytest.fixture(scope="module")
 def ribbon_48() -> np.ndarray:
-    """``fmr_editor.render`` of the bundled sample at 48x48, 3x3 samples."""
-    return fmr_editor.render(fmr_editor.load(RIBBON), 48, 48, samples=3)
+    """``fmr_editor.render_image`` of the bundled sample at 48x48, 3x3 samples."""
+    return fmr_editor.render_image(fmr_editor.load(RIBBON), 48, 48, samples=3)
 
 
 @pytest.fixture
@@ -140,7 +140,7 @@ def test_width_alone_keeps_the_aspect_ratio_of_a_non_square_canvas(tmp_path, spl
     assert main(["render", str(split_canvas), "-o", str(out), "--width", "30"]) == 0
     pixels = read_png(out)
     assert pixels.shape == (20, 30, 3)
-    reference = fmr_editor.render(fmr_editor.load(split_canvas), 30, 20, samples=3)
+    reference = fmr_editor.render_image(fmr_editor.load(split_canvas), 30, 20, samples=3)
     np.testing.assert_array_equal(pixels, to_rgb8(reference))
     # closed form: pixel column j covers document x in [2j, 2j + 2]; the line is at x = 20
     expected = np.where((np.arange(30) >= 10)[None, :, None], [255, 0, 0], [0, 0, 255])
@@ -157,7 +157,7 @@ def test_render_command_reads_a_saved_fmr_file(tmp_path, split_canvas, monkeypat
     document = fmr_editor.load(split_canvas)
     saved = save_fmr(tmp_path / "split.fmr", document, build(document))
     out = tmp_path / "split.png"
-    monkeypatch.setattr(fmr_editor, "render", lambda *args, **kwargs: pytest.fail("the saved representation was not used"))
+    monkeypatch.setattr(fmr_editor, "render_image", lambda *args, **kwargs: pytest.fail("the saved representation was not used"))
     assert main(["render", str(saved), "-o", str(out), "--width", "30", "--samples", "1"]) == 0
     expected = to_rgb8(rasterise(build(document), 30, 20, samples=1))
     np.testing.assert_array_equal(read_png(out), expected)
@@ -247,15 +247,15 @@ def test_render_returns_float32_rgb_in_the_unit_range(ribbon_48):
 
 def test_render_of_a_constant_document_is_constant():
     doc = Document(40, 30, [uniform_curve(circle_points(22.0, 14.0, 9.0), 0.25, 0.25)])
-    image = fmr_editor.render(doc, samples=1)
+    image = fmr_editor.render_image(doc, samples=1)
     assert image.dtype == np.float32
     assert image.shape == (30, 40, 3)
     np.testing.assert_allclose(image, 0.25, rtol=0, atol=1e-3)
-    assert fmr_editor.render(doc, width=20, samples=1).shape == (15, 20, 3)
+    assert fmr_editor.render_image(doc, width=20, samples=1).shape == (15, 20, 3)
 
 
 def test_render_of_a_line_across_the_canvas_gives_two_constant_halves(split_canvas):
-    image = fmr_editor.render(fmr_editor.load(split_canvas), samples=1)  # canvas size: 60x40
+    image = fmr_editor.render_image(fmr_editor.load(split_canvas), samples=1)  # canvas size: 60x40
     assert image.shape == (40, 60, 3)
     right_of_line = np.arange(60) + 0.5 > 20.0
     expected = np.where(right_of_line[None, :, None], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0])
