@@ -106,3 +106,152 @@ def gl_display(x_display, qapp):
     if qapp.platformName() != "xcb":
         pytest.skip(f"the QApplication runs on Qt's {qapp.platformName()!r} platform, which has no OpenGL here")
     return x_display
+
+
+# --- the editor window, driven like a user (tests/test_ui_*.py) ---------------------------------
+# Dialogs are replaced by answers the test sets beforehand, so nothing blocks: QMessageBox's static
+# methods, QFileDialog's, QColorDialog.getColor, and the editor's own modal dialogs.
+
+
+class EditorDriver:
+    """A ``ui.main_window.MainWindow`` and helpers to drive it through real Qt events.
+
+    Attributes
+    ----------
+    window : MainWindow
+    answers : dict
+        What the patched dialogs return next: ``"question"`` (a ``QMessageBox.StandardButton``),
+        ``"open"`` / ``"save"`` (a path or ""), ``"color"`` (a QColor), ``"size"``, ``"export"``.
+    errors, questions : list
+        ``(title, text)`` of every critical message box and question shown.
+    """
+
+    def __init__(self, qtbot, window) -> None:
+        self.qtbot = qtbot
+        self.window = window
+        self.answers: dict = {}
+        self.errors: list = []
+        self.questions: list = []
+
+    # -- state
+    @property
+    def canvas(self):
+        return self.window.canvas
+
+    @property
+    def workspace(self):
+        return self.window.workspace
+
+    @property
+    def history(self):
+        return self.window.workspace.history
+
+    @property
+    def document(self):
+        return self.window.workspace.history.document
+
+    @property
+    def context(self):
+        return self.window.workspace.context
+
+    def wait_idle(self, timeout: int = 60_000) -> None:
+        """Until no job runs and the engine has caught up with the current document."""
+        window = self.window
+        self.qtbot.waitUntil(lambda: window.job is None and window.workspace is not None and window.workspace.current,
+                             timeout=timeout)
+
+    def open(self, path) -> None:
+        """Open ``path`` through the window and wait for it."""
+        before = self.window.workspace
+        self.window.open_path(path)
+        self.qtbot.waitUntil(lambda: self.window.job is None, timeout=60_000)
+        assert self.window.workspace is not before, f"{path} did not open: {self.errors}"
+        self.wait_idle()
+
+    # -- pointer, in document pixels (rounded to the nearest window pixel)
+    def at(self, x: float, y: float):
+        from PySide6.QtCore import QPoint
+
+        wx, wy = self.canvas.view.to_window(x, y)
+        return QPoint(round(wx), round(wy))
+
+    def doc(self, x: float, y: float) -> tuple[float, float]:
+        """Where a pointer event aimed at document ``(x, y)`` lands, in document pixels."""
+        p = self.at(x, y)
+        return self.canvas.to_document(p.x(), p.y())
+
+    def press(self, x, y, modifiers=None) -> None:
+        from PySide6.QtCore import Qt
+
+        self.qtbot.mousePress(self.canvas, Qt.MouseButton.LeftButton, modifiers or Qt.KeyboardModifier.NoModifier,
+                              self.at(x, y))
+
+    def move(self, x, y) -> None:
+        self.qtbot.mouseMove(self.canvas, self.at(x, y))
+
+    def release(self, x, y, modifiers=None) -> None:
+        from PySide6.QtCore import Qt
+
+        self.qtbot.mouseRelease(self.canvas, Qt.MouseButton.LeftButton, modifiers or Qt.KeyboardModifier.NoModifier,
+                                self.at(x, y))
+
+    def click(self, x, y) -> None:
+        self.press(x, y)
+        self.release(x, y)
+
+    def drag(self, points, release: bool = True) -> None:
+        """Press at the first point, move through the others (in steps), release at the last."""
+        self.press(*points[0])
+        for (x0, y0), (x1, y1) in zip(points[:-1], points[1:]):
+            for t in (0.25, 0.5, 0.75, 1.0):
+                self.move(x0 + t * (x1 - x0), y0 + t * (y1 - y0))
+        if release:
+            self.release(*points[-1])
+
+    def key(self, key, modifiers=None, widget=None) -> None:
+        from PySide6.QtCore import Qt
+
+        self.qtbot.keyClick(widget or self.canvas, key, modifiers or Qt.KeyboardModifier.NoModifier)
+
+
+@pytest.fixture
+def editor(gl_display, qtbot, tmp_path, monkeypatch):
+    """A shown editor window (no document yet) with its dialogs patched; see ``EditorDriver``."""
+    from PySide6.QtCore import QSettings
+    from PySide6.QtGui import QColor
+    from PySide6.QtWidgets import QColorDialog, QFileDialog, QMessageBox
+
+    from fmr_editor.ui.export import ExportDialog
+    from fmr_editor.ui.files import NewDocumentDialog
+    from fmr_editor.ui.main_window import MainWindow
+
+    window = MainWindow(QSettings(str(tmp_path / "settings.ini"), QSettings.Format.IniFormat))
+    driver = EditorDriver(qtbot, window)
+    answers = driver.answers
+
+    def critical(parent, title, text, *args, **kwargs):
+        driver.errors.append((title, text))
+        return QMessageBox.StandardButton.Ok
+
+    def question(parent, title, text, *args, **kwargs):
+        driver.questions.append((title, text))
+        return answers.get("question", QMessageBox.StandardButton.Cancel)
+
+    monkeypatch.setattr(QMessageBox, "critical", staticmethod(critical))
+    monkeypatch.setattr(QMessageBox, "question", staticmethod(question))
+    monkeypatch.setattr(QMessageBox, "about", staticmethod(lambda *args, **kwargs: None))
+    monkeypatch.setattr(QFileDialog, "getOpenFileName", staticmethod(lambda *a, **k: (str(answers.get("open", "")), "")))
+    monkeypatch.setattr(QFileDialog, "getSaveFileName", staticmethod(lambda *a, **k: (str(answers.get("save", "")), "")))
+    monkeypatch.setattr(QColorDialog, "getColor", staticmethod(lambda *a, **k: answers.get("color", QColor())))
+    monkeypatch.setattr(NewDocumentDialog, "get_size", staticmethod(lambda *a, **k: answers.get("size")))
+    monkeypatch.setattr(ExportDialog, "get_options", staticmethod(lambda *a, **k: answers.get("export")))
+    window.resize(900, 640)
+    window.show()
+    qtbot.waitExposed(window)
+    window.activateWindow()
+    yield driver
+    if window.job is not None:
+        window.job.wait()
+    window._close_now = True  # noqa: SLF001 - no question at teardown
+    window.close()
+    window.deleteLater()

@@ -1,0 +1,58 @@
+"""Starting the editor: ``main(path)`` makes the application and the window and runs them."""
+
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+
+from .workspace import DEFAULT_SIZE
+
+APP_NAME = "FMR Editor"
+ORGANISATION = "fmr-editor"
+
+
+def display_problem(environ=os.environ, platform: str = sys.platform) -> str | None:
+    """Why Qt could not open a window here, or None when it can (as far as can be told)."""
+    if not platform.startswith("linux") or environ.get("QT_QPA_PLATFORM"):
+        return None
+    if environ.get("DISPLAY") or environ.get("WAYLAND_DISPLAY"):
+        return None
+    return ("no display to open the editor on (neither DISPLAY nor WAYLAND_DISPLAY is set). Run it on a "
+            "desktop or under xvfb-run, or render without a window: fmr-editor render FILE -o OUT.png")
+
+
+def main(path: str | os.PathLike | None = None, argv: list[str] | None = None) -> int:
+    """Open the editor on ``path`` (a new document when None) and run until it closes.
+
+    Parameters
+    ----------
+    path : str or os.PathLike, optional
+        A ``.fmr`` or Orzan ``.xml`` document.
+    argv : list of str, optional
+        Arguments for ``QApplication`` (default: the program name).
+
+    Returns
+    -------
+    int
+        The exit status: 0, or 2 when there is no display.
+    """
+    problem = display_problem()
+    if problem is not None:
+        print(f"fmr-editor: {problem}", file=sys.stderr)
+        return 2
+    from PySide6.QtCore import QSettings
+    from PySide6.QtWidgets import QApplication
+
+    from .main_window import MainWindow
+
+    app = QApplication.instance() or QApplication(argv or [sys.argv[0] if sys.argv else "fmr-editor"])
+    app.setApplicationName(APP_NAME)
+    app.setOrganizationName(ORGANISATION)
+    window = MainWindow(QSettings(ORGANISATION, "editor"))
+    window.show()
+    if path is not None:
+        window.open_path(Path(path))
+    else:
+        window.new_document(DEFAULT_SIZE)
+    return app.exec()

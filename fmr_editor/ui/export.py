@@ -1,0 +1,131 @@
+"""Export PNG: the size and antialiasing dialog, and the export itself (CPU rasteriser).
+
+The export runs on a ``jobs.Job``: ``export_png`` rasterises the
+representation the engine built (``engine.rasterise``, the same pixels as
+``fmr-editor render``) with progress, and writes the file atomically.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+from PySide6.QtWidgets import (
+    QCheckBox, QDialog, QDialogButtonBox, QFormLayout, QHBoxLayout, QLineEdit, QPushButton, QSpinBox, QWidget,
+)
+
+from ..engine import Representation, Settings, build, rasterise
+from ..io.png import save_png
+from ..model import Document
+from .files import ask_png_path
+
+#: Largest output side, pixels.
+MAX_SIDE = 32768
+#: Most samples per pixel side.
+MAX_SAMPLES = 8
+
+
+@dataclass(frozen=True)
+class ExportOptions:
+    """Where and how to export.
+
+    Attributes
+    ----------
+    path : pathlib.Path
+    width, height : int
+        Output size in pixels.
+    samples : int
+        ``samples x samples`` supersampling per pixel (1: none).
+    """
+
+    path: Path
+    width: int
+    height: int
+    samples: int = 3
+
+
+def export_png(options: ExportOptions, document: Document, representation: Representation | None,
+               settings: Settings = Settings(), progress: Callable[[str, float], None] | None = None) -> Path:
+    """Rasterise ``representation`` (built first if None) and write the PNG; returns the path written."""
+    if representation is None:
+        representation = build(document, settings, progress=progress)
+    image = rasterise(representation, options.width, options.height, samples=options.samples, progress=progress)
+    if progress:
+        progress("write", 1.0)
+    return save_png(image.clip(0.0, 1.0), options.path)
+
+
+class ExportDialog(QDialog):
+    """Asks for the PNG's file, size (aspect kept on request) and antialiasing.
+
+    Parameters
+    ----------
+    canvas : tuple of int
+        The document's canvas size (the default output size).
+    path : pathlib.Path
+        The suggested file.
+    parent : QWidget, optional
+    """
+
+    def __init__(self, canvas: tuple[int, int], path: Path, parent=None) -> None:
+        super().__init__(parent)
+        self.setWindowTitle("Export PNG")
+        self.canvas = canvas
+        self.path_edit = QLineEdit(str(path), self)
+        browse = QPushButton("Browse\u2026", self)
+        browse.clicked.connect(self._browse)
+        where = QHBoxLayout()
+        where.addWidget(self.path_edit, 1)
+        where.addWidget(browse)
+        self.width_box, self.height_box = QSpinBox(self), QSpinBox(self)
+        for box, value in ((self.width_box, canvas[0]), (self.height_box, canvas[1])):
+            box.setRange(1, MAX_SIDE)
+            box.setValue(value)
+            box.setSuffix(" px")
+        self.keep_aspect = QCheckBox("Keep the canvas's aspect ratio", self)
+        self.keep_aspect.setChecked(True)
+        self.width_box.valueChanged.connect(lambda v: self._follow(self.height_box, v * canvas[1] / canvas[0]))
+        self.height_box.valueChanged.connect(lambda v: self._follow(self.width_box, v * canvas[0] / canvas[1]))
+        self.samples_box = QSpinBox(self)
+        self.samples_box.setRange(1, MAX_SAMPLES)
+        self.samples_box.setValue(3)
+        self.samples_box.setToolTip("Antialiasing: N x N samples per pixel (1: none)")
+        buttons = QDialogButtonBox(QDialogButtonBox.StandardButton.Ok | QDialogButtonBox.StandardButton.Cancel)
+        buttons.button(QDialogButtonBox.StandardButton.Ok).setText("Export")
+        buttons.accepted.connect(self.accept)
+        buttons.rejected.connect(self.reject)
+        form = QFormLayout(self)
+        holder = QWidget(self)
+        holder.setLayout(where)
+        form.addRow("File", holder)
+        form.addRow("Width", self.width_box)
+        form.addRow("Height", self.height_box)
+        form.addRow("", self.keep_aspect)
+        form.addRow("Antialiasing (samples per side)", self.samples_box)
+        form.addRow(buttons)
+
+    def _follow(self, box: QSpinBox, value: float) -> None:
+        if self.keep_aspect.isChecked():
+            box.blockSignals(True)
+            box.setValue(max(1, round(value)))
+            box.blockSignals(False)
+
+    def _browse(self) -> None:
+        chosen = ask_png_path(self, self.path_edit.text())
+        if chosen is not None:
+            self.path_edit.setText(str(chosen))
+
+    def options(self) -> ExportOptions:
+        """What the dialog shows now."""
+        path = Path(os.path.expanduser(self.path_edit.text().strip() or "export.png"))
+        if path.suffix.lower() != ".png":
+            path = path.with_name(path.name + ".png")
+        return ExportOptions(path, self.width_box.value(), self.height_box.value(), self.samples_box.value())
+
+    @staticmethod
+    def get_options(canvas: tuple[int, int], path: Path, parent=None) -> ExportOptions | None:
+        """Show the dialog (modal); the options, or None when cancelled."""
+        dialog = ExportDialog(canvas, path, parent)
+        return dialog.options() if dialog.exec() == QDialog.DialogCode.Accepted else None

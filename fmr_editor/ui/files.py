@@ -1,0 +1,136 @@
+"""File dialogs, the recent-files list and the new-canvas dialog.
+
+The dialogs go through ``QFileDialog``'s and ``QMessageBox``'s static
+methods (tests replace them); the recent files live in a ``QSettings`` that
+the window is given (no global settings object).
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from PySide6.QtCore import QSettings
+from PySide6.QtWidgets import QDialog, QDialogButtonBox, QFileDialog, QFormLayout, QMessageBox, QSpinBox
+
+#: Suffixes the editor opens.
+OPENABLE = (".fmr", ".xml")
+OPEN_FILTER = "Documents (*.fmr *.xml);;FMR documents (*.fmr);;Orzan curve sets (*.xml);;All files (*)"
+SAVE_FILTER = "FMR documents (*.fmr)"
+PNG_FILTER = "PNG images (*.png)"
+#: Largest canvas side the new-canvas dialog offers, pixels.
+MAX_CANVAS = 16384
+
+
+def openable(path: str | os.PathLike) -> bool:
+    """True for a file name the editor can open (by its suffix)."""
+    return Path(path).suffix.lower() in OPENABLE
+
+
+def ask_open_path(parent, folder: str = "") -> Path | None:
+    """Ask for a document to open; None when cancelled."""
+    path, _ = QFileDialog.getOpenFileName(parent, "Open Document", folder, OPEN_FILTER)
+    return Path(path) if path else None
+
+
+def ask_save_path(parent, suggested: str | os.PathLike) -> Path | None:
+    """Ask where to save as ``.fmr`` (the suffix is added when missing); None when cancelled."""
+    path, _ = QFileDialog.getSaveFileName(parent, "Save Document As", str(suggested), SAVE_FILTER)
+    if not path:
+        return None
+    path = Path(path)
+    return path if path.suffix.lower() == ".fmr" else path.with_name(path.name + ".fmr")
+
+
+def ask_png_path(parent, suggested: str | os.PathLike) -> Path | None:
+    """Ask where to export a PNG (the suffix is added when missing); None when cancelled."""
+    path, _ = QFileDialog.getSaveFileName(parent, "Export PNG", str(suggested), PNG_FILTER)
+    if not path:
+        return None
+    path = Path(path)
+    return path if path.suffix.lower() == ".png" else path.with_name(path.name + ".png")
+
+
+def ask_keep_changes(parent, name: str) -> str:
+    """Ask what to do with unsaved changes of ``name``: ``"save"``, ``"discard"`` or ``"cancel"``."""
+    buttons = QMessageBox.StandardButton
+    answer = QMessageBox.question(
+        parent, "Unsaved Changes", f"Save the changes to {name} before closing it?",
+        buttons.Save | buttons.Discard | buttons.Cancel, buttons.Save,
+    )
+    return {buttons.Save: "save", buttons.Discard: "discard"}.get(answer, "cancel")
+
+
+def show_error(parent, title: str, message: str) -> None:
+    """A critical message box."""
+    QMessageBox.critical(parent, title, message)
+
+
+class RecentFiles:
+    """The most recently opened or saved files, newest first, kept in ``settings``.
+
+    Parameters
+    ----------
+    settings : QSettings
+    limit : int
+        How many to keep.
+    """
+
+    KEY = "recentFiles"
+
+    def __init__(self, settings: QSettings, limit: int = 10) -> None:
+        self.settings = settings
+        self.limit = limit
+
+    def paths(self) -> list[Path]:
+        """The files, newest first (those that no longer exist included)."""
+        value = self.settings.value(self.KEY, [])
+        if isinstance(value, str):  # QSettings gives a lone string for a list of one
+            value = [value]
+        return [Path(p) for p in (value or []) if p]
+
+    def add(self, path: str | os.PathLike) -> None:
+        """Put ``path`` first."""
+        path = Path(path).absolute()
+        paths = [path] + [p for p in self.paths() if p != path]
+        self._store(paths[: self.limit])
+
+    def remove(self, path: str | os.PathLike) -> None:
+        path = Path(path).absolute()
+        self._store([p for p in self.paths() if p != path])
+
+    def clear(self) -> None:
+        self._store([])
+
+    def _store(self, paths: list[Path]) -> None:
+        self.settings.setValue(self.KEY, [str(p) for p in paths])
+        self.settings.sync()
+
+
+class NewDocumentDialog(QDialog):
+    """Asks for the canvas size of a new document."""
+
+    def __init__(self, parent=None, width: int = 512, height: int = 512) -> None:
+        super().__init__(parent)
+        self.setWindowTitle("New Document")
+        self.width_box, self.height_box = QSpinBox(self), QSpinBox(self)
+        for box, value in ((self.width_box, width), (self.height_box, height)):
+            box.setRange(1, MAX_CANVAS)
+            box.setValue(value)
+            box.setSuffix(" px")
+        buttons = QDialogButtonBox(QDialogButtonBox.StandardButton.Ok | QDialogButtonBox.StandardButton.Cancel)
+        buttons.accepted.connect(self.accept)
+        buttons.rejected.connect(self.reject)
+        form = QFormLayout(self)
+        form.addRow("Width", self.width_box)
+        form.addRow("Height", self.height_box)
+        form.addRow(buttons)
+
+    def size_chosen(self) -> tuple[int, int]:
+        return self.width_box.value(), self.height_box.value()
+
+    @staticmethod
+    def get_size(parent=None, width: int = 512, height: int = 512) -> tuple[int, int] | None:
+        """Ask for a canvas size (modal); None when cancelled."""
+        dialog = NewDocumentDialog(parent, width, height)
+        return dialog.size_chosen() if dialog.exec() == QDialog.DialogCode.Accepted else None

@@ -1,0 +1,582 @@
+"""The editor's main window: canvas, panels, menus and file operations.
+
+One document is open at a time (a ``Workspace``).  Pointer events from the
+canvas go to the active tool; every change of the document goes to the
+engine thread, whose frames update the canvas cell by cell.  Opening,
+building, saving and exporting run on ``jobs.Job`` threads with progress in
+the status bar; while one runs the document cannot be edited, so that a job
+reads a representation nothing changes.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+from pathlib import Path
+
+from PySide6.QtCore import QEvent, QSettings, Qt, QTimer
+from PySide6.QtGui import QCursor
+from PySide6.QtWidgets import QDockWidget, QLabel, QMainWindow, QMenu, QMessageBox, QProgressBar
+
+from ..io import DocumentLoadError, save_fmr
+from ..tools import Selection, ToolOptions, delete_selection
+from .canvas import Canvas
+from .colors import pick_color
+from .events import modifier_names, pointer_event, tool_key
+from .export import ExportDialog, ExportOptions, export_png
+from .files import (
+    NewDocumentDialog, RecentFiles, ask_keep_changes, ask_open_path, ask_save_path, openable, show_error,
+)
+from .history_panel import HistoryPanel
+from .jobs import Job
+from .menus import build_actions, build_menus
+from .options_panel import OptionsPanel
+from .overlay import Overlay
+from .stops_panel import StopsPanel
+from .workspace import DEFAULT_SIZE, Opened, Workspace, new_document, open_file
+
+APP_NAME = "FMR Editor"
+CURSORS = {
+    "arrow": Qt.CursorShape.ArrowCursor,
+    "crosshair": Qt.CursorShape.CrossCursor,
+    "pen": Qt.CursorShape.CrossCursor,
+    "picker": Qt.CursorShape.PointingHandCursor,
+}
+
+
+class MainWindow(QMainWindow):
+    """The editor window.
+
+    Parameters
+    ----------
+    settings : QSettings
+        Where the recent files and the window layout are kept.
+    parent : QWidget, optional
+
+    Attributes
+    ----------
+    workspace : Workspace or None
+        The open document (None until the first one is built).
+    canvas : ui.canvas.Canvas
+    actions : dict of str to QAction
+    """
+
+    def __init__(self, settings: QSettings, parent=None) -> None:
+        super().__init__(parent)
+        self.settings = settings
+        self.recent = RecentFiles(settings)
+        self.options = ToolOptions()
+        self.workspace: Workspace | None = None
+        self.tool_name = "select"
+        self.job: Job | None = None
+        self._busy = False
+        self._close_now = False
+        self._swallow: int | None = None  # a key press the tool took at its shortcut override
+        self._declined: int | None = None  # a key press the tool declined at its shortcut override
+
+        self.canvas = Canvas(self)
+        self.setCentralWidget(self.canvas)
+        self.overlay = Overlay(self.canvas, self._overlay)
+        self.canvas.pressed.connect(lambda *a: self._pointer("press", pointer_event(*a)))
+        self.canvas.double_clicked.connect(lambda *a: self._pointer("press", pointer_event(*a, clicks=2)))
+        self.canvas.moved.connect(lambda *a: self._pointer("move", pointer_event(*a)))
+        self.canvas.released.connect(lambda *a: self._pointer("release", pointer_event(*a)))
+        self.canvas.view_changed.connect(self._view_changed)
+        self.canvas.installEventFilter(self)
+
+        self.actions = build_actions(self)
+        self.recent_menu = QMenu("Open &Recent", self)
+        self.recent_menu.aboutToShow.connect(self._fill_recent_menu)
+        self.options_panel = OptionsPanel(self.options, [a for k, a in self.actions.items() if k.startswith("tool:")])
+        self.options_panel.changed.connect(self.overlay.update)
+        self.stops_panel = StopsPanel()
+        self.stops_panel.changed.connect(self._after_tool)
+        self.history_panel = HistoryPanel()
+        docks = [
+            self._dock("Tool Options", "options", self.options_panel, Qt.DockWidgetArea.LeftDockWidgetArea),
+            self._dock("Colour Stops", "stops", self.stops_panel, Qt.DockWidgetArea.RightDockWidgetArea),
+            self._dock("History", "history", self.history_panel, Qt.DockWidgetArea.RightDockWidgetArea),
+        ]
+        build_menus(self, self.actions, self.recent_menu, [d.toggleViewAction() for d in docks])
+
+        self.status_label = QLabel()
+        self.position_label = QLabel()
+        self.progress_bar = QProgressBar()
+        self.progress_bar.setRange(0, 1000)
+        self.progress_bar.setMaximumWidth(220)
+        self.progress_bar.hide()
+        status = self.statusBar()
+        status.addWidget(self.status_label, 1)
+        status.addPermanentWidget(self.progress_bar)
+        status.addPermanentWidget(self.position_label)
+
+        self.setAcceptDrops(True)
+        self.resize(1200, 800)
+        geometry = settings.value("window/geometry")
+        if geometry is not None:
+            self.restoreGeometry(geometry)
+            self.restoreState(settings.value("window/state", b""))
+        self.set_tool(self.tool_name)
+        self._update_state()
+
+    def _dock(self, title: str, name: str, widget, area) -> QDockWidget:
+        dock = QDockWidget(title, self)
+        dock.setObjectName(name)
+        dock.setWidget(widget)
+        self.addDockWidget(area, dock)
+        return dock
+
+    # -- the active tool ------------------------------------------------------------------------------
+    @property
+    def tool(self):
+        """The active tool of the open document (None without one)."""
+        return self.workspace.tools[self.tool_name] if self.workspace is not None else None
+
+    def set_tool(self, name: str) -> None:
+        """Make tool ``name`` active; the previous one finishes what it was doing."""
+        if self.tool is not None and name != self.tool_name:
+            self.tool.finish()
+        self.tool_name = name
+        self.actions[f"tool:{name}"].setChecked(True)
+        cursor = self.workspace.tools[name].cursor if self.workspace is not None else "arrow"
+        self.canvas.setCursor(QCursor(CURSORS.get(cursor, Qt.CursorShape.ArrowCursor)))
+        self._after_tool()
+
+    def _pointer(self, kind: str, event) -> None:
+        tool = self.tool
+        if tool is None or self._busy:
+            return
+        getattr(tool, kind)(event)
+        x, y = event.position
+        self.position_label.setText(f"{x:.1f}, {y:.1f}")
+        self._after_tool()
+
+    def _after_tool(self) -> None:
+        """Show what a tool or panel did: overlay, stops, colours, actions."""
+        self.overlay.update()
+        self.stops_panel.refresh()
+        self.options_panel.refresh()
+        self._update_actions()
+
+    def _overlay(self) -> list:
+        tool = self.tool
+        return tool.overlay() if tool is not None else []
+
+    def _view_changed(self) -> None:
+        if self.workspace is not None:
+            self.workspace.context.zoom = self.canvas.view.scale
+
+    def eventFilter(self, watched, event) -> bool:
+        """Delete, BackSpace, Return, Escape and the arrows go to the tool first, then to the menus."""
+        kind = event.type()
+        if watched is not self.canvas or kind not in (QEvent.Type.ShortcutOverride, QEvent.Type.KeyPress):
+            return super().eventFilter(watched, event)
+        name, tool = tool_key(event.key()), self.tool
+        if name is None or tool is None or self._busy:
+            return False
+        key = event.key()
+        if kind == QEvent.Type.KeyPress:
+            if self._swallow == key:
+                self._swallow = None
+                return True
+            if self._declined == key:
+                self._declined = None
+                return False
+        used = tool.key(name, modifier_names(event.modifiers()))
+        if used:
+            self._after_tool()
+            if kind == QEvent.Type.ShortcutOverride:
+                self._swallow = key
+                event.accept()
+            return True
+        if kind == QEvent.Type.ShortcutOverride:
+            self._declined = key
+        return False
+
+    # -- edit commands --------------------------------------------------------------------------------
+    def undo(self) -> None:
+        """Undo the last step (a gesture in progress is cancelled instead)."""
+        if self.workspace is None or self._busy:
+            return
+        if self.tool.busy:
+            self.tool.cancel()
+            self._after_tool()
+            return
+        self.workspace.history.undo()
+
+    def redo(self) -> None:
+        if self.workspace is not None and not self._busy and not self.tool.busy:
+            self.workspace.history.redo()
+
+    def delete_selection(self) -> None:
+        if self.workspace is None or self._busy:
+            return
+        if not self.tool.key("Delete"):
+            delete_selection(self.workspace.context)
+        self._after_tool()
+
+    def select_all(self) -> None:
+        if self.workspace is None:
+            return
+        document = self.workspace.context.document
+        self.workspace.context.selection = Selection.of(curves=range(len(document.curves)),
+                                                        points=range(len(document.points)))
+        self._after_tool()
+
+    def deselect(self) -> None:
+        if self.workspace is not None:
+            self.workspace.context.selection = Selection()
+            self._after_tool()
+
+    def zoom_in(self) -> None:
+        self.canvas.zoom_in()
+
+    def zoom_out(self) -> None:
+        self.canvas.zoom_out()
+
+    def fit(self) -> None:
+        self.canvas.fit()
+
+    def swap_colors(self) -> None:
+        self.options_panel.swap_colors()
+
+    def default_colors(self) -> None:
+        self.options_panel.default_colors()
+
+    def about(self) -> None:
+        QMessageBox.about(self, f"About {APP_NAME}",
+                          f"<b>{APP_NAME}</b><p>Diffusion curves and points, rendered through the fast multipole "
+                          "representation.</p>")
+
+    # -- the document ---------------------------------------------------------------------------------
+    def _install(self, opened: Opened) -> None:
+        """Make ``opened`` the open document (the previous one is closed)."""
+        old = self.workspace
+        if old is not None:
+            old.tools[self.tool_name].cancel()
+            old.close()
+            old.deleteLater()
+        workspace = Workspace(opened, self.options, self._choose_stop_color, self)
+        workspace.document_changed.connect(self._document_changed)
+        workspace.frame_ready.connect(self._frame_ready)
+        workspace.engine_failed.connect(self._engine_failed)
+        workspace.engine_progress.connect(self._engine_progress)
+        self.workspace = workspace
+        frame = opened.frame
+        self.canvas.set_representation(frame.representation, fit=True, polynomials=frame.polynomials)
+        workspace.context.zoom = self.canvas.view.scale
+        first = f"Open {workspace.name}" if workspace.path is not None else "New Document"
+        self.history_panel.bind(workspace.history, first)
+        self.stops_panel.bind(workspace.context)
+        if workspace.path is not None:
+            self.recent.add(workspace.path)
+        self.set_tool(self.tool_name)
+        self._update_state()
+        self.canvas.setFocus()
+
+    def _choose_stop_color(self, current):
+        return pick_color(self, current, "Stop Colour")
+
+    def _document_changed(self) -> None:
+        self.history_panel.refresh()
+        self._after_tool()
+        self._update_title()
+
+    def _frame_ready(self, frame) -> None:
+        if frame.changed.any():  # the renderer takes no empty update (an edit undone before it was built)
+            self.canvas.update_representation(frame.representation, frame.changed, frame.polynomials)
+        if self.job is None:
+            self.progress_bar.hide()
+
+    def _engine_failed(self, message: str) -> None:
+        self.status_label.setText(f"The image could not be updated: {message.splitlines()[0]}")
+
+    def _engine_progress(self, stage: str, fraction: float) -> None:
+        if self.job is None:
+            self._show_progress(stage, fraction)
+
+    def _show_progress(self, stage: str, fraction: float) -> None:
+        self.progress_bar.show()
+        self.progress_bar.setFormat(f"{stage} %p%")
+        self.progress_bar.setValue(int(round(min(max(fraction, 0.0), 1.0) * 1000)))
+
+    # -- state shown --------------------------------------------------------------------------------------
+    def _update_title(self) -> None:
+        workspace = self.workspace
+        if workspace is None:
+            self.setWindowTitle(APP_NAME)
+            return
+        mark = "*" if workspace.history.modified else ""
+        self.setWindowTitle(f"{workspace.name}{mark} \u2014 {APP_NAME}")
+
+    def _update_actions(self) -> None:
+        workspace, actions, free = self.workspace, self.actions, not self._busy
+        history = workspace.history if workspace is not None else None
+        undo = history.undo_label if history is not None else None
+        redo = history.redo_label if history is not None else None
+        actions["undo"].setText(f"Undo {undo}" if undo else "Undo")
+        actions["redo"].setText(f"Redo {redo}" if redo else "Redo")
+        actions["undo"].setEnabled(free and undo is not None)
+        actions["redo"].setEnabled(free and redo is not None)
+        for name in ("new", "open"):
+            actions[name].setEnabled(free)
+        for name in ("save", "save_as", "export", "delete", "select_all", "deselect"):
+            actions[name].setEnabled(free and workspace is not None)
+
+    def _update_state(self) -> None:
+        self._update_title()
+        self._update_actions()
+        self.history_panel.refresh()
+        self.stops_panel.refresh()
+        self.overlay.update()
+
+    def _set_busy(self, message: str | None) -> None:
+        """Pause editing while a job runs (``message`` says what it does), or resume it (None)."""
+        self._busy = message is not None
+        for widget in (self.canvas, self.stops_panel, self.history_panel):
+            widget.setEnabled(not self._busy)
+        self.status_label.setText(message or "")
+        if self._busy:
+            self._show_progress(message, 0.0)
+        else:
+            self.progress_bar.hide()
+        self._update_actions()
+
+    # -- jobs -------------------------------------------------------------------------------------------
+    def _start(self, title: str, work, succeeded: Callable, failed: Callable) -> None:
+        """Run ``work(progress)`` on a job thread, editing paused; then ``succeeded(result)`` or ``failed(error)``."""
+        if self.tool is not None:
+            self.tool.finish()
+        job = Job(work, title, self)
+        self.job = job
+        self._set_busy(title)
+        job.progress.connect(self._show_progress)
+        job.succeeded.connect(lambda result: self._finish_job(job, succeeded, result))
+        job.failed.connect(lambda error: self._finish_job(job, failed, error))
+        job.start()
+
+    def _finish_job(self, job: Job, then: Callable, value) -> None:
+        job.wait()
+        job.deleteLater()
+        if self.job is job:
+            self.job = None
+        self._set_busy(None)
+        then(value)
+        self._update_state()
+
+    def _settle_changes(self, proceed: Callable[[], None]) -> None:
+        """Run ``proceed`` once unsaved changes are saved or may be dropped (asks the user)."""
+        workspace = self.workspace
+        if workspace is None or not workspace.history.modified:
+            proceed()
+            return
+        answer = ask_keep_changes(self, workspace.name)
+        if answer == "discard":
+            proceed()
+        elif answer == "save":
+            self.save(then=proceed)
+
+    def _folder(self) -> str:
+        workspace = self.workspace
+        if workspace is not None and workspace.path is not None:
+            return str(workspace.path.parent)
+        recent = self.recent.paths()
+        return str(recent[0].parent) if recent else os.getcwd()
+
+    # -- file commands ------------------------------------------------------------------------------------
+    def new_document(self, size: tuple[int, int] | None = None) -> None:
+        """A new, empty document; asks for the canvas size unless ``size`` is given."""
+        if self._busy:
+            return
+
+        def proceed() -> None:
+            chosen = size or NewDocumentDialog.get_size(self, *DEFAULT_SIZE)
+            if chosen is None:
+                return
+            width, height = chosen
+            self._start("New document", lambda progress: new_document(width, height, progress), self._install,
+                        lambda error: show_error(self, "Cannot Create the Document", str(error)))
+
+        self._settle_changes(proceed)
+
+    def open_document(self) -> None:
+        """Ask for a document and open it."""
+        if self._busy:
+            return
+        path = ask_open_path(self, self._folder())
+        if path is not None:
+            self.open_path(path)
+
+    def open_path(self, path: str | os.PathLike) -> None:
+        """Open ``path`` (after asking about unsaved changes); a failure leaves the open document as it was."""
+        if self._busy:
+            return
+        path = Path(path)
+
+        def failed(error: BaseException) -> None:
+            message = str(error) if isinstance(error, DocumentLoadError) else f"{path.name}: {error}"
+            if not path.exists():
+                self.recent.remove(path)
+            show_error(self, "Cannot Open the Document", message)
+            if self.workspace is None:  # nothing open yet (started on this file): a blank canvas instead
+                self.new_document(DEFAULT_SIZE)
+
+        self._settle_changes(lambda: self._start(f"Opening {path.name}", lambda progress: open_file(path, progress),
+                                                 self._install, failed))
+
+    def save(self, then: Callable[[], None] | None = None) -> None:
+        """Save to the document's ``.fmr`` file (Save As for a new or imported one)."""
+        workspace = self.workspace
+        if workspace is None or self._busy:
+            return
+        if workspace.native:
+            self.save_to(workspace.path, then)
+        else:
+            self.save_as(then)
+
+    def save_as(self, then: Callable[[], None] | None = None) -> None:
+        """Ask for a ``.fmr`` file and save there."""
+        workspace = self.workspace
+        if workspace is None or self._busy:
+            return
+        if workspace.path is not None:
+            suggested = workspace.path.with_suffix(".fmr")
+        else:
+            suggested = Path(self._folder()) / "Untitled.fmr"
+        path = ask_save_path(self, suggested)
+        if path is not None:
+            self.save_to(path, then)
+
+    def save_to(self, path: str | os.PathLike, then: Callable[[], None] | None = None) -> None:
+        """Save the document with its representation to ``path`` (atomically), then ``then()``."""
+        workspace = self.workspace
+        if workspace is None or self._busy:
+            return
+        path = Path(path).absolute()
+        if self.tool is not None:
+            self.tool.finish()
+        document, step = workspace.history.document, workspace.history.index
+        self._set_busy(f"Saving {path.name}")  # nothing edits until the job is done
+
+        def saved(written: Path) -> None:
+            history = workspace.history
+            if history.index == step and history.document is document:
+                history.mark_saved()
+            workspace.path = Path(written)
+            self.recent.add(written)
+            self.status_label.setText(f"Saved {Path(written).name}")
+            if then is not None:
+                then()
+
+        def failed(error: BaseException) -> None:
+            reason = error.strerror if isinstance(error, OSError) and error.strerror else error
+            show_error(self, "Cannot Save the Document", f"{path.name}: {reason}")
+
+        def start(frame) -> None:
+            representation = frame.representation if frame is not None and frame.document is document else None
+            settings = workspace.settings if representation is not None else None
+            self._start(f"Saving {path.name}",
+                        lambda progress: save_fmr(path, document, representation, settings=settings), saved, failed)
+
+        workspace.when_current(start)
+
+    def export_png(self, options: ExportOptions | None = None) -> None:
+        """Export the image to PNG (asks for file, size and antialiasing unless ``options`` are given)."""
+        workspace = self.workspace
+        if workspace is None or self._busy:
+            return
+        document = workspace.history.document
+        if options is None:
+            stem = workspace.path.stem if workspace.path is not None else "Untitled"
+            options = ExportDialog.get_options((document.width, document.height),
+                                               Path(self._folder()) / f"{stem}.png", self)
+            if options is None:
+                return
+        if self.tool is not None:
+            self.tool.finish()
+            document = workspace.history.document
+        self._set_busy(f"Exporting {options.path.name}")
+
+        def done(written: Path) -> None:
+            self.status_label.setText(f"Exported {Path(written).name} ({options.width}x{options.height})")
+
+        def failed(error: BaseException) -> None:
+            reason = error.strerror if isinstance(error, OSError) and error.strerror else error
+            show_error(self, "Cannot Export", f"{options.path.name}: {reason}")
+
+        def start(frame) -> None:
+            representation = frame.representation if frame is not None and frame.document is document else None
+            self._start(f"Exporting {options.path.name}",
+                        lambda progress: export_png(options, document, representation, workspace.settings, progress),
+                        done, failed)
+
+        workspace.when_current(start)
+
+    def _fill_recent_menu(self) -> None:
+        menu = self.recent_menu
+        menu.clear()
+        paths = self.recent.paths()
+        for k, path in enumerate(paths, 1):
+            action = menu.addAction(f"&{k % 10} {path.name}  \u2014  {path.parent}")
+            action.triggered.connect(lambda _=False, path=path: self.open_path(path))
+            action.setEnabled(not self._busy)
+        if paths:
+            menu.addSeparator()
+        clear = menu.addAction("Clear Recent Files")
+        clear.setEnabled(bool(paths))
+        clear.triggered.connect(self.recent.clear)
+
+    # -- drag and drop, closing ---------------------------------------------------------------------------
+    @staticmethod
+    def _dropped(event) -> Path | None:
+        mime = event.mimeData()
+        if not mime.hasUrls():
+            return None
+        for url in mime.urls():
+            if url.isLocalFile() and openable(url.toLocalFile()):
+                return Path(url.toLocalFile())
+        return None
+
+    def dragEnterEvent(self, event) -> None:
+        if self._dropped(event) is not None and not self._busy:
+            event.acceptProposedAction()
+        else:
+            event.ignore()
+
+    def dragMoveEvent(self, event) -> None:
+        self.dragEnterEvent(event)
+
+    def dropEvent(self, event) -> None:
+        path = self._dropped(event)
+        if path is None or self._busy:
+            event.ignore()
+            return
+        event.acceptProposedAction()
+        QTimer.singleShot(0, lambda: self.open_path(path))  # not inside the drop: open_path may ask a question
+
+    def closeEvent(self, event) -> None:
+        workspace = self.workspace
+        if not self._close_now and self.job is not None:
+            event.ignore()  # a job is writing or reading: close when asked again after it
+            self.status_label.setText("Wait for the current job to finish before closing.")
+            return
+        if not self._close_now and workspace is not None and workspace.history.modified:
+            answer = ask_keep_changes(self, workspace.name)
+            if answer == "cancel":
+                event.ignore()
+                return
+            if answer == "save":
+                event.ignore()
+                self.save(then=self._close_after_save)
+                return
+        self.settings.setValue("window/geometry", self.saveGeometry())
+        self.settings.setValue("window/state", self.saveState())
+        if workspace is not None:
+            workspace.tools[self.tool_name].cancel()
+            workspace.close()
+            self.workspace = None
+        event.accept()
+
+    def _close_after_save(self) -> None:
+        self._close_now = True
+        QTimer.singleShot(0, self.close)

@@ -1,0 +1,85 @@
+"""The window's actions and menus, with the standard shortcuts.
+
+``build_actions`` makes every ``QAction`` and connects it to a method of
+the window by name; ``build_menus`` puts them in the menu bar.  Keys that
+the active tool may take (Delete, BackSpace, Return, Escape, the arrows)
+reach the tool before these shortcuts (see ``MainWindow.eventFilter``).
+"""
+
+from __future__ import annotations
+
+from PySide6.QtGui import QAction, QActionGroup, QKeySequence
+
+from ..tools import TOOLS
+
+#: name: (text, shortcuts, window method, status tip)
+ACTIONS = {
+    "new": ("&New\u2026", ["Ctrl+N"], "new_document", "Start a new document (asks for the canvas size)"),
+    "open": ("&Open\u2026", ["Ctrl+O"], "open_document", "Open a .fmr document or an Orzan .xml curve set"),
+    "save": ("&Save", ["Ctrl+S"], "save", "Save the document as .fmr"),
+    "save_as": ("Save &As\u2026", ["Ctrl+Shift+S"], "save_as", "Save the document under another name"),
+    "export": ("&Export PNG\u2026", ["Ctrl+E"], "export_png", "Render the image to a PNG file"),
+    "quit": ("&Quit", ["Ctrl+Q"], "close", "Close the editor"),
+    "undo": ("Undo", ["Ctrl+Z"], "undo", "Undo the last step"),
+    "redo": ("Redo", ["Ctrl+Shift+Z", "Ctrl+Y"], "redo", "Redo the step undone last"),
+    "delete": ("&Delete", ["Delete", "Backspace"], "delete_selection", "Delete the selection"),
+    "select_all": ("Select &All", ["Ctrl+A"], "select_all", "Select every curve and point"),
+    "deselect": ("D&eselect", ["Ctrl+Shift+A"], "deselect", "Clear the selection"),
+    "zoom_in": ("Zoom &In", ["Ctrl++", "Ctrl+="], "zoom_in", "Zoom in about the centre"),
+    "zoom_out": ("Zoom &Out", ["Ctrl+-"], "zoom_out", "Zoom out about the centre"),
+    "fit": ("&Fit Canvas", ["Ctrl+0"], "fit", "Show the whole canvas"),
+    "swap_colors": ("&Swap Colours", ["X"], "swap_colors", "Swap the foreground and background colours"),
+    "default_colors": ("&Default Colours", ["D"], "default_colors", "Black foreground, white background"),
+    "about": ("&About", [], "about", "About the editor"),
+}
+
+MENUS = (
+    ("&File", ("new", "open", "recent", None, "save", "save_as", "export", None, "quit")),
+    ("&Edit", ("undo", "redo", None, "delete", None, "select_all", "deselect")),
+    ("&View", ("zoom_in", "zoom_out", "fit", None, "panels")),
+    ("&Tools", ("tools", None, "swap_colors", "default_colors")),
+    ("&Help", ("about",)),
+)
+
+
+def build_actions(window) -> dict[str, QAction]:
+    """Every action of ``window``, by name; the tools' as ``"tool:NAME"`` (checkable, exclusive)."""
+    actions = {}
+    for name, (text, shortcuts, method, tip) in ACTIONS.items():
+        action = QAction(text, window)
+        action.setShortcuts([QKeySequence(s) for s in shortcuts])
+        action.setStatusTip(tip)
+        action.triggered.connect(lambda _=False, method=method: getattr(window, method)())
+        actions[name] = action
+    group = QActionGroup(window)
+    group.setExclusive(True)
+    for cls in TOOLS:
+        action = QAction(cls.title, window)
+        action.setCheckable(True)
+        action.setShortcut(QKeySequence(cls.shortcut))
+        action.setToolTip(f"{cls.title} ({cls.shortcut})")
+        action.setStatusTip(f"{cls.title} tool")
+        action.triggered.connect(lambda _=False, name=cls.name: window.set_tool(name))
+        group.addAction(action)
+        actions[f"tool:{cls.name}"] = action
+    return actions
+
+
+def build_menus(window, actions: dict[str, QAction], recent_menu, panel_actions) -> None:
+    """Fill ``window``'s menu bar; ``recent_menu`` goes in File, ``panel_actions`` in View."""
+    bar = window.menuBar()
+    for title, names in MENUS:
+        menu = bar.addMenu(title)
+        for name in names:
+            if name is None:
+                menu.addSeparator()
+            elif name == "recent":
+                menu.addMenu(recent_menu)
+            elif name == "panels":
+                for action in panel_actions:
+                    menu.addAction(action)
+            elif name == "tools":
+                for cls in TOOLS:
+                    menu.addAction(actions[f"tool:{cls.name}"])
+            else:
+                menu.addAction(actions[name])

@@ -1,0 +1,136 @@
+"""The tool options panel: the tools, the foreground and background colours, the brush."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+from PySide6.QtCore import QSize, Qt, Signal
+from PySide6.QtGui import QAction
+from PySide6.QtWidgets import (
+    QDoubleSpinBox, QFormLayout, QGridLayout, QGroupBox, QHBoxLayout, QToolButton, QVBoxLayout, QWidget,
+)
+
+from ..tools import ToolOptions
+from .colors import pick_color
+from .gradient_bar import qcolor
+from .stops_panel import swatch
+
+#: Brush settings: attribute, label, minimum, maximum, step, decimals, tooltip.
+BRUSH_FIELDS = (
+    ("brush_radius", "Radius", 0.5, 2000.0, 1.0, 1, "Gaussian radius of each dab, pixels"),
+    ("brush_amplitude", "Amplitude", -4.0, 4.0, 0.05, 2, "Strength of each dab (negative takes colour away)"),
+    ("brush_spacing", "Spacing", 0.5, 2000.0, 1.0, 1, "Distance between dabs along a stroke, pixels"),
+)
+
+
+class OptionsPanel(QWidget):
+    """Tool buttons, colour swatches and brush settings, editing one ``ToolOptions``.
+
+    Parameters
+    ----------
+    options : ToolOptions
+        Shared with every document's tool context.
+    tool_actions : iterable of QAction
+        The window's checkable tool actions, shown as buttons.
+    parent : QWidget, optional
+
+    Signals
+    -------
+    changed()
+        An option changed (the overlay shows the brush size, for one).
+    """
+
+    changed = Signal()
+
+    def __init__(self, options: ToolOptions, tool_actions: Iterable[QAction], parent=None) -> None:
+        super().__init__(parent)
+        self.options = options
+        tools = QGridLayout()
+        for k, action in enumerate(tool_actions):
+            button = QToolButton(self)
+            button.setDefaultAction(action)
+            button.setToolButtonStyle(Qt.ToolButtonStyle.ToolButtonTextOnly)
+            button.setMinimumWidth(40)
+            tools.addWidget(button, k // 3, k % 3)
+
+        self.foreground = self._swatch_button("Foreground colour: new stops, dabs, a new curve's left side", "color")
+        self.background = self._swatch_button("Background colour: a new curve's right side", "secondary_color")
+        swap = QToolButton(self)
+        swap.setText("\u21c4")
+        swap.setToolTip("Swap the colours (X)")
+        swap.clicked.connect(self.swap_colors)
+        reset = QToolButton(self)
+        reset.setText("D")
+        reset.setToolTip("Black and white (D)")
+        reset.clicked.connect(self.default_colors)
+        colours = QHBoxLayout()
+        for widget in (self.foreground, self.background, swap, reset):
+            colours.addWidget(widget)
+        colours.addStretch(1)
+
+        brush = QGroupBox("Point brush")
+        form = QFormLayout(brush)
+        self.spins: dict[str, QDoubleSpinBox] = {}
+        for name, label, low, high, step, decimals, tip in BRUSH_FIELDS:
+            spin = QDoubleSpinBox(self)
+            spin.setRange(low, high)
+            spin.setSingleStep(step)
+            spin.setDecimals(decimals)
+            spin.setToolTip(tip)
+            spin.setValue(float(getattr(options, name)))
+            spin.valueChanged.connect(lambda value, name=name: self._set(name, value))
+            form.addRow(label, spin)
+            self.spins[name] = spin
+
+        tools_box = QGroupBox("Tools")
+        tools_box.setLayout(tools)
+        colours_box = QGroupBox("Colours")
+        colours_box.setLayout(colours)
+        layout = QVBoxLayout(self)
+        for box in (tools_box, colours_box, brush):
+            layout.addWidget(box)
+        layout.addStretch(1)
+        self.refresh()
+
+    def _swatch_button(self, tip: str, attribute: str) -> QToolButton:
+        button = QToolButton(self)
+        button.setToolTip(tip)
+        button.setIconSize(QSize(28, 20))
+        button.clicked.connect(lambda _=False: self.choose(attribute))
+        return button
+
+    def _set(self, name: str, value: float) -> None:
+        setattr(self.options, name, float(value))
+        self.changed.emit()
+
+    def choose(self, attribute: str) -> None:
+        """Ask for the foreground (``"color"``) or background (``"secondary_color"``) colour."""
+        title = "Foreground Colour" if attribute == "color" else "Background Colour"
+        chosen = pick_color(self.window(), getattr(self.options, attribute), title)
+        if chosen is not None:
+            setattr(self.options, attribute, chosen)
+            self.refresh()
+            self.changed.emit()
+
+    def swap_colors(self) -> None:
+        options = self.options
+        options.color, options.secondary_color = options.secondary_color, options.color
+        self.refresh()
+        self.changed.emit()
+
+    def default_colors(self) -> None:
+        self.options.color, self.options.secondary_color = (0.0, 0.0, 0.0), (1.0, 1.0, 1.0)
+        self.refresh()
+        self.changed.emit()
+
+    def refresh(self) -> None:
+        """Show the options as they are (the eyedropper changes the colours)."""
+        options = self.options
+        for button, color in ((self.foreground, options.color), (self.background, options.secondary_color)):
+            button.setIcon(swatch(qcolor(color), 28))
+        for name, spin in self.spins.items():
+            value = float(getattr(options, name))
+            if spin.value() != value:
+                spin.blockSignals(True)
+                spin.setValue(value)
+                spin.blockSignals(False)

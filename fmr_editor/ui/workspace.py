@@ -1,0 +1,192 @@
+"""One open document: its history, tools and engine thread, and how it is opened.
+
+``open_file`` and ``new_document`` do the slow part (reading, solving) and
+run on a ``jobs.Job``; the window then makes a ``Workspace`` of the result on
+its own thread.  The workspace sends every change of the current document
+(edits, drags, undo) to its ``EngineThread`` and keeps the newest ``Frame``.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from PySide6.QtCore import QObject, Signal
+
+from ..engine import LiveRepresentation, Settings, evaluate_points
+from ..io import load_document, load_fmr
+from ..model import Document
+from ..model.history import History
+from ..tools import ToolContext, ToolOptions, create_tools
+from .engine_thread import EngineThread, Frame
+
+Progress = Callable[[str, float], None]
+
+#: Canvas size of a new document, pixels.
+DEFAULT_SIZE = (512, 512)
+
+
+@dataclass(frozen=True, eq=False)
+class Opened:
+    """A document read (or made) and built, ready for a ``Workspace``.
+
+    Attributes
+    ----------
+    live : LiveRepresentation
+        Built for ``live.document``.
+    frame : Frame
+        The first frame (every cell changed).
+    path : pathlib.Path or None
+        The file it came from; None for a new document.
+    """
+
+    live: LiveRepresentation
+    frame: Frame
+    path: Path | None
+
+    @property
+    def document(self) -> Document:
+        return self.live.document
+
+
+def _opened(live: LiveRepresentation, path: Path | None) -> Opened:
+    rep = live.representation
+    n = rep.lattice.cells_per_side
+    return Opened(live, Frame(live.document, rep, rep.polynomials(), np.ones((n, n), bool), "build"), path)
+
+
+def open_file(path: str | os.PathLike, progress: Progress | None = None) -> Opened:
+    """Read and build the document in ``path`` (``.fmr`` or Orzan ``.xml``).
+
+    A ``.fmr`` file's saved representation is taken as it is (no solve).
+
+    Raises
+    ------
+    DocumentLoadError
+        When the file cannot be read.
+    """
+    path = Path(path).absolute()
+    if path.suffix.lower() == ".fmr":
+        saved = load_fmr(path)
+        live = LiveRepresentation(saved.document, saved.settings or Settings(), progress, saved.representation)
+    else:
+        live = LiveRepresentation(load_document(path), Settings(), progress)
+    return _opened(live, path)
+
+
+def new_document(width: int = DEFAULT_SIZE[0], height: int = DEFAULT_SIZE[1],
+                 progress: Progress | None = None) -> Opened:
+    """An empty canvas of ``width x height`` pixels, built."""
+    return _opened(LiveRepresentation(Document(int(width), int(height)), Settings(), progress), None)
+
+
+class Workspace(QObject):
+    """An open document: history, tool context, tools and the engine on its thread.
+
+    Parameters
+    ----------
+    opened : Opened
+    options : ToolOptions
+        Shared by every workspace of the window (tool settings outlive documents).
+    choose_color : callable, optional
+        ``ToolContext.choose_color``.
+    parent : QObject, optional
+
+    Attributes
+    ----------
+    history : History
+    context : ToolContext
+    tools : dict of str to Tool
+    frame : Frame
+        The newest frame the engine produced.
+    path : pathlib.Path or None
+        Where the document was read from or last saved to.
+
+    Signals
+    -------
+    frame_ready(Frame)
+    document_changed()
+        After every change of the current document (edits, previews, undo, jumps).
+    engine_failed(str)
+    engine_progress(str, float)
+    """
+
+    frame_ready = Signal(object)
+    document_changed = Signal()
+    engine_failed = Signal(str)
+    engine_progress = Signal(str, float)
+
+    def __init__(self, opened: Opened, options: ToolOptions, choose_color=None, parent=None) -> None:
+        super().__init__(parent)
+        self.path = opened.path
+        self.settings = opened.live.settings
+        self.history = History(opened.document)
+        self.context = ToolContext(self.history, sample=self.sample, choose_color=choose_color, options=options)
+        self.tools = create_tools(self.context)
+        self.frame = opened.frame
+        self._waiting: list[Callable[[Frame | None], None]] = []
+        self.engine = EngineThread(opened.live)
+        self.engine.ready.connect(self._ready)
+        self.engine.failed.connect(self._failed)
+        self.engine.progress.connect(self.engine_progress)
+        self.history.subscribe(self._changed)
+
+    # -- naming ------------------------------------------------------------------------------
+    @property
+    def name(self) -> str:
+        """The file name shown in the title ("Untitled" for a new document)."""
+        return self.path.name if self.path is not None else "Untitled"
+
+    @property
+    def native(self) -> bool:
+        """True when ``path`` is a ``.fmr`` file, which Save writes back to."""
+        return self.path is not None and self.path.suffix.lower() == ".fmr"
+
+    # -- the engine --------------------------------------------------------------------------
+    def _changed(self, before: Document, after: Document) -> None:
+        self.engine.request(after)
+        self.document_changed.emit()
+
+    def _ready(self, frame: Frame) -> None:
+        self.frame = frame
+        self.frame_ready.emit(frame)
+        if self.current and self._waiting:
+            waiting, self._waiting = self._waiting, []
+            for callback in waiting:
+                callback(frame)
+
+    def _failed(self, message: str) -> None:
+        self.engine_failed.emit(message)
+        waiting, self._waiting = self._waiting, []
+        for callback in waiting:
+            callback(None)
+
+    @property
+    def current(self) -> bool:
+        """True when the newest frame shows the current document (the engine is idle)."""
+        return self.frame.document is self.history.document
+
+    def when_current(self, callback: Callable[[Frame | None], None]) -> None:
+        """Call ``callback(frame)`` once the engine has caught up with the current document.
+
+        At once if it has; ``callback(None)`` if the engine fails first.  The
+        frame's representation stays unchanged until the next edit, so a job
+        may read it on another thread while the window lets nothing edit.
+        """
+        if self.current:
+            callback(self.frame)
+        else:
+            self._waiting.append(callback)
+
+    def sample(self, x: float, y: float) -> tuple[float, float, float]:
+        """The rendered colour at document point ``(x, y)`` (the eyedropper's sampler)."""
+        value = evaluate_points(self.frame.representation, np.array([[x, y]], dtype=np.float64))[0]
+        return tuple(float(v) for v in np.clip(value, 0.0, 1.0))
+
+    def close(self) -> None:
+        """End the engine thread (after its current update)."""
+        self._waiting = []
+        self.engine.stop()
