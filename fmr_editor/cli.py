@@ -1,4 +1,9 @@
-"""Command line: ``fmr-editor render INPUT -o OUT.png`` or ``fmr-editor render A.xml B.xml ... -o DIR``."""
+"""Command line: the editor, and headless rendering.
+
+``fmr-editor [FILE]`` opens the editor (on FILE, or on a new document);
+``fmr-editor render INPUT -o OUT.png`` or ``fmr-editor render A.xml B.xml ... -o DIR``
+renders without a window.
+"""
 
 from __future__ import annotations
 
@@ -14,6 +19,26 @@ def _positive(text: str) -> int:
     if value < 1:
         raise argparse.ArgumentTypeError(f"must be a positive whole number, got {text}")
     return value
+
+
+def _editor_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="fmr-editor", usage="fmr-editor [FILE]\n       fmr-editor render INPUT ... -o OUTPUT [options]",
+        description="Diffusion-curve images on the fast multipole representation. Without a command, opens the "
+                    "editor (on FILE, or on a new document); 'fmr-editor render --help' tells how to render "
+                    "documents to PNG without a window.")
+    parser.add_argument("file", nargs="?", metavar="FILE", help="document to open (.fmr, or Orzan CurveSetXML .xml)")
+    return parser
+
+
+def run_editor(args: argparse.Namespace) -> int:
+    """Open the editor (needs a display); 2 with one line on stderr when it cannot start."""
+    if args.file is not None and not Path(args.file).is_file():
+        print(f"fmr-editor: cannot open {args.file}: no such file", file=sys.stderr)
+        return 2
+    from .ui.app import main as editor_main
+
+    return editor_main(args.file)
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -106,7 +131,10 @@ def run_render(args: argparse.Namespace) -> int:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the ``fmr-editor`` command."""
+    """Entry point of the ``fmr-editor`` command: ``render ...`` renders, anything else opens the editor."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if not argv or argv[0] != "render":
+        return run_editor(_editor_parser().parse_args(argv))
     args = _parser().parse_args(argv)
     if args.command == "render":
         return run_render(args)

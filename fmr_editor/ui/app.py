@@ -12,8 +12,18 @@ APP_NAME = "FMR Editor"
 ORGANISATION = "fmr-editor"
 
 
-def display_problem(environ=os.environ, platform: str = sys.platform) -> str | None:
-    """Why Qt could not open a window here, or None when it can (as far as can be told)."""
+def display_problem(environ=None, platform: str | None = None) -> str | None:
+    """Why Qt could not open a window here, or None when it can (as far as can be told).
+
+    Parameters
+    ----------
+    environ : mapping, optional
+        The environment (default ``os.environ``).
+    platform : str, optional
+        ``sys.platform`` by default.
+    """
+    environ = os.environ if environ is None else environ
+    platform = sys.platform if platform is None else platform
     if not platform.startswith("linux") or environ.get("QT_QPA_PLATFORM"):
         return None
     if environ.get("DISPLAY") or environ.get("WAYLAND_DISPLAY"):
@@ -22,7 +32,7 @@ def display_problem(environ=os.environ, platform: str = sys.platform) -> str | N
             "desktop or under xvfb-run, or render without a window: fmr-editor render FILE -o OUT.png")
 
 
-def main(path: str | os.PathLike | None = None, argv: list[str] | None = None) -> int:
+def main(path: str | os.PathLike | None = None, argv: list[str] | None = None, settings=None) -> int:
     """Open the editor on ``path`` (a new document when None) and run until it closes.
 
     Parameters
@@ -31,6 +41,8 @@ def main(path: str | os.PathLike | None = None, argv: list[str] | None = None) -
         A ``.fmr`` or Orzan ``.xml`` document.
     argv : list of str, optional
         Arguments for ``QApplication`` (default: the program name).
+    settings : QSettings, optional
+        Where recent files and the window layout are kept (default: the user's settings for the editor).
 
     Returns
     -------
@@ -49,7 +61,7 @@ def main(path: str | os.PathLike | None = None, argv: list[str] | None = None) -
     app = QApplication.instance() or QApplication(argv or [sys.argv[0] if sys.argv else "fmr-editor"])
     app.setApplicationName(APP_NAME)
     app.setOrganizationName(ORGANISATION)
-    window = MainWindow(QSettings(ORGANISATION, "editor"))
+    window = MainWindow(settings if settings is not None else QSettings(ORGANISATION, "editor"))
     window.show()
     if path is not None:
         window.open_path(Path(path))

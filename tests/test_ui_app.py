@@ -1,0 +1,70 @@
+"""Starting the editor: ``fmr-editor [FILE]``, the display check, and the editor's run loop."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from fmr_editor.cli import main
+from fmr_editor.ui.app import display_problem
+
+REPO = Path(__file__).resolve().parents[1]
+RIBBON = REPO / "resources" / "samples" / "ribbon.xml"
+
+
+def test_display_problem_says_why_no_window_can_open():
+    assert "fmr-editor render" in display_problem({}, "linux")
+    assert display_problem({"DISPLAY": ":1"}, "linux") is None
+    assert display_problem({"WAYLAND_DISPLAY": "wayland-0"}, "linux") is None
+    assert display_problem({"QT_QPA_PLATFORM": "offscreen"}, "linux") is None
+    assert display_problem({}, "win32") is None
+
+
+def test_without_a_display_the_editor_says_so_in_one_line(monkeypatch, capsys):
+    for name in ("DISPLAY", "WAYLAND_DISPLAY", "QT_QPA_PLATFORM"):
+        monkeypatch.delenv(name, raising=False)
+    monkeypatch.setattr("sys.platform", "linux")
+    assert main([str(RIBBON)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("fmr-editor: no display") and "\n" not in err
+
+
+def test_a_missing_file_is_reported_before_any_window(tmp_path, capsys):
+    assert main([str(tmp_path / "absent.fmr")]) == 2
+    assert capsys.readouterr().err.strip() == f"fmr-editor: cannot open {tmp_path / 'absent.fmr'}: no such file"
+
+
+def test_help_names_the_editor_and_the_render_command(capsys):
+    with pytest.raises(SystemExit) as stop:
+        main(["--help"])
+    assert stop.value.code == 0
+    out = capsys.readouterr().out
+    assert "fmr-editor [FILE]" in out and "fmr-editor render" in out
+
+
+@pytest.mark.gui
+def test_the_editor_opens_a_file_and_returns_when_closed(gl_display, qapp, tmp_path):
+    pytest.importorskip("pytestqt", reason="pytest-qt is in the [test] extra")
+    from PySide6.QtCore import QSettings, QTimer
+
+    from fmr_editor.ui import app
+    from fmr_editor.ui.files import RecentFiles
+    from fmr_editor.ui.main_window import MainWindow
+
+    seen = []
+
+    def close_when_open() -> None:
+        windows = [w for w in qapp.topLevelWidgets() if isinstance(w, MainWindow) and w.isVisible()]
+        ready = [w for w in windows if w.workspace is not None and w.job is None and w.workspace.current]
+        if ready:
+            seen.append((ready[0].windowTitle(), len(ready[0].workspace.history.document.curves)))
+            ready[0].close()
+        else:
+            QTimer.singleShot(50, close_when_open)
+
+    QTimer.singleShot(50, close_when_open)
+    settings = QSettings(str(tmp_path / "settings.ini"), QSettings.Format.IniFormat)
+    assert app.main(RIBBON, settings=settings) == 0
+    assert seen == [("ribbon.xml \u2014 FMR Editor", 5)]
+    assert RecentFiles(settings).paths() == [RIBBON]

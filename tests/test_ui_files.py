@@ -1,0 +1,188 @@
+"""File operations of the editor window under Xvfb: open, save, reopen, export, damaged files, title, closing.
+
+Dialogs are patched (``editor`` fixture in conftest.py), so nothing blocks.
+"""
+
+from __future__ import annotations
+
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+pytest.importorskip("pytestqt", reason="pytest-qt is in the [test] extra")
+
+from PySide6.QtCore import QMimeData, QPoint, QPointF, Qt, QUrl  # noqa: E402
+from PySide6.QtGui import QDragEnterEvent, QDropEvent  # noqa: E402
+from PySide6.QtWidgets import QApplication, QMessageBox  # noqa: E402
+
+from fmr_editor.engine import rasterise  # noqa: E402
+from fmr_editor.io import load_fmr  # noqa: E402
+from fmr_editor.io.png import to_rgb8  # noqa: E402
+from fmr_editor.model import DiffusionPoint, edits  # noqa: E402
+from fmr_editor.ui.export import ExportOptions  # noqa: E402
+
+pytestmark = pytest.mark.gui
+
+REPO = Path(__file__).resolve().parents[1]
+RIBBON = REPO / "resources" / "samples" / "ribbon.xml"
+Button = QMessageBox.StandardButton
+
+
+@pytest.fixture
+def ribbon(editor):
+    editor.open(RIBBON)
+    return editor
+
+
+def recolour(editor) -> None:
+    """One edit of the open document: the first stop of curve 0's left side turns green."""
+    editor.history.apply(edits.set_stop_color(editor.document, 0, "left", 0, (0.1, 0.8, 0.2)), "Change Stop Colour")
+
+
+def test_title_names_the_file_and_marks_changes(ribbon, tmp_path):
+    editor = ribbon
+    window = editor.window
+    assert window.windowTitle().startswith("ribbon.xml") and "*" not in window.windowTitle()
+    recolour(editor)
+    assert window.windowTitle().startswith("ribbon.xml*")
+    editor.history.undo()
+    assert "*" not in window.windowTitle()
+    editor.history.redo()
+    editor.answers["save"] = tmp_path / "saved"  # the suffix is added
+    editor.key(Qt.Key.Key_S, Qt.KeyboardModifier.ControlModifier)  # an imported .xml is saved as .fmr
+    editor.qtbot.waitUntil(lambda: window.job is None and window.workspace.path.name == "saved.fmr", timeout=30_000)
+    assert window.windowTitle().startswith("saved.fmr") and "*" not in window.windowTitle()
+    assert window.recent.paths()[0] == tmp_path / "saved.fmr"
+
+
+def test_open_edit_save_close_reopen_gives_the_same_document_and_pixels(ribbon, tmp_path, qtbot):
+    editor = ribbon
+    recolour(editor)
+    editor.history.apply(edits.add_points(editor.document, [DiffusionPoint((100.0, 90.0), 14.0, (1.0, 0.9, 0.2))]),
+                         "Paint")
+    editor.wait_idle()
+    document = editor.document
+    shown = editor.canvas.grab_image()
+    pixels = rasterise(editor.workspace.frame.representation, 64, 64, samples=1)
+    target = tmp_path / "edited.fmr"
+    editor.answers["save"] = target
+    editor.window.save()  # Save on an imported file asks where (Save As)
+    qtbot.waitUntil(lambda: editor.window.job is None and not editor.history.modified, timeout=30_000)
+    assert load_fmr(target).document == document
+
+    editor.answers["question"] = Button.Cancel  # nothing unsaved: no question
+    editor.window.close()
+    assert not editor.window.isVisible() and editor.questions == []
+
+    editor.window.show()
+    qtbot.waitExposed(editor.window)
+    editor.open(target)
+    assert editor.document == document and editor.workspace.frame.kind == "build"
+    reopened = rasterise(editor.workspace.frame.representation, 64, 64, samples=1)
+    assert np.abs(reopened - pixels).max() < 1e-9  # the points' polynomials are summed again: rounding apart
+    assert np.array_equal(to_rgb8(reopened), to_rgb8(pixels))
+    assert np.array_equal(editor.canvas.grab_image(), shown)
+    assert editor.window.windowTitle().startswith("edited.fmr") and "*" not in editor.window.windowTitle()
+
+
+def damaged_files(tmp_path: Path) -> list[Path]:
+    """A truncated and a garbled ``.fmr``, a truncated and a malformed ``.xml``, an empty file of each kind."""
+    good = tmp_path / "good.fmr"
+    from fmr_editor.io import load_document, save_fmr
+
+    save_fmr(good, load_document(RIBBON))
+    data = good.read_bytes()
+    out = []
+    for name, content in (("truncated.fmr", data[: len(data) // 2]), ("empty.fmr", b""),
+                          ("truncated.xml", RIBBON.read_bytes()[:700]), ("empty.xml", b""),
+                          ("garbled.xml", b"<curve_set image_width='a'><curve/></curve_set>")):
+        (tmp_path / name).write_bytes(content)
+        out.append(tmp_path / name)
+    garbled = tmp_path / "garbled.fmr"
+    with zipfile.ZipFile(garbled, "w") as archive:
+        archive.writestr("mimetype", "application/x-fmr")
+        archive.writestr("document.json", "{not json")
+    out.append(garbled)
+    return out
+
+
+def test_damaged_files_give_a_message_and_leave_the_open_document_alone(ribbon, tmp_path, qtbot):
+    editor = ribbon
+    recolour(editor)
+    editor.wait_idle()
+    workspace, document, path = editor.workspace, editor.document, editor.workspace.path
+    editor.answers["question"] = Button.Discard  # were it asked: the open document must survive anyway
+    for damaged in damaged_files(tmp_path):
+        editor.errors.clear()
+        editor.window.open_path(damaged)
+        qtbot.waitUntil(lambda: editor.window.job is None and bool(editor.errors), timeout=30_000)
+        (title, text), = editor.errors
+        assert damaged.name in text, text
+        assert editor.workspace is workspace and editor.document is document and workspace.path == path
+        assert editor.history.modified and editor.window.windowTitle().startswith("ribbon.xml*")
+        assert editor.window.actions["undo"].isEnabled() and editor.canvas.isEnabled()
+
+
+def test_closing_with_unsaved_changes_asks_first(ribbon, tmp_path, qtbot):
+    editor = ribbon
+    window = editor.window
+    recolour(editor)
+    editor.answers["question"] = Button.Cancel
+    window.close()
+    assert window.isVisible() and len(editor.questions) == 1 and "ribbon.xml" in editor.questions[0][1]
+    assert editor.history.modified
+    document = editor.document
+    editor.answers["question"] = Button.Save
+    editor.answers["save"] = tmp_path / "kept.fmr"
+    window.close()
+    qtbot.waitUntil(lambda: not window.isVisible(), timeout=30_000)
+    assert load_fmr(tmp_path / "kept.fmr").document == document
+    assert window.workspace is None  # closed, its engine thread ended
+
+
+def test_export_png_renders_with_the_cpu_rasteriser(ribbon, tmp_path, qtbot):
+    editor = ribbon
+    recolour(editor)
+    editor.wait_idle()
+    rep = editor.workspace.frame.representation
+    expected = to_rgb8(rasterise(rep, 40, 30, samples=2))
+    target = tmp_path / "out" / "ribbon.png"
+    editor.answers["export"] = ExportOptions(target, 40, 30, 2)
+    editor.key(Qt.Key.Key_E, Qt.KeyboardModifier.ControlModifier)
+    assert editor.window.job is not None or target.exists()
+    qtbot.waitUntil(lambda: editor.window.job is None and target.exists(), timeout=30_000)
+    with Image.open(target) as image:
+        assert np.array_equal(np.asarray(image.convert("RGB")), expected)
+    assert editor.history.modified  # exporting is not saving
+
+
+def test_new_asks_for_the_size_and_dropping_a_file_opens_it(ribbon, tmp_path, qtbot):
+    editor = ribbon
+    editor.answers["size"] = (300, 200)
+    editor.key(Qt.Key.Key_N, Qt.KeyboardModifier.ControlModifier)
+    qtbot.waitUntil(lambda: editor.window.job is None and editor.workspace.path is None, timeout=30_000)
+    document = editor.document
+    assert (document.width, document.height, document.curves) == (300, 200, ())
+    assert editor.window.windowTitle().startswith("Untitled")
+
+    def drag_enter(*paths) -> tuple[QMimeData, bool]:
+        mime = QMimeData()
+        mime.setUrls([QUrl.fromLocalFile(str(p)) for p in paths])
+        enter = QDragEnterEvent(QPoint(200, 200), Qt.DropAction.CopyAction, mime, Qt.MouseButton.LeftButton,
+                                Qt.KeyboardModifier.NoModifier)
+        QApplication.sendEvent(editor.window, enter)
+        return mime, enter.isAccepted()
+
+    assert not drag_enter(tmp_path / "notes.txt")[1]  # nothing the editor opens
+    mime, accepted = drag_enter(tmp_path / "notes.txt", RIBBON)
+    assert accepted
+    drop = QDropEvent(QPointF(200, 200), Qt.DropAction.CopyAction, mime, Qt.MouseButton.LeftButton,
+                      Qt.KeyboardModifier.NoModifier)
+    QApplication.sendEvent(editor.window, drop)
+    assert drop.isAccepted()
+    qtbot.waitUntil(lambda: editor.workspace.path == RIBBON, timeout=30_000)
+    editor.wait_idle()
+    assert editor.window.recent.paths()[0] == RIBBON

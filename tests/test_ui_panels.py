@@ -1,0 +1,176 @@
+"""The editor's panels under Xvfb: colour stops (gradient bars), history, tool options; the eyedropper."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from shapes import straight_chain
+
+pytest.importorskip("pytestqt", reason="pytest-qt is in the [test] extra")
+
+from PySide6.QtCore import QPoint, Qt  # noqa: E402
+from PySide6.QtGui import QColor  # noqa: E402
+
+from fmr_editor.io import save_fmr  # noqa: E402
+from fmr_editor.model import ColorStop, DiffusionCurve, Document  # noqa: E402
+from fmr_editor.tools import Selection  # noqa: E402
+from fmr_editor.ui.gradient_bar import BAR, HANDLE  # noqa: E402
+
+pytestmark = pytest.mark.gui
+
+RED, GREEN, BLUE = (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)
+HANDLE_Y = BAR + HANDLE // 2 + 1
+
+
+@pytest.fixture
+def two_stops(editor, tmp_path):
+    """A 128x128 canvas, one straight two-piece curve from (16, 64) to (112, 64) with red and green stops at
+    its ends on the left, blue on the right; the curve selected."""
+    curve = DiffusionCurve(straight_chain([(16.0, 64.0), (64.0, 64.0), (112.0, 64.0)]),
+                           left=(ColorStop(0.0, RED), ColorStop(2.0, GREEN)), right=(ColorStop(0.0, BLUE),))
+    path = tmp_path / "stops.fmr"
+    save_fmr(path, Document(128, 128, (curve,)))
+    editor.open(path)
+    editor.context.selection = Selection.of(curves=[0])
+    editor.window.stops_panel.refresh()
+    return editor
+
+
+def handle(bar, s: float) -> QPoint:
+    return QPoint(round(bar.x_of(s)), HANDLE_Y)
+
+
+def test_stops_panel_shows_the_selected_curve(two_stops):
+    panel = two_stops.window.stops_panel
+    assert panel.curve == 0
+    assert panel.bars["left"].stops == (ColorStop(0.0, RED), ColorStop(2.0, GREEN))
+    assert panel.bars["right"].stops == (ColorStop(0.0, BLUE),)
+    two_stops.context.selection = Selection()
+    panel.refresh()
+    assert panel.curve is None and not panel.bars["left"].isEnabled()
+
+
+def test_dragging_a_handle_moves_the_stop_as_one_step(two_stops, qtbot):
+    editor = two_stops
+    bar = editor.window.stops_panel.bars["left"]
+    start = editor.history.index
+    target = QPoint(round(bar.x_of(0.5)), HANDLE_Y)
+    qtbot.mousePress(bar, Qt.MouseButton.LeftButton, pos=handle(bar, 2.0))
+    for x in np.linspace(handle(bar, 2.0).x(), target.x(), 6)[1:]:
+        qtbot.mouseMove(bar, QPoint(round(x), HANDLE_Y))
+    qtbot.mouseRelease(bar, Qt.MouseButton.LeftButton, pos=target)
+    assert editor.history.index == start + 1 and editor.history.labels[-1] == "Move Stop"
+    s = bar.s_of(target.x())
+    assert editor.document.curves[0].left == (ColorStop(0.0, RED), ColorStop(s, GREEN))
+    assert editor.context.selection.stops == {(0, "left", 1)}
+    # dragged past the other stop, it is sorted before it and stays selected
+    qtbot.mousePress(bar, Qt.MouseButton.LeftButton, pos=target)
+    qtbot.mouseMove(bar, QPoint(target.x() - 10, HANDLE_Y))
+    qtbot.mouseMove(bar, QPoint(0, HANDLE_Y))
+    qtbot.mouseRelease(bar, Qt.MouseButton.LeftButton, pos=QPoint(0, HANDLE_Y))
+    assert editor.history.index == start + 2
+    assert editor.document.curves[0].left == (ColorStop(0.0, RED), ColorStop(0.0, GREEN))
+    assert editor.context.selection.stops == {(0, "left", 1)}
+    editor.wait_idle()
+
+
+def test_the_colour_dialog_is_live_and_one_step_and_cancel_undoes_it(two_stops, qtbot):
+    editor = two_stops
+    panel = editor.window.stops_panel
+    bar = panel.bars["left"]
+    start, before = editor.history.index, editor.document
+    qtbot.mouseDClick(bar, Qt.MouseButton.LeftButton, pos=handle(bar, 2.0))
+    dialog = panel.dialog
+    assert dialog is not None and dialog.isVisible()
+    dialog.setCurrentColor(QColor(255, 128, 0))
+    assert editor.document.curves[0].left[1].color == pytest.approx((1.0, 128 / 255, 0.0))
+    dialog.setCurrentColor(QColor(0, 0, 255))
+    assert editor.history.index == start + 1 and editor.history.labels[-1] == "Change Stop Colour"
+    dialog.accept()
+    assert editor.document.curves[0].left[1].color == pytest.approx(BLUE)
+    assert editor.history.index == start + 1
+    assert editor.document.curves[0].left[0] == ColorStop(0.0, RED)
+
+    after = editor.document
+    panel.color_buttons["left"].click()  # the selected stop's colour button
+    dialog = panel.dialog
+    dialog.setCurrentColor(QColor(10, 20, 30))
+    assert editor.history.index == start + 2
+    dialog.reject()
+    assert editor.history.index == start + 1 and editor.document is after
+    editor.history.undo()
+    assert editor.document is before
+    editor.wait_idle()
+
+
+def test_adding_and_removing_stops_on_the_bar(two_stops, qtbot):
+    editor = two_stops
+    bar = editor.window.stops_panel.bars["left"]
+    start = editor.history.index
+    qtbot.mouseDClick(bar, Qt.MouseButton.LeftButton, pos=QPoint(round(bar.x_of(1.0)), BAR // 2))
+    assert editor.history.labels[-1] == "Add Stop" and editor.history.index == start + 1
+    left = editor.document.curves[0].left
+    s = bar.s_of(round(bar.x_of(1.0)))
+    assert len(left) == 3 and left[1].position == pytest.approx(s)
+    np.testing.assert_allclose(left[1].color, np.array(RED) * (1 - s / 2) + np.array(GREEN) * s / 2, atol=1e-12)
+    assert editor.context.selection.stops == {(0, "left", 1)}
+    bar.setFocus()
+    qtbot.keyClick(bar, Qt.Key.Key_Delete)  # the bar's, before the menu's Delete
+    assert editor.history.labels[-1] == "Delete Stop" and editor.history.index == start + 2
+    assert editor.document.curves[0].left == (ColorStop(0.0, RED), ColorStop(2.0, GREEN))
+    assert len(editor.document.curves) == 1
+    editor.wait_idle()
+
+
+def test_history_panel_lists_the_steps_and_a_click_jumps(two_stops, qtbot):
+    editor = two_stops
+    history = editor.history
+    first = editor.document
+    documents = [first]
+    for k, color in enumerate((GREEN, BLUE, RED)):
+        history.apply(documents[-1].with_curves([DiffusionCurve(first.curves[0].control_points,
+                                                                left=(ColorStop(0.0, color),))]), f"Step {k}")
+        documents.append(history.document)
+    view = editor.window.history_panel.list
+    assert [view.item(i).text() for i in range(view.count())] == ["Open stops.fmr", "Step 0", "Step 1", "Step 2"]
+    assert view.currentRow() == 3 and view.item(3).font().bold()
+    qtbot.mouseClick(view.viewport(), Qt.MouseButton.LeftButton, pos=view.visualItemRect(view.item(1)).center())
+    assert history.index == 1 and history.document is documents[1]
+    assert view.item(1).font().bold() and not view.item(3).font().bold()
+    assert editor.window.actions["redo"].text() == "Redo Step 1"
+    qtbot.mouseClick(view.viewport(), Qt.MouseButton.LeftButton, pos=view.visualItemRect(view.item(3)).center())
+    assert history.document is documents[3]
+    editor.wait_idle()
+
+
+def test_tool_options_panel_sets_the_options(two_stops, qtbot):
+    editor = two_stops
+    window = editor.window
+    panel = window.options_panel
+    panel.spins["brush_radius"].setValue(33.0)
+    panel.spins["brush_spacing"].setValue(4.5)
+    assert window.options.brush_radius == 33.0 and window.options.brush_spacing == 4.5
+    editor.answers["color"] = QColor(255, 0, 0)
+    qtbot.mouseClick(panel.foreground, Qt.MouseButton.LeftButton)
+    assert window.options.color == (1.0, 0.0, 0.0)
+    editor.key(Qt.Key.Key_X)  # swap
+    assert window.options.color == (1.0, 1.0, 1.0) and window.options.secondary_color == (1.0, 0.0, 0.0)
+    editor.key(Qt.Key.Key_D)
+    assert window.options.color == (0.0, 0.0, 0.0) and window.options.secondary_color == (1.0, 1.0, 1.0)
+    for name, key in (("pen", Qt.Key.Key_P), ("brush", Qt.Key.Key_B), ("eyedropper", Qt.Key.Key_I),
+                      ("stops", Qt.Key.Key_G), ("select", Qt.Key.Key_V)):
+        editor.key(key)
+        assert window.tool_name == name and window.actions[f"tool:{name}"].isChecked()
+
+
+def test_eyedropper_picks_the_colour_shown(two_stops):
+    editor = two_stops
+    editor.wait_idle()
+    editor.key(Qt.Key.Key_I)
+    shown = editor.canvas.grab_image()
+    editor.click(40, 40)
+    p = editor.at(40, 40)
+    ratio = editor.canvas.devicePixelRatioF()
+    pixel = shown[round(p.y() * ratio), round(p.x() * ratio)] / 255
+    np.testing.assert_allclose(editor.window.options.color, pixel, atol=2 / 255)
+    assert editor.history.index == 0
