@@ -5,6 +5,7 @@ Dialogs are patched (``editor`` fixture in conftest.py), so nothing blocks.
 
 from __future__ import annotations
 
+import time
 import zipfile
 from pathlib import Path
 
@@ -14,7 +15,7 @@ from PIL import Image
 
 pytest.importorskip("pytestqt", reason="pytest-qt is in the [test] extra")
 
-from PySide6.QtCore import QMimeData, QPoint, QPointF, Qt, QUrl  # noqa: E402
+from PySide6.QtCore import QMimeData, QPoint, QPointF, Qt, QTimer, QUrl  # noqa: E402
 from PySide6.QtGui import QDragEnterEvent, QDropEvent  # noqa: E402
 from PySide6.QtWidgets import QApplication, QMessageBox  # noqa: E402
 
@@ -56,6 +57,23 @@ def test_title_names_the_file_and_marks_changes(ribbon, tmp_path):
     editor.qtbot.waitUntil(lambda: window.job is None and window.workspace.path.name == "saved.fmr", timeout=30_000)
     assert window.windowTitle().startswith("saved.fmr") and "*" not in window.windowTitle()
     assert window.recent.paths()[0] == tmp_path / "saved.fmr"
+
+
+def test_opening_runs_on_a_thread_and_shows_progress(editor, qtbot):
+    window = editor.window
+    ticks, progress = [], []
+    timer = QTimer()
+    timer.timeout.connect(lambda: ticks.append(time.perf_counter()))
+    timer.start(10)
+    window.progress_bar.valueChanged.connect(progress.append)
+    window.open_path(RIBBON)
+    assert window.job is not None and window.job.isRunning() and window.workspace is None  # open_path returned
+    assert not window.canvas.isEnabled() and not window.actions["open"].isEnabled()
+    qtbot.waitUntil(lambda: window.job is None, timeout=60_000)
+    timer.stop()
+    assert window.workspace.path == RIBBON and window.canvas.isEnabled()
+    assert progress and max(progress) > 0 and not window.progress_bar.isVisible()
+    assert len(ticks) >= 5 and max(np.diff(ticks)) < 1.0  # the window kept running its event loop
 
 
 def test_open_edit_save_close_reopen_gives_the_same_document_and_pixels(ribbon, tmp_path, qtbot):

@@ -195,3 +195,25 @@ def test_delete_removes_the_selected_curve_as_one_step(line):
     one_step(editor, start, "Delete Curve")
     assert editor.document.curves == ()
     editor.wait_idle()
+
+
+def test_an_edit_redraws_only_the_cells_it_changed(line):
+    editor = line
+    editor.wait_idle()
+    editor.canvas.grab_image()
+    editor.key(Qt.Key.Key_B)
+    editor.window.options.brush_radius = 3.0
+    editor.window.options.color = (0.9, 0.5, 0.1)  # (a black dab adds nothing)
+    editor.click(20, 20)  # the first points may change the lattice (a rebuild)
+    editor.wait_idle()
+    editor.canvas.grab_image()
+    editor.click(100, 100)
+    editor.wait_idle()
+    frame = editor.workspace.frame
+    assert frame.document is editor.document and frame.kind == "points"
+    assert 0 < frame.changed.sum() < frame.changed.size / 4
+    shown = editor.canvas.grab_image()
+    renderer = editor.canvas.renderer
+    assert renderer.last_evaluation == "cells"
+    renderer.invalidate()
+    assert np.abs(editor.canvas.grab_image().astype(int) - shown).max() <= 1
