@@ -1,7 +1,8 @@
 #version 410 core
 // The FMR colour of a window pixel, as engine.rasterise computes it (samples=1, at the pixel centre):
 //     far field (the cell's polynomial) + the 3x3 block's segments (closed forms) + the cell's near points.
-// Outside the canvas: a checkerboard.
+// Outside the canvas: a checkerboard.  A delta pass (u_delta = 1) evaluates the change of the colour from
+// change tables bound in place of the data (no near points) and writes 0 outside the canvas, to be added.
 //
 // The loader (fmr_editor/render/programs.py) inserts after the #version line:
 //     #define ORDER n             polynomial degree P
@@ -27,6 +28,7 @@ uniform vec2 u_canvas;         // canvas width, height in document pixels
 uniform int u_cells;           // fine cells per side, 2^L
 uniform double u_cell_size;    // document pixels
 uniform float u_checker;       // checkerboard square, window pixels
+uniform int u_delta;           // 1: a delta pass
 
 uniform samplerBuffer u_coeffs;
 uniform isamplerBuffer u_segment_start;
@@ -35,6 +37,9 @@ uniform isamplerBuffer u_point_start;
 uniform isamplerBuffer u_point_members;
 uniform samplerBuffer u_points;
 
+flat in int v_cell;            // the cell of the quad being drawn, -1: find the pixel's own
+flat in int v_row;             // the row of u_coeffs to read, -1: the cell's
+
 out vec4 colour;
 
 const float INV_TWO_PI = 0.15915494309189535;
@@ -42,9 +47,9 @@ const float INV_FOUR_PI = 0.07957747154594767;
 
 #define COEFF(k) coeffs[(k) >> 2][(k) & 3]
 
-vec3 far_field(int cell, vec2 xi) {
+vec3 far_field(int row, vec2 xi) {
     vec4 coeffs[COEFF_TEXELS];
-    int base = cell * COEFF_TEXELS;
+    int base = row * COEFF_TEXELS;
     for (int k = 0; k < COEFF_TEXELS; ++k) {
         coeffs[k] = texelFetch(u_coeffs, base + k);
     }
@@ -130,15 +135,18 @@ void main() {
     dvec2 position = u_origin + dvec2(window) * u_step;
     if (position.x < 0.0 || position.y < 0.0 || position.x > double(u_canvas.x) || position.y > double(u_canvas.y)) {
         ivec2 square = ivec2(floor(window / u_checker));
-        colour = vec4(vec3(((square.x + square.y) & 1) == 0 ? 0.8 : 0.6), 1.0);
+        colour = u_delta != 0 ? vec4(0.0) : vec4(vec3(((square.x + square.y) & 1) == 0 ? 0.8 : 0.6), 1.0);
         return;
     }
-    ivec2 cell = clamp(ivec2(floor(position / u_cell_size)), ivec2(0), ivec2(u_cells - 1));
+    ivec2 cell = v_cell >= 0 ? ivec2(v_cell % u_cells, v_cell / u_cells)
+                             : clamp(ivec2(floor(position / u_cell_size)), ivec2(0), ivec2(u_cells - 1));
     float size = float(u_cell_size);
     vec2 local = vec2(position - (dvec2(cell) + 0.5) * u_cell_size);  // from the cell's centre
     int flat_cell = cell.y * u_cells + cell.x;
-    vec3 value = far_field(flat_cell, local / size);
+    vec3 value = far_field(v_row >= 0 ? v_row : flat_cell, local / size);
     value += near_segments(cell, local, size);
-    value += near_points(flat_cell, position);
-    colour = vec4(value, 1.0);
+    if (u_delta == 0) {
+        value += near_points(flat_cell, position);
+    }
+    colour = vec4(value, u_delta != 0 ? 0.0 : 1.0);
 }

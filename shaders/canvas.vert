@@ -1,7 +1,9 @@
 #version 410 core
 // The canvas's geometry: one quad over the whole window, or (instanced) one quad per listed fine cell,
-// grown by a window pixel on every side, so that re-evaluating changed cells touches only their pixels.
-// The colour of every covered pixel comes from canvas.frag, which finds the pixel's cell itself.
+// so that re-evaluating changed cells touches only their pixels.  Adjacent cells' quads share their
+// corners exactly, so every pixel centre lies in exactly one of them (a delta pass adds to the image).
+// The colour of every covered pixel comes from canvas.frag; a cell's quad tells it the cell and the row of
+// u_coeffs to read, the window quad leaves both to the fragment (-1).
 // Window coordinates: pixels from the top-left corner, y down.
 
 uniform int u_instanced;             // 0: one quad over the window; 1: one quad per cell of u_cell_list
@@ -10,14 +12,22 @@ uniform int u_cells;                 // fine cells per side, 2^L
 uniform vec2 u_cell_origin;          // window position of the document's origin
 uniform float u_cell_window;         // a cell's side in window pixels
 uniform vec2 u_window;               // window size in pixels
+uniform int u_rows_by_instance;      // 1: cell i of the list reads coefficient row i (a delta pass), 0: its own
+
+flat out int v_cell;                 // the quad's fine cell, -1 for the window quad
+flat out int v_row;                  // the row of u_coeffs to read, -1: the pixel's cell
 
 void main() {
     vec2 corner = vec2(gl_VertexID & 1, gl_VertexID >> 1);  // a triangle strip of 4 vertices
     vec2 ndc = corner * 2.0 - 1.0;
+    v_cell = -1;
+    v_row = -1;
     if (u_instanced != 0) {
         int cell = texelFetch(u_cell_list, gl_InstanceID).r;
-        vec2 column_row = vec2(cell % u_cells, cell / u_cells);
-        vec2 window = u_cell_origin + (column_row + corner) * u_cell_window + (corner * 2.0 - 1.0);
+        v_cell = cell;
+        v_row = u_rows_by_instance != 0 ? gl_InstanceID : cell;
+        // (column + corner) is exact, so neighbours compute their shared corners identically
+        vec2 window = u_cell_origin + (vec2(cell % u_cells, cell / u_cells) + corner) * u_cell_window;
         ndc = vec2(window.x / u_window.x * 2.0 - 1.0, 1.0 - window.y / u_window.y * 2.0);
     }
     gl_Position = vec4(ndc, 0.0, 1.0);

@@ -153,9 +153,17 @@ def test_a_stop_colour_change_updates_only_what_changed(canvas, qtbot, shared_da
         shown = canvas.grab_image()
         assert error_levels(shown, rasterise(live.representation, samples=1)) <= 1.0
         assert np.abs(shown.astype(int) - before).max() > 50  # the edit shows
-        if curve == 30:
-            assert canvas.renderer.last_evaluation == "cells"
+        counts = canvas.renderer.last_update
+        if curve == 30:  # only the change was added, in a few cells and with a few segments
+            assert canvas.renderer.last_evaluation == "none"
+            assert 0 < counts["delta"] < counts["changed"] / 10 and counts["evaluate"] == 0
+            assert 0 < counts["segments"] < len(live.representation.segments.p) / 10
         before = shown
+    # the image after these edits is the image of the result
+    canvas.makeCurrent()
+    accumulated = canvas.renderer.read()[..., :3].astype(np.float64)
+    canvas.doneCurrent()
+    assert np.abs(accumulated - rasterise(live.representation, samples=1)).max() <= 0.1 * LEVEL
 
 
 def test_a_brush_dab_updates_the_image(canvas, qtbot):
@@ -168,7 +176,7 @@ def test_a_brush_dab_updates_the_image(canvas, qtbot):
     assert update.kind == "points" and 0 < update.changed.sum() < update.changed.size
     canvas.update_representation(live.representation, update.changed)
     shown = canvas.grab_image()
-    assert canvas.renderer.last_evaluation == "cells"
+    assert canvas.renderer.last_evaluation == "cells"  # near points changed: the cells are evaluated again
     assert error_levels(shown, rasterise(live.representation, view.width, view.height, samples=1)) <= 1.0
 
 

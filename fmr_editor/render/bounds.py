@@ -55,24 +55,34 @@ def single_layer_bound(length: np.ndarray, cell_size: float) -> np.ndarray:
     return (length * max(np.log(far), 0.0) + singular) / (2 * np.pi)
 
 
-def near_bound(before: Representation, after: Representation) -> np.ndarray | None:
-    """Largest change of the segments' near field over each cell's pixels, ``(2^L, 2^L)``.
+def segment_changes(before: Representation, after: Representation) -> np.ndarray | None:
+    """Bound on each segment's change of the near field it adds to any pixel, ``(segments,)``.
 
     None when the segments' geometry (or cell lists) differ: then no bound is
     known and every reported cell has to be evaluated again.
     """
     old, new = before.segments, after.segments
     if old is new:
-        return np.zeros((after.lattice.cells_per_side,) * 2)
+        return np.zeros(len(new.p))
     if not (np.array_equal(before.cell_start, after.cell_start) and np.array_equal(old.p, new.p)
             and np.array_equal(old.q, new.q)):
         return None
-    n = after.lattice.cells_per_side
-    flux = np.abs(new.flux - old.flux).max(axis=1)
-    jump = np.abs(new.jump - old.jump).max(axis=1)
+    flux = np.abs(new.flux - old.flux).max(axis=1, initial=0.0)
+    jump = np.abs(new.jump - old.jump).max(axis=1, initial=0.0)
     length = np.hypot(*(new.q - new.p).T)
-    per_segment = flux * single_layer_bound(length, after.lattice.cell_size) + jump / 2
-    own = np.repeat(np.arange(n * n), np.diff(after.cell_start))
+    return flux * single_layer_bound(length, after.lattice.cell_size) + jump / 2
+
+
+def block_sums(per_segment: np.ndarray, rep: Representation) -> np.ndarray:
+    """``(2^L, 2^L)`` sums of a per-segment quantity over each cell's 3x3 block (``rep``'s cell lists)."""
+    n = rep.lattice.cells_per_side
+    own = np.repeat(np.arange(n * n), np.diff(rep.cell_start))
     per_cell = np.bincount(own, per_segment, minlength=n * n).reshape(n, n)
     padded = np.pad(per_cell, 1)
     return sum(padded[1 + dy : 1 + dy + n, 1 + dx : 1 + dx + n] for dy in (-1, 0, 1) for dx in (-1, 0, 1))
+
+
+def near_bound(before: Representation, after: Representation) -> np.ndarray | None:
+    """Largest change of the segments' near field over each cell's pixels, ``(2^L, 2^L)``; None as ``segment_changes``."""
+    changes = segment_changes(before, after)
+    return None if changes is None else block_sums(changes, after)

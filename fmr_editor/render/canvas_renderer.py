@@ -5,11 +5,18 @@ says how) and evaluates it in ``shaders/canvas.frag`` into a cached image of
 the window's size; ``draw`` copies that image to the caller's framebuffer and
 re-evaluates only what is out of date:
 
-- nothing, when neither the data nor the view changed (a redraw is one blit);
-- the cells ``update`` reported changed, as one quad per cell;
+- nothing, when neither the data nor the view changed (a redraw is one copy);
 - after a pan by whole window pixels, the cached image is moved and only the
   uncovered strips are evaluated;
-- the whole window otherwise (zoom, resize, new representation).
+- the whole window after a zoom, a resize or a new representation.
+
+``update`` uploads the changed cells' coefficients and brings the cached
+image up to date with the least work its bounds (``bounds``) allow: a cell
+whose pixels moved by less than ``tolerance`` keeps them (the change is
+remembered); with the float image (the default) and unchanged geometry, the
+others get the *change* of their colour added (far-field change plus only the
+segments whose E or C moved noticeably: a colour edit moves a few); any other
+cell is evaluated again in full.
 
 The renderer is Qt-free: the caller makes its OpenGL (>= 4.1 core) context
 current around every call and passes the framebuffer to draw into.
@@ -32,13 +39,17 @@ from .view import View
 SHADER_DIR = Path(__file__).resolve().parents[2] / "shaders"
 #: Default ``CanvasRenderer.tolerance``: a twentieth of an 8-bit step.
 TOLERANCE = 0.05 / 255
+#: A delta pass leaves out the segments whose change is below this share of the tolerance.
+SEGMENT_SHARE = 1 / 64
 #: A pan within this many window pixels of a whole number of pixels moves the cached image.
 SHIFT_TOLERANCE = 1e-6
-#: Above this share of the window's pixels in changed cells, the whole window is evaluated instead.
+#: Above this share of the window's pixels in cells to evaluate, the whole window is evaluated instead.
 FULL_SHARE = 0.5
 
+#: Texture units of the shader's buffers (the delta pass binds its own tables to the first three).
 _UNITS = {"u_coeffs": 0, "u_segment_start": 1, "u_segments": 2, "u_point_start": 3, "u_point_members": 4,
           "u_points": 5, "u_cell_list": 6}
+_DELTA = {"u_coeffs": "delta_coeffs", "u_segment_start": "delta_segment_start", "u_segments": "delta_segments"}
 
 
 def shader_source(name: str, defines: dict[str, object] | None = None) -> str:
@@ -76,44 +87,48 @@ class CanvasRenderer:
     Parameters
     ----------
     cache_format : int
-        Format of the cached image: ``GL_RGBA8`` (default; what a window
-        shows) or ``GL_RGBA32F`` (unclamped floats, for checking accuracy).
+        Format of the cached image: ``GL_RGBA32F`` (default: unclamped
+        floats, which changes can be added to) or ``GL_RGBA8`` (a quarter of
+        the memory; every changed cell is evaluated in full).
     checker : float
         Side of the checkerboard squares outside the canvas, in window pixels.
     tolerance : float
-        ``update`` re-evaluates a changed cell once its pixels may have moved
-        by more than this (colour units) since they were last evaluated.
+        A changed cell keeps its pixels while they may have moved by at most
+        this (colour units) since they were last evaluated.
 
     Attributes
     ----------
     last_evaluation : str
         What the latest ``draw`` evaluated: ``"none"``, ``"cells"``, ``"shift"``
         (a pan; with any changed cells) or ``"full"``.
+    last_update : dict
+        Counts of the latest ``update``'s cells: ``"changed"`` (reported),
+        ``"delta"`` (their change added), ``"evaluate"`` (to be evaluated in
+        full by the next ``draw``) and ``"segments"`` (in the delta pass).
     """
 
-    def __init__(self, cache_format: int = GL.GL_RGBA8, checker: float = 8.0, tolerance: float = TOLERANCE) -> None:
+    def __init__(self, cache_format: int = GL.GL_RGBA32F, checker: float = 8.0, tolerance: float = TOLERANCE) -> None:
         self.checker = float(checker)
         self.tolerance = float(tolerance)
-        self._buffers = {
-            "u_coeffs": BufferTexture(GL.GL_RGBA32F),
-            "u_segment_start": BufferTexture(GL.GL_R32I),
-            "u_segments": BufferTexture(GL.GL_RGBA32F),
-            "u_point_start": BufferTexture(GL.GL_R32I),
-            "u_point_members": BufferTexture(GL.GL_R32I),
-            "u_points": BufferTexture(GL.GL_RGBA32F),
-            "u_cell_list": BufferTexture(GL.GL_R32I),
-        }
+        self._buffers = {name: BufferTexture(GL.GL_R32I if name.endswith(("start", "members", "list"))
+                                             else GL.GL_RGBA32F)
+                         for name in [*_UNITS, *_DELTA.values()]}
         self._vao = VertexArray()
         self._cache = Framebuffer(cache_format)
         self._spare = Framebuffer(cache_format)
+        self._additive = cache_format == GL.GL_RGBA32F
+        # a float image is converted once per change into 8 bits, so plain redraws copy a quarter of the bytes
+        self._display = Framebuffer(GL.GL_RGBA8) if self._additive else None
+        self._display_current = False
         self._programs: dict[tuple[int, bool], Program] = {}
         self._rep: Representation | None = None
         self._layout: Layout | None = None
-        self._dirty: np.ndarray | None = None  # cells to evaluate again; None: no cached image
+        self._dirty: np.ndarray | None = None  # cells to evaluate again at the next draw
         self._mirror = np.zeros((0, 0), np.float32)  # the coefficients as uploaded, a row per cell
-        self._unseen = np.zeros((0, 0))  # bound on each cell's change since its pixels were evaluated
-        self._cached_view: View | None = None
+        self._unseen = np.zeros((0, 0))  # bound on each cell's change missing from the cached image
+        self._cached_view: View | None = None  # what the cached image shows; None: nothing
         self.last_evaluation = "none"
+        self.last_update = {"changed": 0, "delta": 0, "evaluate": 0, "segments": 0}
 
     # -- data ---------------------------------------------------------------------------------
     @property
@@ -134,22 +149,21 @@ class CanvasRenderer:
         n = self._layout.cells
         self._mirror = packing.cell_coefficients(rep, polynomials=polynomials).reshape(n * n, -1)
         self._buffers["u_coeffs"].set_data(self._mirror)
-        self._unseen = np.zeros((n, n))
         self._upload_segments(rep)
         self._upload_points(rep)
         self._rep = rep
-        self._dirty = None
+        self._unseen = np.zeros((n, n))
+        self._dirty = np.zeros((n, n), bool)
         self._cached_view = None
 
     def update(self, rep: Representation, changed: np.ndarray, polynomials: np.ndarray | None = None) -> None:
         """Go over to ``rep``, whose pixels differ from the uploaded one's only in the ``changed`` cells.
 
-        Only those cells' coefficients are uploaded; segments and near points
-        are uploaded whole when they are other arrays.  A representation on
-        another lattice (or of another order, or gaining or losing points) is
-        uploaded whole.  Of the changed cells, the next ``draw`` re-evaluates
-        those whose pixels may have moved by more than ``tolerance`` since they
-        were last evaluated (``bounds``); the others keep their pixels.
+        Uploads those cells' coefficients (segments and near points whole, when
+        they are other arrays) and brings the cached image up to date as the
+        module says: adds the change to some cells at once, leaves others to
+        the next ``draw``.  A representation on another lattice (or of another
+        order, or gaining or losing points) is uploaded whole.
 
         Parameters
         ----------
@@ -168,26 +182,66 @@ class CanvasRenderer:
             raise ValueError(f"changed must be ({n}, {n})")
         cells = np.flatnonzero(changed)
         fresh = packing.cell_coefficients(rep, cells, polynomials=polynomials).reshape(len(cells), -1)
-        moved = bounds.far_bound(fresh - self._mirror[cells], self._layout.order, self._layout.harmonic)
+        delta = fresh - self._mirror[cells]
+        moved = bounds.far_bound(delta, self._layout.order, self._layout.harmonic)
         self._mirror[cells] = fresh
         texels = self._layout.texels
         for start, stop in packing.cell_runs(cells):
             self._buffers["u_coeffs"].set_subdata(start * texels, self._mirror[start:stop])
         old = self._rep
-        near = bounds.near_bound(old, rep)
+        segment_moves = bounds.segment_changes(old, rep)
+        near_points_changed = _near(rep) is not _near(old)
         if rep.segments is not old.segments or rep.cell_start is not old.cell_start:
             self._upload_segments(rep)
-        if _near(rep) is not _near(old):
+        if near_points_changed:
             self._upload_points(rep)
-            near = None
-        moved += np.inf if near is None else near.ravel()[cells]
         self._rep = rep
+        exact = segment_moves is not None and not near_points_changed  # the bounds cover every change
+        if exact:
+            moved += bounds.block_sums(segment_moves, rep).ravel()[cells]
+        else:
+            moved[:] = np.inf
         unseen = self._unseen.ravel()
-        unseen[cells] += moved
-        show = cells[unseen[cells] > self.tolerance]
-        unseen[show] = 0.0
-        if self._dirty is not None:
-            self._dirty.ravel()[show] = True
+        before = unseen[cells]
+        total = before + moved
+        show = total > self.tolerance
+        unseen[cells[~show]] = total[~show]
+        shown = cells[show]
+        counts = {"changed": len(cells), "delta": 0, "evaluate": 0, "segments": 0}
+        if self._cached_view is not None and len(shown):
+            if exact and self._additive:
+                keep = segment_moves > SEGMENT_SHARE * self.tolerance
+                left_out = bounds.block_sums(np.where(keep, 0.0, segment_moves), rep).ravel()[shown]
+                after = before[show] + left_out
+                add = after <= self.tolerance
+                unseen[shown[add]] = after[add]
+                self._add_change(delta[show][add], shown[add], old, rep, keep)
+                counts.update(delta=int(add.sum()), segments=int(keep.sum()))
+                shown = shown[~add]
+            unseen[shown] = 0.0
+            self._dirty.ravel()[shown] = True
+            counts["evaluate"] = len(shown)
+        self.last_update = counts
+
+    def _add_change(self, delta: np.ndarray, cells: np.ndarray, old: Representation, new: Representation,
+                    keep: np.ndarray) -> None:
+        """Add the change of ``cells``' colour (far field ``delta``, the ``keep`` segments' change) to the image."""
+        if len(cells) == 0:
+            return
+        self._buffers["delta_coeffs"].set_data(delta)
+        table = packing.segment_table(new, new.segments.flux - old.segments.flux,
+                                      new.segments.jump - old.segments.jump, keep)
+        self._buffers["delta_segments"].set_data(table.texels)
+        self._buffers["delta_segment_start"].set_data(table.cell_start)
+        self._buffers["u_cell_list"].set_data(cells.astype(np.int32))
+        self._cache.bind()
+        GL.glEnable(GL.GL_BLEND)
+        GL.glBlendEquation(GL.GL_FUNC_ADD)
+        GL.glBlendFunc(GL.GL_ONE, GL.GL_ONE)
+        try:
+            self._pass(self._cached_view, instances=len(cells), delta=True)
+        finally:
+            GL.glDisable(GL.GL_BLEND)
 
     def _upload_segments(self, rep: Representation) -> None:
         table = packing.segment_table(rep)
@@ -203,7 +257,6 @@ class CanvasRenderer:
     def invalidate(self) -> None:
         """Forget the cached image: the next ``draw`` evaluates the whole window."""
         self._cached_view = None
-        self._dirty = None
 
     # -- drawing ------------------------------------------------------------------------------
     def _program(self) -> Program:
@@ -225,7 +278,14 @@ class CanvasRenderer:
             Framebuffer object to draw into (0: the context's default one).
         """
         self._evaluate(view)
-        self._cache.blit_to(target)
+        shown = self._cache
+        if self._display is not None:
+            if not self._display_current:
+                self._display.resize(self._cache.width, self._cache.height)
+                self._cache.blit_to(self._display.handle)
+                self._display_current = True
+            shown = self._display
+        shown.blit_to(target)
         GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, target)
 
     def evaluate(self, view: View) -> str:
@@ -239,45 +299,46 @@ class CanvasRenderer:
             self._cache.bind()
             GL.glClearColor(0.7, 0.7, 0.7, 1.0)
             GL.glClear(GL.GL_COLOR_BUFFER_BIT)
-            self._cached_view, self.last_evaluation = None, "full"
+            self._cached_view, self.last_evaluation, self._display_current = None, "full", False
             return
         cached = self._cached_view
         shift = _integer_shift(cached, view)
         if cached is None or (cached != view and shift is None) or self._cache.width != view.width \
                 or self._cache.height != view.height:
-            self._cache.resize(view.width, view.height)
-            self._cache.bind()
-            self._pass(view)
-            self.last_evaluation = "full"
-            self._unseen[:] = 0.0
+            self._full(view)
         else:
             self.last_evaluation = "none"
             if shift is not None and shift != (0, 0):
                 self._shift(view, *shift)
                 self.last_evaluation = "shift"
-            if self._dirty is not None and self._dirty.any():
+            if self._dirty.any():
                 self._evaluate_cells(view)
                 if self.last_evaluation == "none":
                     self.last_evaluation = "cells"
         self._cached_view = view
-        self._dirty = np.zeros((self._layout.cells,) * 2, bool)
+        self._dirty[:] = False
+
+    def _full(self, view: View) -> None:
+        self._cache.resize(view.width, view.height)
+        self._cache.bind()
+        self._pass(view)
+        self.last_evaluation = "full"
+        self._unseen[:] = 0.0
 
     def _evaluate_cells(self, view: View) -> None:
         """Re-evaluate the pixels of the dirty cells that the window shows."""
         n, size = self._layout.cells, self._layout.cell_size * view.scale
         rows, columns = np.nonzero(self._dirty)
-        visible = ((columns + 1) * size + view.offset_x >= -1) & (columns * size + view.offset_x <= view.width + 1) \
-            & ((rows + 1) * size + view.offset_y >= -1) & (rows * size + view.offset_y <= view.height + 1)
+        visible = ((columns + 1) * size + view.offset_x >= 0) & (columns * size + view.offset_x <= view.width) \
+            & ((rows + 1) * size + view.offset_y >= 0) & (rows * size + view.offset_y <= view.height)
         cells = (rows * n + columns)[visible].astype(np.int32)
         if len(cells) == 0:
             return
-        self._cache.bind()
-        if len(cells) * (size + 2) ** 2 > FULL_SHARE * view.width * view.height:
-            self._pass(view)
-            self.last_evaluation = "full"
-            self._unseen[:] = 0.0
+        if len(cells) * (size + 1) ** 2 > FULL_SHARE * view.width * view.height:
+            self._full(view)
             return
         self._buffers["u_cell_list"].set_data(cells)
+        self._cache.bind()
         self._pass(view, instances=len(cells))
 
     def _shift(self, view: View, dx: int, dy: int) -> None:
@@ -285,6 +346,7 @@ class CanvasRenderer:
         self._spare.resize(view.width, view.height)
         self._cache.blit_to(self._spare.handle, dx, -dy)  # GL rows go up
         self._cache, self._spare = self._spare, self._cache
+        self._display_current = False
         self._cache.bind()
         w, h = view.width, view.height
         strips = []  # (x, y, width, height) in GL pixels
@@ -304,12 +366,15 @@ class CanvasRenderer:
         finally:
             GL.glDisable(GL.GL_SCISSOR_TEST)
 
-    def _pass(self, view: View, instances: int = 0) -> None:
-        """Run the shader over the window (``instances == 0``) or over the listed cells, into the bound framebuffer."""
+    def _pass(self, view: View, instances: int = 0, delta: bool = False) -> None:
+        """Run the shader over the window (``instances == 0``) or the listed cells, into the bound framebuffer.
+
+        ``delta``: the change tables stand in for the data, coefficient rows by instance.
+        """
         program = self._program()
         program.use()
         for name, unit in _UNITS.items():
-            self._buffers[name].bind(unit)
+            self._buffers[_DELTA.get(name, name) if delta else name].bind(unit)
         layout = self._layout
         program.set(**_UNITS)
         program.set(
@@ -317,10 +382,10 @@ class CanvasRenderer:
             u_window_height=view.height, u_canvas=(layout.width, layout.height), u_cells=layout.cells,
             u_cell_size=layout.cell_size, u_checker=self.checker, u_instanced=int(instances > 0),
             u_cell_origin=(view.offset_x, view.offset_y), u_cell_window=layout.cell_size * view.scale,
-            u_window=(view.width, view.height),
+            u_window=(view.width, view.height), u_delta=int(delta), u_rows_by_instance=int(delta),
         )
-        GL.glDisable(GL.GL_BLEND)
         GL.glDisable(GL.GL_DEPTH_TEST)
+        self._display_current = False
         self._vao.bind()
         if instances:
             GL.glDrawArraysInstanced(GL.GL_TRIANGLE_STRIP, 0, 4, instances)
@@ -330,13 +395,15 @@ class CanvasRenderer:
         GL.glUseProgram(0)
 
     def read(self) -> np.ndarray:
-        """The cached image ``(height, width, 4)``, top row first: uint8, or float32 for a float cache."""
+        """The cached image ``(height, width, 4)``, top row first: float32 (unclamped), or uint8 for ``GL_RGBA8``."""
         return self._cache.read()
 
     def release(self) -> None:
         """Free the GL objects (with the context current); the renderer is unusable afterwards."""
-        for item in [*self._buffers.values(), *self._programs.values(), self._vao, self._cache, self._spare]:
-            item.delete()
+        for item in [*self._buffers.values(), *self._programs.values(), self._vao, self._cache, self._spare,
+                     self._display]:
+            if item is not None:
+                item.delete()
         self._programs.clear()
         self._rep = None
 
@@ -352,4 +419,4 @@ def _integer_shift(before: View | None, after: View) -> tuple[int, int] | None:
     dx, dy = after.offset_x - before.offset_x, after.offset_y - before.offset_y
     if abs(dx - round(dx)) > SHIFT_TOLERANCE or abs(dy - round(dy)) > SHIFT_TOLERANCE:
         return None
-    return int(dx), int(dy)
+    return int(round(dx)), int(round(dy))

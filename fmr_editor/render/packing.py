@@ -117,20 +117,36 @@ class SegmentTable:
     cell_start: np.ndarray
 
 
-def segment_table(rep: Representation) -> SegmentTable:
-    """The representation's segments, end points relative to their own cell's centre."""
+def segment_table(rep: Representation, flux: np.ndarray | None = None, jump: np.ndarray | None = None,
+                  keep: np.ndarray | None = None) -> SegmentTable:
+    """The representation's segments, end points relative to their own cell's centre.
+
+    Parameters
+    ----------
+    rep : Representation
+    flux, jump : numpy.ndarray, optional
+        ``(segments, 3)`` values to put in place of the segments' E and C (their changes, say).
+    keep : numpy.ndarray, optional
+        ``(segments,)`` bool: list only these (the cell lists shrink accordingly).
+    """
     seg, lattice = rep.segments, rep.lattice
     n, size = lattice.cells_per_side, lattice.cell_size
     own = np.repeat(np.arange(n * n), np.diff(rep.cell_start))
+    flux = seg.flux if flux is None else flux
+    jump = seg.jump if jump is None else jump
+    p, q = seg.p, seg.q
+    cell_start = rep.cell_start
+    if keep is not None:
+        own, p, q, flux, jump = own[keep], p[keep], q[keep], flux[keep], jump[keep]
+        cell_start = np.concatenate([[0], np.cumsum(np.bincount(own, minlength=n * n))])
     centre = np.stack([own % n + 0.5, own // n + 0.5], axis=1) * size
-    length = np.hypot(*(seg.q - seg.p).T)
     table = np.zeros((len(own), 3, 4), np.float32)
-    table[:, 0, 0:2] = seg.p - centre
-    table[:, 0, 2:4] = seg.q - centre
-    table[:, 1, 0:3] = seg.flux
-    table[:, 1, 3] = length
-    table[:, 2, 0:3] = seg.jump
-    return SegmentTable(table.reshape(-1, 4), _int32(rep.cell_start))
+    table[:, 0, 0:2] = p - centre
+    table[:, 0, 2:4] = q - centre
+    table[:, 1, 0:3] = flux
+    table[:, 1, 3] = np.hypot(*(q - p).T)
+    table[:, 2, 0:3] = jump
+    return SegmentTable(table.reshape(-1, 4), _int32(cell_start))
 
 
 @dataclass(frozen=True)
