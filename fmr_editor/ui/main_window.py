@@ -1,4 +1,4 @@
-"""The editor's main window: canvas, panels, menus and file operations.
+"""The editor's main window: canvas, panels, menus, and the jobs that open, save and export.
 
 One document is open at a time (a ``Workspace``).  Pointer events from the
 canvas go to the active tool; every change of the document goes to the
@@ -10,30 +10,25 @@ reads a representation nothing changes.
 
 from __future__ import annotations
 
-import os
 from collections.abc import Callable
-from pathlib import Path
 
-from PySide6.QtCore import QEvent, QSettings, Qt, QTimer
+from PySide6.QtCore import QEvent, QSettings, Qt
 from PySide6.QtGui import QCursor
 from PySide6.QtWidgets import QDockWidget, QLabel, QMainWindow, QMenu, QMessageBox, QProgressBar
 
-from ..io import DocumentLoadError, save_fmr
 from ..tools import Selection, ToolOptions, delete_selection
 from .canvas import Canvas
 from .colors import pick_color
 from .events import modifier_names, pointer_event, tool_key
-from .export import ExportDialog, ExportOptions, export_png
-from .files import (
-    NewDocumentDialog, RecentFiles, ask_keep_changes, ask_open_path, ask_save_path, openable, show_error,
-)
+from .file_commands import FileCommands
+from .files import RecentFiles
 from .history_panel import HistoryPanel
 from .jobs import Job
 from .menus import build_actions, build_menus
 from .options_panel import OptionsPanel
 from .overlay import Overlay
 from .stops_panel import StopsPanel
-from .workspace import DEFAULT_SIZE, Opened, Workspace, new_document, open_file
+from .workspace import Opened, Workspace
 
 APP_NAME = "FMR Editor"
 CURSORS = {
@@ -44,8 +39,8 @@ CURSORS = {
 }
 
 
-class MainWindow(QMainWindow):
-    """The editor window.
+class MainWindow(FileCommands, QMainWindow):
+    """The editor window (its file commands: ``file_commands.FileCommands``).
 
     Parameters
     ----------
@@ -363,220 +358,3 @@ class MainWindow(QMainWindow):
         self._set_busy(None)
         then(value)
         self._update_state()
-
-    def _settle_changes(self, proceed: Callable[[], None]) -> None:
-        """Run ``proceed`` once unsaved changes are saved or may be dropped (asks the user)."""
-        workspace = self.workspace
-        if workspace is None or not workspace.history.modified:
-            proceed()
-            return
-        answer = ask_keep_changes(self, workspace.name)
-        if answer == "discard":
-            proceed()
-        elif answer == "save":
-            self.save(then=proceed)
-
-    def _folder(self) -> str:
-        workspace = self.workspace
-        if workspace is not None and workspace.path is not None:
-            return str(workspace.path.parent)
-        recent = self.recent.paths()
-        return str(recent[0].parent) if recent else os.getcwd()
-
-    # -- file commands ------------------------------------------------------------------------------------
-    def new_document(self, size: tuple[int, int] | None = None) -> None:
-        """A new, empty document; asks for the canvas size unless ``size`` is given."""
-        if self._busy:
-            return
-
-        def proceed() -> None:
-            chosen = size or NewDocumentDialog.get_size(self, *DEFAULT_SIZE)
-            if chosen is None:
-                return
-            width, height = chosen
-            self._start("New document", lambda progress: new_document(width, height, progress), self._install,
-                        lambda error: show_error(self, "Cannot Create the Document", str(error)))
-
-        self._settle_changes(proceed)
-
-    def open_document(self) -> None:
-        """Ask for a document and open it."""
-        if self._busy:
-            return
-        path = ask_open_path(self, self._folder())
-        if path is not None:
-            self.open_path(path)
-
-    def open_path(self, path: str | os.PathLike) -> None:
-        """Open ``path`` (after asking about unsaved changes); a failure leaves the open document as it was."""
-        if self._busy:
-            return
-        path = Path(path)
-
-        def failed(error: BaseException) -> None:
-            message = str(error) if isinstance(error, DocumentLoadError) else f"{path.name}: {error}"
-            if not path.exists():
-                self.recent.remove(path)
-            show_error(self, "Cannot Open the Document", message)
-            if self.workspace is None:  # nothing open yet (started on this file): a blank canvas instead
-                self.new_document(DEFAULT_SIZE)
-
-        self._settle_changes(lambda: self._start(f"Opening {path.name}", lambda progress: open_file(path, progress),
-                                                 self._install, failed))
-
-    def save(self, then: Callable[[], None] | None = None) -> None:
-        """Save to the document's ``.fmr`` file (Save As for a new or imported one)."""
-        workspace = self.workspace
-        if workspace is None or self._busy:
-            return
-        if workspace.native:
-            self.save_to(workspace.path, then)
-        else:
-            self.save_as(then)
-
-    def save_as(self, then: Callable[[], None] | None = None) -> None:
-        """Ask for a ``.fmr`` file and save there."""
-        workspace = self.workspace
-        if workspace is None or self._busy:
-            return
-        if workspace.path is not None:
-            suggested = workspace.path.with_suffix(".fmr")
-        else:
-            suggested = Path(self._folder()) / "Untitled.fmr"
-        path = ask_save_path(self, suggested)
-        if path is not None:
-            self.save_to(path, then)
-
-    def save_to(self, path: str | os.PathLike, then: Callable[[], None] | None = None) -> None:
-        """Save the document with its representation to ``path`` (atomically), then ``then()``."""
-        workspace = self.workspace
-        if workspace is None or self._busy:
-            return
-        path = Path(path).absolute()
-        if self.tool is not None:
-            self.tool.finish()
-        document, step = workspace.history.document, workspace.history.index
-        self._set_busy(f"Saving {path.name}")  # nothing edits until the job is done
-
-        def saved(written: Path) -> None:
-            history = workspace.history
-            if history.index == step and history.document is document:
-                history.mark_saved()
-            workspace.path = Path(written)
-            self.recent.add(written)
-            self.status_label.setText(f"Saved {Path(written).name}")
-            if then is not None:
-                then()
-
-        def failed(error: BaseException) -> None:
-            reason = error.strerror if isinstance(error, OSError) and error.strerror else error
-            show_error(self, "Cannot Save the Document", f"{path.name}: {reason}")
-
-        def start(frame) -> None:
-            representation = frame.representation if frame is not None and frame.document is document else None
-            settings = workspace.settings if representation is not None else None
-            self._start(f"Saving {path.name}",
-                        lambda progress: save_fmr(path, document, representation, settings=settings), saved, failed)
-
-        workspace.when_current(start)
-
-    def export_png(self, options: ExportOptions | None = None) -> None:
-        """Export the image to PNG (asks for file, size and antialiasing unless ``options`` are given)."""
-        workspace = self.workspace
-        if workspace is None or self._busy:
-            return
-        document = workspace.history.document
-        if options is None:
-            stem = workspace.path.stem if workspace.path is not None else "Untitled"
-            options = ExportDialog.get_options((document.width, document.height),
-                                               Path(self._folder()) / f"{stem}.png", self)
-            if options is None:
-                return
-        if self.tool is not None:
-            self.tool.finish()
-            document = workspace.history.document
-        self._set_busy(f"Exporting {options.path.name}")
-
-        def done(written: Path) -> None:
-            self.status_label.setText(f"Exported {Path(written).name} ({options.width}x{options.height})")
-
-        def failed(error: BaseException) -> None:
-            reason = error.strerror if isinstance(error, OSError) and error.strerror else error
-            show_error(self, "Cannot Export", f"{options.path.name}: {reason}")
-
-        def start(frame) -> None:
-            representation = frame.representation if frame is not None and frame.document is document else None
-            self._start(f"Exporting {options.path.name}",
-                        lambda progress: export_png(options, document, representation, workspace.settings, progress),
-                        done, failed)
-
-        workspace.when_current(start)
-
-    def _fill_recent_menu(self) -> None:
-        menu = self.recent_menu
-        menu.clear()
-        paths = self.recent.paths()
-        for k, path in enumerate(paths, 1):
-            action = menu.addAction(f"&{k % 10} {path.name}  \u2014  {path.parent}")
-            action.triggered.connect(lambda _=False, path=path: self.open_path(path))
-            action.setEnabled(not self._busy)
-        if paths:
-            menu.addSeparator()
-        clear = menu.addAction("Clear Recent Files")
-        clear.setEnabled(bool(paths))
-        clear.triggered.connect(self.recent.clear)
-
-    # -- drag and drop, closing ---------------------------------------------------------------------------
-    @staticmethod
-    def _dropped(event) -> Path | None:
-        mime = event.mimeData()
-        if not mime.hasUrls():
-            return None
-        for url in mime.urls():
-            if url.isLocalFile() and openable(url.toLocalFile()):
-                return Path(url.toLocalFile())
-        return None
-
-    def dragEnterEvent(self, event) -> None:
-        if self._dropped(event) is not None and not self._busy:
-            event.acceptProposedAction()
-        else:
-            event.ignore()
-
-    def dragMoveEvent(self, event) -> None:
-        self.dragEnterEvent(event)
-
-    def dropEvent(self, event) -> None:
-        path = self._dropped(event)
-        if path is None or self._busy:
-            event.ignore()
-            return
-        event.acceptProposedAction()
-        QTimer.singleShot(0, lambda: self.open_path(path))  # not inside the drop: open_path may ask a question
-
-    def closeEvent(self, event) -> None:
-        workspace = self.workspace
-        if not self._close_now and self.job is not None:
-            event.ignore()  # a job is writing or reading: close when asked again after it
-            self.status_label.setText("Wait for the current job to finish before closing.")
-            return
-        if not self._close_now and workspace is not None and workspace.history.modified:
-            answer = ask_keep_changes(self, workspace.name)
-            if answer == "cancel":
-                event.ignore()
-                return
-            if answer == "save":
-                event.ignore()
-                self.save(then=self._close_after_save)
-                return
-        self.settings.setValue("window/geometry", self.saveGeometry())
-        self.settings.setValue("window/state", self.saveState())
-        if workspace is not None:
-            workspace.tools[self.tool_name].cancel()
-            workspace.close()
-            self.workspace = None
-        event.accept()
-
-    def _close_after_save(self) -> None:
-        self._close_now = True
-        QTimer.singleShot(0, self.close)
