@@ -204,3 +204,22 @@ def test_new_asks_for_the_size_and_dropping_a_file_opens_it(ribbon, tmp_path, qt
     qtbot.waitUntil(lambda: editor.workspace.path == RIBBON, timeout=30_000)
     editor.wait_idle()
     assert editor.window.recent.paths()[0] == RIBBON
+
+
+def test_export_and_new_document_dialogs(gl_display, qtbot, tmp_path):
+    from fmr_editor.ui.export import ExportDialog
+    from fmr_editor.ui.files import NewDocumentDialog
+
+    dialog = ExportDialog((256, 128), tmp_path / "picture", None)
+    qtbot.addWidget(dialog)
+    dialog.width_box.setValue(100)
+    assert dialog.height_box.value() == 50  # the canvas's aspect ratio is kept
+    dialog.keep_aspect.setChecked(False)
+    dialog.height_box.setValue(77)
+    dialog.samples_box.setValue(4)
+    assert dialog.options() == ExportOptions(tmp_path / "picture.png", 100, 77, 4)
+
+    new = NewDocumentDialog(None, 300, 200)
+    qtbot.addWidget(new)
+    new.width_box.setValue(640)
+    assert new.size_chosen() == (640, 200)

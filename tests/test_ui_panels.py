@@ -174,3 +174,18 @@ def test_eyedropper_picks_the_colour_shown(two_stops):
     pixel = shown[round(p.y() * ratio), round(p.x() * ratio)] / 255
     np.testing.assert_allclose(editor.window.options.color, pixel, atol=2 / 255)
     assert editor.history.index == 0
+
+
+def test_double_click_on_a_stop_in_the_canvas_asks_for_its_colour(two_stops, qtbot):
+    editor = two_stops
+    editor.key(Qt.Key.Key_V)
+    start = editor.history.index
+    editor.answers["color"] = QColor(0, 255, 255)
+    marker = (16.0, 64 - editor.context.marker_offset)  # the red stop at the start, on the left (above)
+    qtbot.mouseDClick(editor.canvas, Qt.MouseButton.LeftButton, pos=editor.at(*marker))
+    assert editor.history.index == start + 1 and editor.history.labels[-1] == "Change Stop Colour"
+    assert editor.document.curves[0].left == (ColorStop(0.0, (0.0, 1.0, 1.0)), ColorStop(2.0, GREEN))
+    editor.answers["color"] = QColor()  # cancelled: nothing changes
+    qtbot.mouseDClick(editor.canvas, Qt.MouseButton.LeftButton, pos=editor.at(*marker))
+    assert editor.history.index == start + 1
+    editor.wait_idle()

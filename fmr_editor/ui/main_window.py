@@ -268,6 +268,8 @@ class MainWindow(FileCommands, QMainWindow):
         self.set_tool(self.tool_name)
         self._update_state()
         self.canvas.setFocus()
+        if self.canvas.error:  # no suitable OpenGL: editing works, the image cannot be shown
+            self.status_label.setText(f"The canvas cannot draw the image: {self.canvas.error}")
 
     def _choose_stop_color(self, current):
         return pick_color(self, current, "Stop Colour")
