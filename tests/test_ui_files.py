@@ -223,3 +223,16 @@ def test_export_and_new_document_dialogs(gl_display, qtbot, tmp_path):
     qtbot.addWidget(new)
     new.width_box.setValue(640)
     assert new.size_chosen() == (640, 200)
+
+
+def test_recent_files_menu_reopens_a_file(ribbon, tmp_path, qtbot):
+    editor = ribbon
+    window = editor.window
+    window.recent_menu.aboutToShow.emit()
+    entries = [a for a in window.recent_menu.actions() if "ribbon.xml" in a.text()]
+    assert len(entries) == 1
+    first = editor.workspace
+    entries[0].trigger()
+    qtbot.waitUntil(lambda: window.job is None and editor.workspace is not first, timeout=30_000)
+    assert editor.workspace.path == RIBBON and editor.history.labels == ("",)
+    editor.wait_idle()

@@ -217,3 +217,19 @@ def test_an_edit_redraws_only_the_cells_it_changed(line):
     assert renderer.last_evaluation == "cells"
     renderer.invalidate()
     assert np.abs(editor.canvas.grab_image().astype(int) - shown).max() <= 1
+
+
+def test_arrow_keys_nudge_the_selection(line):
+    editor = line
+    editor.key(Qt.Key.Key_V)
+    before = editor.document.curves[0].control_points
+    editor.click(64, 64)
+    start = editor.history.index
+    editor.key(Qt.Key.Key_Right)
+    editor.key(Qt.Key.Key_Down, SHIFT)
+    assert editor.history.index == start + 2 and editor.history.labels[-2:] == ("Move Curve", "Move Curve")
+    np.testing.assert_allclose(editor.document.curves[0].control_points, before + (1.0, 10.0))
+    editor.key(Qt.Key.Key_Escape)  # no drag: the select tool clears the selection
+    assert editor.context.selection.empty
+    editor.key(Qt.Key.Key_Left)  # nothing selected: nothing moves, no step
+    assert editor.history.index == start + 2
