@@ -9,7 +9,8 @@ widget (default 1024) fitted exactly (scale = S / canvas side) and measures:
   the cached image, plus Qt's composition into the window) with nothing
   changed, and of the renderer's copy alone; F frames, best of N runs;
 - **full evaluation**: the shader over every window pixel (what a zoom or a
-  resize costs), best of N;
+  resize costs), best of N; and a zoom step's preview (the cached image
+  scaled, what the canvas shows while zoom steps follow each other);
 - **pan**: moving the view by 10 and by 100 window pixels (the cached image
   moves, only the uncovered strips are evaluated), best of N;
 - **edit to frame**: a stop-colour change on a few curves, from the edit to
@@ -158,6 +159,14 @@ def main() -> None:
         GL.glFinish()
         runs.append(time.perf_counter() - start)
     rows.append((f"full evaluation ({size}x{size} pixels: zoom, resize)", best(runs), 1e3 / best(runs)))
+    runs = []
+    for i in range(args.repeat):
+        start = time.perf_counter()
+        renderer.draw(view.zoomed(1.25 ** (i + 1), size / 2, size / 2), fbo, preview=True)
+        GL.glFinish()
+        runs.append(time.perf_counter() - start)
+        assert renderer.last_evaluation == "preview"
+    rows.append(("zoom step while zooming (the cached image scaled)", best(runs), 1e3 / best(runs)))
     for step in (10, 100):
         runs = []
         for i in range(args.repeat):

@@ -15,12 +15,12 @@ from shapes import scattered_document
 pytest.importorskip("pytestqt", reason="pytest-qt is in the [test] extra")
 
 from PySide6.QtCore import QPoint, QPointF, Qt  # noqa: E402
-from PySide6.QtGui import QWheelEvent  # noqa: E402
+from PySide6.QtGui import QImage, QWheelEvent  # noqa: E402
 from PySide6.QtWidgets import QApplication  # noqa: E402
 
 from fmr_editor.engine import LiveRepresentation, evaluate_points, rasterise  # noqa: E402
 from fmr_editor.io import load_document  # noqa: E402
-from fmr_editor.model import DiffusionPoint, edits  # noqa: E402
+from fmr_editor.model import DiffusionPoint, Document, edits  # noqa: E402
 from fmr_editor.render import View  # noqa: E402
 
 pytestmark = pytest.mark.gui
@@ -120,6 +120,17 @@ def test_points_match_the_cpu_rasteriser(canvas, qtbot):
     cpu = rasterise(rep, view.width, view.height, samples=1)
     assert error_levels(shown, cpu) <= 1.0
     assert np.abs(float_image(canvas, rep, view) - cpu).max() <= 0.1 * LEVEL
+
+
+def test_a_wide_canvas_matches_the_cpu_rasteriser(canvas, qtbot):
+    rep = LiveRepresentation(Document(210, 120, scattered_document(210, circles=4, seed=6).curves)).representation
+    assert rep.lattice.side == 210  # the lattice covers the bounding square; its lower cells are off the canvas
+    view = View(1.5, 10.0, 20.0, 340, 220)
+    shown = show(canvas, qtbot, rep, view)
+    samples = window_samples(view)
+    inside = ((samples >= 0) & (samples <= [rep.width, rep.height])).all(axis=1)
+    assert error_levels(shown.reshape(-1, 3)[inside], evaluate_points(rep, samples[inside])) <= 1.0
+    assert set(np.unique(shown.reshape(-1, 3)[~inside])) == CHECKER
 
 
 def test_a_zoomed_view_evaluates_the_document_at_its_pixels(canvas, qtbot, lady_bug):
@@ -244,3 +255,17 @@ def test_wheel_and_keys_zoom(canvas, qtbot, lady_bug):
     assert canvas.renderer.last_evaluation == "full"
     corner = shown[:8, :8].reshape(-1, 3)
     assert set(np.unique(corner)) <= CHECKER  # the margin around the fitted canvas
+
+
+def test_zoom_steps_show_the_image_scaled_until_they_stop(canvas, qtbot, lady_bug):
+    show(canvas, qtbot, lady_bug, View(1.0, 0.0, 0.0, 256, 256))
+    canvas.zoom(2.0, 128.0, 128.0)
+    preview = canvas.grabFramebuffer().convertToFormat(QImage.Format.Format_RGB888)
+    assert canvas.renderer.last_evaluation == "preview"
+    width, height = preview.width(), preview.height()
+    preview = np.frombuffer(preview.constBits(), np.uint8, count=preview.bytesPerLine() * height)
+    preview = preview.reshape(height, -1)[:, : width * 3].reshape(height, width, 3).astype(int)
+    qtbot.waitUntil(lambda: canvas.renderer.last_evaluation == "full", timeout=5000)  # it settles by itself
+    sharp = canvas.grab_image().astype(int)
+    assert np.abs(preview - sharp).mean() < 3  # the same picture, only blurrier
+    assert np.abs(preview - sharp).max() > 0

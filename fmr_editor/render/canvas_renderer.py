@@ -41,6 +41,9 @@ SHADER_DIR = Path(__file__).resolve().parents[2] / "shaders"
 TOLERANCE = 0.05 / 255
 #: A delta pass leaves out the segments whose change is below this share of the tolerance.
 SEGMENT_SHARE = 1 / 64
+#: What a delta pass may add to a cell's error (float32 rounding, generously): after some hundred passes
+#: without a full evaluation, the tolerance is reached and the cell is evaluated again, so errors never pile up.
+DELTA_ROUNDING = 2e-6
 #: A pan within this many window pixels of a whole number of pixels moves the cached image.
 SHIFT_TOLERANCE = 1e-6
 #: Above this share of the window's pixels in cells to evaluate, the whole window is evaluated instead.
@@ -100,7 +103,8 @@ class CanvasRenderer:
     ----------
     last_evaluation : str
         What the latest ``draw`` evaluated: ``"none"``, ``"cells"``, ``"shift"``
-        (a pan; with any changed cells) or ``"full"``.
+        (a pan; with any changed cells), ``"full"`` or ``"preview"`` (nothing:
+        the cached image was scaled).
     last_update : dict
         Counts of the latest ``update``'s cells: ``"changed"`` (reported),
         ``"delta"`` (their change added), ``"evaluate"`` (to be evaluated in
@@ -119,7 +123,7 @@ class CanvasRenderer:
         self._additive = cache_format == GL.GL_RGBA32F
         # a float image is converted once per change into 8 bits, so plain redraws copy a quarter of the bytes
         self._display = Framebuffer(GL.GL_RGBA8) if self._additive else None
-        self._display_current = False
+        self._stale: tuple[int, int, int, int] | None = None  # GL pixels of the cache not yet in the copy
         self._programs: dict[tuple[int, bool], Program] = {}
         self._rep: Representation | None = None
         self._layout: Layout | None = None
@@ -212,7 +216,7 @@ class CanvasRenderer:
             if exact and self._additive:
                 keep = segment_moves > SEGMENT_SHARE * self.tolerance
                 left_out = bounds.block_sums(np.where(keep, 0.0, segment_moves), rep).ravel()[shown]
-                after = before[show] + left_out
+                after = before[show] + left_out + DELTA_ROUNDING
                 add = after <= self.tolerance
                 unseen[shown[add]] = after[add]
                 self._add_change(delta[show][add], shown[add], old, rep, keep)
@@ -233,13 +237,12 @@ class CanvasRenderer:
                                       new.segments.jump - old.segments.jump, keep)
         self._buffers["delta_segments"].set_data(table.texels)
         self._buffers["delta_segment_start"].set_data(table.cell_start)
-        self._buffers["u_cell_list"].set_data(cells.astype(np.int32))
         self._cache.bind()
         GL.glEnable(GL.GL_BLEND)
         GL.glBlendEquation(GL.GL_FUNC_ADD)
         GL.glBlendFunc(GL.GL_ONE, GL.GL_ONE)
         try:
-            self._pass(self._cached_view, instances=len(cells), delta=True)
+            self._pass(self._cached_view, cells, delta=True)
         finally:
             GL.glDisable(GL.GL_BLEND)
 
@@ -267,7 +270,7 @@ class CanvasRenderer:
                                           label="canvas shader")
         return self._programs[key]
 
-    def draw(self, view: View, target: int = 0) -> None:
+    def draw(self, view: View, target: int = 0, preview: bool = False) -> None:
         """Bring the cached image up to date for ``view`` and copy it into framebuffer ``target``.
 
         Parameters
@@ -276,17 +279,76 @@ class CanvasRenderer:
             Pan and zoom; its size is the target's size in pixels.
         target : int
             Framebuffer object to draw into (0: the context's default one).
+        preview : bool
+            When ``view`` would need the whole window evaluated (a zoom), show
+            the cached image scaled to it instead (fast, not sharp) and keep the
+            cache as it is; a later ``draw`` without ``preview`` evaluates.
         """
-        self._evaluate(view)
-        shown = self._cache
-        if self._display is not None:
-            if not self._display_current:
-                self._display.resize(self._cache.width, self._cache.height)
-                self._cache.blit_to(self._display.handle)
-                self._display_current = True
-            shown = self._display
-        shown.blit_to(target)
+        if preview and self._rep is not None and self._cached_view is not None and self._needs_full(view):
+            self._preview(view, target)
+            self.last_evaluation = "preview"
+        else:
+            self._evaluate(view)
+            self._shown().blit_to(target)
         GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, target)
+
+    def _shown(self) -> Framebuffer:
+        """The cached image as the window shows it (its 8-bit copy, brought up to date, for a float cache)."""
+        if self._display is None:
+            return self._cache
+        if self._display.width != self._cache.width or self._display.height != self._cache.height:
+            self._display.resize(self._cache.width, self._cache.height)
+            self._stale = (0, 0, self._cache.width, self._cache.height)
+        if self._stale is not None:
+            x0, y0, x1, y1 = self._stale
+            GL.glBindFramebuffer(GL.GL_READ_FRAMEBUFFER, self._cache.handle)
+            GL.glBindFramebuffer(GL.GL_DRAW_FRAMEBUFFER, self._display.handle)
+            GL.glBlitFramebuffer(x0, y0, x1, y1, x0, y0, x1, y1, GL.GL_COLOR_BUFFER_BIT, GL.GL_NEAREST)
+            self._stale = None
+        return self._display
+
+    def _touch(self, view: View, cells: np.ndarray | None = None) -> None:
+        """Note that the cache changed: everywhere, or over the window rectangles of ``cells``."""
+        whole = (0, 0, view.width, view.height)
+        if cells is None:
+            rect = whole
+        else:
+            n, size = self._layout.cells, self._layout.cell_size * view.scale
+            columns, rows = cells % n, cells // n
+            x0 = int(np.floor(columns.min() * size + view.offset_x)) - 1
+            x1 = int(np.ceil((columns.max() + 1) * size + view.offset_x)) + 1
+            top = int(np.floor(rows.min() * size + view.offset_y)) - 1
+            bottom = int(np.ceil((rows.max() + 1) * size + view.offset_y)) + 1
+            rect = (max(x0, 0), max(view.height - bottom, 0), min(x1, view.width), min(view.height - top, view.height))
+        if self._stale is not None:
+            rect = tuple(f(a, b) for f, a, b in zip((min, min, max, max), self._stale, rect))
+        self._stale = rect
+
+    def _needs_full(self, view: View) -> bool:
+        cached = self._cached_view
+        return cached is None or (cached != view and _integer_shift(cached, view) is None) \
+            or (self._cache.width, self._cache.height) != (view.width, view.height)
+
+    def _preview(self, view: View, target: int) -> None:
+        """The cached image, scaled and moved to ``view``, over a plain background."""
+        cached, source = self._cached_view, self._shown()
+        GL.glBindFramebuffer(GL.GL_DRAW_FRAMEBUFFER, target)
+        GL.glClearColor(0.7, 0.7, 0.7, 1.0)
+        GL.glClear(GL.GL_COLOR_BUFFER_BIT)
+        ratio = cached.scale / view.scale  # cached window = target window * ratio + shift
+        rect = []
+        for offset, cached_offset, size, cached_size in ((view.offset_x, cached.offset_x, view.width, cached.width),
+                                                        (view.offset_y, cached.offset_y, view.height, cached.height)):
+            shift = cached_offset - offset * ratio
+            low, high = max(shift, 0.0), min(size * ratio + shift, float(cached_size))
+            if high <= low:
+                return
+            rect.append((low, high, (low - shift) / ratio, (high - shift) / ratio))
+        (sx0, sx1, dx0, dx1), (sy0, sy1, dy0, dy1) = rect
+        GL.glBindFramebuffer(GL.GL_READ_FRAMEBUFFER, source.handle)
+        GL.glBlitFramebuffer(round(sx0), round(cached.height - sy1), round(sx1), round(cached.height - sy0),
+                             round(dx0), round(view.height - dy1), round(dx1), round(view.height - dy0),
+                             GL.GL_COLOR_BUFFER_BIT, GL.GL_LINEAR)
 
     def evaluate(self, view: View) -> str:
         """Bring the cached image up to date for ``view`` without drawing it anywhere; what was evaluated."""
@@ -299,12 +361,11 @@ class CanvasRenderer:
             self._cache.bind()
             GL.glClearColor(0.7, 0.7, 0.7, 1.0)
             GL.glClear(GL.GL_COLOR_BUFFER_BIT)
-            self._cached_view, self.last_evaluation, self._display_current = None, "full", False
+            self._cached_view, self.last_evaluation = None, "full"
+            self._touch(view)
             return
-        cached = self._cached_view
-        shift = _integer_shift(cached, view)
-        if cached is None or (cached != view and shift is None) or self._cache.width != view.width \
-                or self._cache.height != view.height:
+        shift = _integer_shift(self._cached_view, view)
+        if self._needs_full(view):
             self._full(view)
         else:
             self.last_evaluation = "none"
@@ -337,16 +398,15 @@ class CanvasRenderer:
         if len(cells) * (size + 1) ** 2 > FULL_SHARE * view.width * view.height:
             self._full(view)
             return
-        self._buffers["u_cell_list"].set_data(cells)
         self._cache.bind()
-        self._pass(view, instances=len(cells))
+        self._pass(view, cells)
 
     def _shift(self, view: View, dx: int, dy: int) -> None:
         """Move the cached image by ``(dx, dy)`` window pixels and evaluate the strips it uncovers."""
         self._spare.resize(view.width, view.height)
         self._cache.blit_to(self._spare.handle, dx, -dy)  # GL rows go up
         self._cache, self._spare = self._spare, self._cache
-        self._display_current = False
+        self._touch(view)
         self._cache.bind()
         w, h = view.width, view.height
         strips = []  # (x, y, width, height) in GL pixels
@@ -366,11 +426,15 @@ class CanvasRenderer:
         finally:
             GL.glDisable(GL.GL_SCISSOR_TEST)
 
-    def _pass(self, view: View, instances: int = 0, delta: bool = False) -> None:
-        """Run the shader over the window (``instances == 0``) or the listed cells, into the bound framebuffer.
+    def _pass(self, view: View, cells: np.ndarray | None = None, delta: bool = False) -> None:
+        """Run the shader over the window or over the listed cells (flat indices), into the bound framebuffer.
 
         ``delta``: the change tables stand in for the data, coefficient rows by instance.
         """
+        instances = 0 if cells is None else len(cells)
+        if cells is not None:
+            self._buffers["u_cell_list"].set_data(cells.astype(np.int32))
+        self._touch(view, cells)
         program = self._program()
         program.use()
         for name, unit in _UNITS.items():
@@ -385,7 +449,6 @@ class CanvasRenderer:
             u_window=(view.width, view.height), u_delta=int(delta), u_rows_by_instance=int(delta),
         )
         GL.glDisable(GL.GL_DEPTH_TEST)
-        self._display_current = False
         self._vao.bind()
         if instances:
             GL.glDrawArraysInstanced(GL.GL_TRIANGLE_STRIP, 0, 4, instances)
