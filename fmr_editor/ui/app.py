@@ -8,7 +8,6 @@ from pathlib import Path
 
 from .workspace import DEFAULT_SIZE
 
-APP_NAME = "FMR Editor"
 ORGANISATION = "fmr-editor"
 
 
@@ -56,7 +55,7 @@ def main(path: str | os.PathLike | None = None, argv: list[str] | None = None, s
     from PySide6.QtCore import QSettings
     from PySide6.QtWidgets import QApplication
 
-    from .main_window import MainWindow
+    from .main_window import APP_NAME, MainWindow
 
     app = QApplication.instance() or QApplication(argv or [sys.argv[0] if sys.argv else "fmr-editor"])
     app.setApplicationName(APP_NAME)

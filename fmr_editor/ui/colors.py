@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import itertools
 from collections.abc import Callable, Hashable
 
 from PySide6.QtGui import QColor
@@ -12,8 +11,6 @@ from ..model.history import History
 from .gradient_bar import qcolor
 
 Color = tuple[float, float, float]
-
-_keys = itertools.count()
 
 
 def rgb(color: QColor) -> Color:
@@ -29,7 +26,7 @@ def pick_color(parent, current: Color, title: str = "Choose Colour") -> Color | 
 
 def new_merge_key(name: str) -> Hashable:
     """A merge key no earlier step has (``History.apply``), for one dialog's changes."""
-    return (name, next(_keys))
+    return (name, object())
 
 
 def live_color_dialog(parent, history: History, current: Color, apply: Callable[[Color, Hashable], object],
