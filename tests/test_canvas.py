@@ -269,3 +269,10 @@ def test_zoom_steps_show_the_image_scaled_until_they_stop(canvas, qtbot, lady_bu
     sharp = canvas.grab_image().astype(int)
     assert np.abs(preview - sharp).mean() < 3  # the same picture, only blurrier
     assert np.abs(preview - sharp).max() > 0
+
+
+def test_no_document_shows_a_plain_background(canvas, qtbot, lady_bug):
+    show(canvas, qtbot, lady_bug, View(1.0, 0.0, 0.0, 64, 48))
+    canvas.set_representation(None)
+    shown = canvas.grab_image()
+    assert shown.shape == (48, 64, 3) and np.ptp(shown) == 0

@@ -257,6 +257,11 @@ class CanvasRenderer:
         self._buffers["u_point_start"].set_data(table.start)
         self._buffers["u_point_members"].set_data(table.members)
 
+    def forget(self) -> None:
+        """Drop the representation: ``draw`` shows a plain background until the next ``upload``."""
+        self._rep = None
+        self._cached_view = None
+
     def invalidate(self) -> None:
         """Forget the cached image: the next ``draw`` evaluates the whole window."""
         self._cached_view = None

@@ -191,14 +191,13 @@ class Canvas(QOpenGLWidget):
         renderer = self.renderer
         if renderer is None:
             return
-        if self._rep is not None:
-            if self._full_upload:
-                renderer.upload(self._rep, self._polynomials)
-            elif self._changed is not None:
-                renderer.update(self._rep, self._changed, self._polynomials)
-        self._full_upload, self._changed = False, None
         if self._rep is None:
-            return
+            renderer.forget()
+        elif self._full_upload:
+            renderer.upload(self._rep, self._polynomials)
+        elif self._changed is not None:
+            renderer.update(self._rep, self._changed, self._polynomials)
+        self._full_upload, self._changed = False, None
         if self._view.width != max(self.width(), 1) or self._view.height != max(self.height(), 1):
             self._view = self._view.resized(max(self.width(), 1), max(self.height(), 1))
         renderer.draw(self.device_view(), self.defaultFramebufferObject(), preview=self._settle.isActive())
