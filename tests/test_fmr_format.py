@@ -165,7 +165,7 @@ def test_representation_round_trips_without_solving(saved, built, monkeypatch):
     # wherever the engine imports them from, so that this holds however build is organised
     patched = 0
     for module in [module for name, module in sys.modules.items() if name.startswith("fmr_editor.engine")]:
-        for name in ("solve_boundary", "upward_pass", "downward_pass"):
+        for name in ("solve_boundary", "BoundarySolver", "upward_pass", "downward_pass"):
             if hasattr(module, name):
                 monkeypatch.setattr(module, name, refuse)
                 patched += 1

@@ -254,7 +254,8 @@ class BoundarySolver:
     Up to ``DENSE_CROSSOVER`` unknowns the dense matrix is LU-factorised;
     above, the compressed factorisation preconditions GMRES with FMM
     products.  Right-hand sides come from FMM products either way, so a
-    change of colours costs one product and one solve (``solve_delta``).
+    change of colours costs one product and one solve (``right_hand_side``
+    of the change of colours, then ``solve``).
 
     Parameters
     ----------
