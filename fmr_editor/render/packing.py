@@ -83,7 +83,7 @@ def cell_coefficients(rep: Representation, cells: np.ndarray | None = None, harm
         else:
             values = tensor.reshape(len(tensor), 3, -1).transpose(0, 2, 1)
         return _padded(values.reshape(len(values), -1), texels(order, harmonic))
-    local = rep.local[..., : order + 1].reshape(n * n, 3, order + 1)[chosen]
+    local = rep.local.reshape(n * n, 3, -1)[chosen, :, : order + 1]  # a view until indexed
     if harmonic:
         k = local / TWO_PI  # (m, channel, l)
         k[:, :, 0] = k[:, :, 0].real  # Im K_0 never shows (u = Re ...)
