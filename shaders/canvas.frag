@@ -12,9 +12,10 @@
 //     #define COEFF_TEXELS m      RGBA texels per cell of u_coeffs
 // Data (texture buffers, layouts written by fmr_editor/render/packing.py):
 //     u_coeffs           RGBA32F, COEFF_TEXELS texels per cell, cells row-major
-//     u_segment_start    R32I, CSR offsets of each cell's segments (cells^2 + 1)
-//     u_segments         RGBA32F, 3 texels per segment: (p, q) relative to its own cell's centre,
-//                        (E rgb, length), (C rgb, 0); document pixels
+//     u_segment_start    R32I, CSR offsets of each cell's list of near segments (cells^2 + 1)
+//     u_segments         RGBA32F, 3 texels per entry: (p, q relative to the listing cell's centre),
+//                        (E rgb, length), (C rgb, 0); document pixels.  A cell lists the segments of
+//                        its 3x3 block.
 //     u_point_start      R32I, CSR offsets of each cell's near points (cells^2 + 1)
 //     u_point_members    R32I, indices into u_points
 //     u_points           RGBA32F, 2 texels per near point: (x, y, 1 / r^2, 0), (weight rgb, 0)
@@ -77,42 +78,31 @@ vec3 far_field(int row, vec2 xi) {
 #endif
 }
 
-// E S - C D of the segments listed in cells [first, last) of one row; their (p, q) are relative to their
-// own cell's centre, `shift` is (that centre - this pixel) for the first of them, cells `size` apart.
-vec3 segment_run(int first, int last, vec2 shift, float size) {
+// E S - C D of the segments near the pixel: the list of its cell (the cell's 3x3 block), each segment's
+// end points p, q relative to the cell's centre, so p - x and q - x stay small.
+vec3 near_segments(int cell, vec2 local) {
     vec3 sum = vec3(0.0);
-    for (int cell = first; cell < last; ++cell, shift.x += size) {
-        int end = texelFetch(u_segment_start, cell + 1).r;
-        for (int k = texelFetch(u_segment_start, cell).r; k < end; ++k) {
-            vec4 ends = texelFetch(u_segments, 3 * k);
-            vec4 flux_length = texelFetch(u_segments, 3 * k + 1);
-            vec3 jump = texelFetch(u_segments, 3 * k + 2).rgb;
-            float h = flux_length.w;
-            vec2 v0 = ends.xy + shift;
-            vec2 v1 = ends.zw + shift;
-            vec2 t = (ends.zw - ends.xy) / h;
-            float a = -dot(v0, t);
-            float b = abs(v0.x * t.y - v0.y * t.x);
-            float cross_ = v0.x * v1.y - v0.y * v1.x;
-            float dot_ = dot(v0, v1);
-            // the angle subtended; 0 (the principal value) on the segment itself and on its line outside it
-            float angle = (cross_ != 0.0 || dot_ > 0.0) ? atan(cross_, dot_) : 0.0;
-            float log_p = log(max(dot(v0, v0), 1e-30));
-            float log_q = log(max(dot(v1, v1), 1e-30));
-            float single = ((h - a) * log_q + a * log_p - 2.0 * h + 2.0 * b * abs(angle)) * INV_FOUR_PI;
-            sum += flux_length.rgb * single - jump * (angle * INV_TWO_PI);
-        }
-    }
-    return sum;
-}
-
-vec3 near_segments(ivec2 cell, vec2 local, float size) {
-    vec3 sum = vec3(0.0);
-    int first = max(cell.x - 1, 0);
-    int last = min(cell.x + 2, u_cells);
-    for (int row = max(cell.y - 1, 0); row < min(cell.y + 2, u_cells); ++row) {
-        vec2 shift = vec2(float(first - cell.x), float(row - cell.y)) * size - local;
-        sum += segment_run(row * u_cells + first, row * u_cells + last, shift, size);
+    int end = texelFetch(u_segment_start, cell + 1).r;
+    for (int k = texelFetch(u_segment_start, cell).r; k < end; ++k) {
+        vec4 ends = texelFetch(u_segments, 3 * k);
+        vec4 flux_length = texelFetch(u_segments, 3 * k + 1);
+        vec3 jump = texelFetch(u_segments, 3 * k + 2).rgb;
+        float h = flux_length.w;
+        vec2 t = (ends.zw - ends.xy) / h;
+        // p - x and q - x from the stored end points (not p + h t), so a pixel centre exactly on a segment
+        // gets an exactly zero cross product, and the principal value, as on the CPU
+        vec2 v0 = ends.xy - local;
+        vec2 v1 = ends.zw - local;
+        float a = -dot(v0, t);
+        float b = abs(v0.x * t.y - v0.y * t.x);
+        float cross_ = v0.x * v1.y - v0.y * v1.x;
+        float dot_ = dot(v0, v1);
+        // the angle subtended; 0 (the principal value) on the segment itself and on its line outside it
+        float angle = (cross_ != 0.0 || dot_ > 0.0) ? atan(cross_, dot_) : 0.0;
+        float log_p = log(max(dot(v0, v0), 1e-30));
+        float log_q = log(max(dot(v1, v1), 1e-30));
+        float single = ((h - a) * log_q + a * log_p - 2.0 * h + 2.0 * b * abs(angle)) * INV_FOUR_PI;
+        sum += flux_length.rgb * single - jump * (angle * INV_TWO_PI);
     }
     return sum;
 }
@@ -144,7 +134,7 @@ void main() {
     vec2 local = vec2(position - (dvec2(cell) + 0.5) * u_cell_size);  // from the cell's centre
     int flat_cell = cell.y * u_cells + cell.x;
     vec3 value = far_field(v_row >= 0 ? v_row : flat_cell, local / size);
-    value += near_segments(cell, local, size);
+    value += near_segments(flat_cell, local);
     if (u_delta == 0) {
         value += near_points(flat_cell, position);
     }

@@ -78,19 +78,33 @@ def test_some_cells_pack_like_all_of_them(with_points, curves):
         np.testing.assert_array_equal(packing.cell_coefficients(rep, cells).reshape(len(cells), -1), per_cell[cells])
 
 
-def test_segments_are_relative_to_their_cell(curves):
+def test_each_cell_lists_its_blocks_segments_relative_to_its_centre(curves):
     table = packing.segment_table(curves)
     seg, lattice = curves.segments, curves.lattice
-    rows = table.texels.reshape(-1, 3, 4)
-    n = lattice.cells_per_side
-    own = np.repeat(np.arange(n * n), np.diff(curves.cell_start))
-    centre = np.stack([own % n + 0.5, own // n + 0.5], axis=1) * lattice.cell_size
-    np.testing.assert_allclose(rows[:, 0, :2] + centre, seg.p, atol=1e-4)
-    np.testing.assert_allclose(rows[:, 0, 2:] + centre, seg.q, atol=1e-4)
-    assert np.abs(rows[:, 0]).max() <= 1.5 * lattice.cell_size  # small coordinates: no cancellation
-    np.testing.assert_allclose(rows[:, 1, :3], seg.flux, rtol=1e-6)
-    np.testing.assert_allclose(rows[:, 2, :3], seg.jump, rtol=1e-6)
-    np.testing.assert_array_equal(table.cell_start, curves.cell_start)
+    n, size = lattice.cells_per_side, lattice.cell_size
+    rows = table.texels.reshape(-1, 3, 4).astype(np.float64)
+    assert table.cell_start[-1] == len(rows) == len(table.segments)
+    own = lattice.cell_of(seg.midpoints)  # (row, column) of each segment's own cell
+    for cell in (0, n - 1, n + 1, n * n // 2 + 3, n * n - 1):
+        r, c = divmod(cell, n)
+        listed = table.segments[table.cell_start[cell] : table.cell_start[cell + 1]]
+        near = np.flatnonzero((np.abs(own[:, 0] - r) <= 1) & (np.abs(own[:, 1] - c) <= 1))
+        np.testing.assert_array_equal(np.sort(listed), near)
+        entries = rows[table.cell_start[cell] : table.cell_start[cell + 1]]
+        centre = (np.array([c, r]) + 0.5) * size
+        np.testing.assert_allclose(entries[:, 0, :2] + centre, seg.p[listed], atol=1e-4)
+        np.testing.assert_allclose(entries[:, 0, 2:] + centre, seg.q[listed], atol=1e-4)
+        assert np.abs(entries[:, 0]).max(initial=0) <= 2 * size  # small coordinates: no cancellation
+        np.testing.assert_allclose(entries[:, 1, :3], seg.flux[listed], rtol=1e-6)
+        np.testing.assert_allclose(entries[:, 2, :3], seg.jump[listed], rtol=1e-6)
+    flux = np.random.default_rng(4).normal(size=seg.flux.shape)
+    again = packing.segment_table(curves, flux=flux, like=table)
+    np.testing.assert_array_equal(again.texels, packing.segment_table(curves, flux=flux).texels)
+    kept = np.zeros(len(seg.p), bool)
+    kept[::7] = True
+    some = packing.segment_table(curves, keep=kept)
+    assert set(some.segments) == set(np.flatnonzero(kept))
+    assert len(some.segments) < len(table.segments) / 5
 
 
 def test_near_points_table(with_points, curves):

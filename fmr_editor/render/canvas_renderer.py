@@ -126,6 +126,7 @@ class CanvasRenderer:
         self._stale: tuple[int, int, int, int] | None = None  # GL pixels of the cache not yet in the copy
         self._programs: dict[tuple[int, bool], Program] = {}
         self._rep: Representation | None = None
+        self._segment_table: packing.SegmentTable | None = None
         self._layout: Layout | None = None
         self._dirty: np.ndarray | None = None  # cells to evaluate again at the next draw
         self._mirror = np.zeros((0, 0), np.float32)  # the coefficients as uploaded, a row per cell
@@ -196,7 +197,7 @@ class CanvasRenderer:
         segment_moves = bounds.segment_changes(old, rep)
         near_points_changed = _near(rep) is not _near(old)
         if rep.segments is not old.segments or rep.cell_start is not old.cell_start:
-            self._upload_segments(rep)
+            self._upload_segments(rep, same_geometry=segment_moves is not None)
         if near_points_changed:
             self._upload_points(rep)
         self._rep = rep
@@ -246,10 +247,13 @@ class CanvasRenderer:
         finally:
             GL.glDisable(GL.GL_BLEND)
 
-    def _upload_segments(self, rep: Representation) -> None:
-        table = packing.segment_table(rep)
+    def _upload_segments(self, rep: Representation, same_geometry: bool = False) -> None:
+        """Upload the segment lists; with ``same_geometry``, only E and C changed since the last upload."""
+        like = self._segment_table if same_geometry else None
+        table = self._segment_table = packing.segment_table(rep, like=like)
         self._buffers["u_segments"].set_data(table.texels)
-        self._buffers["u_segment_start"].set_data(table.cell_start)
+        if like is None:
+            self._buffers["u_segment_start"].set_data(table.cell_start)
 
     def _upload_points(self, rep: Representation) -> None:
         table = packing.point_table(rep)

@@ -7,10 +7,11 @@ Layouts (``shaders/canvas.frag`` reads them):
   expansion, ``u = Re sum_l K_l (xi + i eta)^l``, packed per ``l`` as Re r, g, b
   then Im r, g, b.  Tensor form: ``Representation.polynomials()``'s ``c[i, j]``
   (r, g, b) of ``xi^i eta^j``, packed per ``(i, j)``.  Zero-padded to whole texels.
-- **segments**: 3 texels each, in the representation's (cell-sorted) order:
-  ``(p - centre, q - centre)``, ``(E, length)``, ``(C, 0)``, with ``centre``
-  the centre of the segment's own fine cell, so the shader works in small
-  coordinates; plus the CSR offsets ``cell_start`` as int32.
+- **segments**: per fine cell, the segments of its 3x3 block (each segment is
+  listed up to 9 times), 3 texels each: ``(p - centre, q - centre)``,
+  ``(E, length)``, ``(C, 0)``, with ``centre`` that cell's centre, so a pixel
+  reads one list and works in small coordinates; plus the lists' CSR offsets
+  ``cell_start`` as int32.
 - **near points**: 2 texels each, ``(x, y, 1 / r^2, 0)``, ``(weight, 0)``,
   and their per-cell CSR lists (``start``, ``members``) as int32.
 """
@@ -103,23 +104,67 @@ def uses_harmonic(rep: Representation) -> bool:
 
 @dataclass(frozen=True)
 class SegmentTable:
-    """Segments as shader texels.
+    """Every fine cell's near segments (its 3x3 block's) as shader texels.
 
     Attributes
     ----------
     texels : numpy.ndarray
-        ``(3 * segments, 4)`` float32.
+        ``(3 * entries, 4)`` float32: per entry ``(p - centre, q - centre)``, ``(E, length)``, ``(C, 0)``.
     cell_start : numpy.ndarray
-        ``(4^L + 1,)`` int32 CSR offsets.
+        ``(4^L + 1,)`` int32 CSR offsets: cell ``c`` lists entries ``cell_start[c]:cell_start[c + 1]``.
+    segments : numpy.ndarray
+        ``(entries,)`` the representation's index of each entry's segment.
     """
 
     texels: np.ndarray
     cell_start: np.ndarray
+    segments: np.ndarray
+
+
+def block_lists(cell_start: np.ndarray, cells_per_side: int) -> tuple[np.ndarray, np.ndarray]:
+    """Every cell's 3x3 block of segments, as CSR lists.
+
+    Parameters
+    ----------
+    cell_start : numpy.ndarray
+        ``(n^2 + 1,)`` offsets of each cell's own (cell-sorted) segments.
+    cells_per_side : int
+
+    Returns
+    -------
+    block_start : numpy.ndarray
+        ``(n^2 + 1,)`` int64 offsets into ``members``.
+    members : numpy.ndarray
+        Segment indices, each cell's block in turn (rows of the block, each row's cells left to right).
+    """
+    n = cells_per_side
+    cell_start = np.asarray(cell_start, np.int64)
+    counts = np.diff(cell_start).reshape(n, n)
+    rows, columns = np.divmod(np.arange(n * n), n)
+    # one run per (cell, block row): the row's up to 3 cells are contiguous in cell order
+    run_start = np.empty((n * n, 3), np.int64)
+    run_count = np.zeros((n * n, 3), np.int64)
+    first, last = np.maximum(columns - 1, 0), np.minimum(columns + 2, n)
+    for k, dy in enumerate((-1, 0, 1)):
+        row = rows + dy
+        valid = (row >= 0) & (row < n)
+        safe = np.clip(row, 0, n - 1) * n
+        run_start[:, k] = cell_start[safe + first]
+        run_count[:, k] = np.where(valid, cell_start[safe + last] - cell_start[safe + first], 0)
+    counts_flat = run_count.ravel()
+    block_start = np.concatenate([[0], np.cumsum(run_count.sum(axis=1))])
+    total = int(block_start[-1])
+    run_offset = np.repeat(np.cumsum(counts_flat) - counts_flat, counts_flat)
+    members = np.repeat(run_start.ravel(), counts_flat) + np.arange(total) - run_offset
+    return block_start, members
 
 
 def segment_table(rep: Representation, flux: np.ndarray | None = None, jump: np.ndarray | None = None,
-                  keep: np.ndarray | None = None) -> SegmentTable:
-    """The representation's segments, end points relative to their own cell's centre.
+                  keep: np.ndarray | None = None, like: SegmentTable | None = None) -> SegmentTable:
+    """Each cell's near segments, with end points relative to that cell's centre.
+
+    A segment is listed in every cell of the 3x3 block around its own (up to
+    9 times), so the shader reads one list per pixel, in small coordinates.
 
     Parameters
     ----------
@@ -127,26 +172,39 @@ def segment_table(rep: Representation, flux: np.ndarray | None = None, jump: np.
     flux, jump : numpy.ndarray, optional
         ``(segments, 3)`` values to put in place of the segments' E and C (their changes, say).
     keep : numpy.ndarray, optional
-        ``(segments,)`` bool: list only these (the cell lists shrink accordingly).
+        ``(segments,)`` bool: list only these.
+    like : SegmentTable, optional
+        A full table (no ``keep``) of segments with the same geometry and cells:
+        its lists and positions are taken as they are, only E and C are new.
     """
     seg, lattice = rep.segments, rep.lattice
     n, size = lattice.cells_per_side, lattice.cell_size
-    own = np.repeat(np.arange(n * n), np.diff(rep.cell_start))
     flux = seg.flux if flux is None else flux
     jump = seg.jump if jump is None else jump
-    p, q = seg.p, seg.q
-    cell_start = rep.cell_start
+    if like is not None and keep is None:
+        table = like.texels.reshape(-1, 3, 4).copy()
+        table[:, 1, 0:3] = flux[like.segments]
+        table[:, 2, 0:3] = jump[like.segments]
+        return SegmentTable(table.reshape(-1, 4), like.cell_start, like.segments)
+    cell_start = np.asarray(rep.cell_start, np.int64)
+    index = np.arange(len(seg.p))
     if keep is not None:
-        own, p, q, flux, jump = own[keep], p[keep], q[keep], flux[keep], jump[keep]
+        index = index[keep]
+        own = np.repeat(np.arange(n * n), np.diff(cell_start))[keep]
         cell_start = np.concatenate([[0], np.cumsum(np.bincount(own, minlength=n * n))])
-    centre = np.stack([own % n + 0.5, own // n + 0.5], axis=1) * size
-    table = np.zeros((len(own), 3, 4), np.float32)
+    block_start, members = block_lists(cell_start, n)
+    members = index[members]
+    cell = np.repeat(np.arange(n * n), np.diff(block_start))
+    centre = np.stack([cell % n + 0.5, cell // n + 0.5], axis=1) * size
+    p, q = seg.p[members], seg.q[members]
+    length = np.hypot(*(q - p).T)
+    table = np.zeros((len(members), 3, 4), np.float32)
     table[:, 0, 0:2] = p - centre
     table[:, 0, 2:4] = q - centre
-    table[:, 1, 0:3] = flux
-    table[:, 1, 3] = np.hypot(*(q - p).T)
-    table[:, 2, 0:3] = jump
-    return SegmentTable(table.reshape(-1, 4), _int32(cell_start))
+    table[:, 1, 0:3] = flux[members]
+    table[:, 1, 3] = length
+    table[:, 2, 0:3] = jump[members]
+    return SegmentTable(table.reshape(-1, 4), _int32(block_start), members)
 
 
 @dataclass(frozen=True)
