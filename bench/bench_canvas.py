@@ -1,6 +1,6 @@
 """Canvas benchmark: the shader-rendered view of a document under Xvfb (Mesa llvmpipe).
 
-    python bench/bench_canvas.py [FILE] [--size S] [--repeat N] [--frames F]
+    python bench/bench_canvas.py [FILE] [--size S] [--repeat N] [--frames F] [--points K]
 
 Shows FILE (default: lady_bug.xml from ../shared/data) in a ``S x S`` canvas
 widget (default 1024) fitted exactly (scale = S / canvas side) and measures:
@@ -17,7 +17,10 @@ widget (default 1024) fitted exactly (scale = S / canvas side) and measures:
   the finished frame: ``LiveRepresentation.update`` + ``CanvasRenderer.update``
   (partial upload; adds the change to the cells that moved visibly) + draw
   (evaluates what is left) + ``glFinish``; each step timed, best of N (each
-  run flips the colour back and forth so every run is a real change).
+  run flips the colour back and forth so every run is a real change);
+- with K random diffusion points added (default 2,000; the far field then
+  takes the tensor form, and narrow points are exact near points): the full
+  evaluation and a brush dab of 5 points, edit to frame.
 
 Every GL timing ends with ``glFinish``.  Starts its own Xvfb (else uses
 DISPLAY).  The machine is shared and noisy: best-of figures are the ones to quote.
@@ -74,12 +77,62 @@ def best(times: list[float]) -> float:
     return min(times) * 1e3
 
 
+def points_rows(args, canvas, document, view, fbo) -> None:
+    """The same view with diffusion points added (tensor far field, near points): full evaluation and a dab."""
+    from OpenGL import GL
+
+    from fmr_editor.engine import LiveRepresentation
+    from fmr_editor.model import DiffusionPoint, edits
+
+    rng = np.random.default_rng(1)
+    side = max(document.width, document.height)
+
+    def random_points(count: int) -> list:
+        radii = np.exp(rng.uniform(np.log(1.0), np.log(60.0), count))
+        return [DiffusionPoint(tuple(rng.uniform(0, side, 2)), float(r), tuple(rng.random(3)), 0.3) for r in radii]
+
+    live = LiveRepresentation(document.with_points(random_points(args.points)))
+    rep = live.representation
+    canvas.makeCurrent()
+    renderer = canvas.renderer
+    renderer.upload(rep)
+    renderer.draw(view, fbo)
+    GL.glFinish()
+    runs = []
+    for _ in range(args.repeat):
+        renderer.invalidate()
+        start = time.perf_counter()
+        renderer.draw(view, fbo)
+        GL.glFinish()
+        runs.append(time.perf_counter() - start)
+    dabs = []
+    for _ in range(args.repeat):
+        start = time.perf_counter()
+        update = live.update(edits.add_points(live.document, random_points(5)))
+        engine = time.perf_counter()
+        renderer.update(live.representation, update.changed)
+        renderer.draw(view, fbo)
+        GL.glFinish()
+        dabs.append((engine - start, time.perf_counter() - engine, time.perf_counter() - start))
+    near = len(rep.points.near)
+    dab = np.array(dabs).min(axis=0) * 1e3
+    print(f"\nWith {args.points:,} diffusion points added (radii 1-60 px, log-uniform; {near:,} of them near points, "
+          f"summed exactly; the far field in tensor form):\n")
+    print("| step | ms |\n|---|---:|")
+    print(f"| full evaluation ({view.width}x{view.height}) | {best(runs):.1f} |")
+    print(f"| a dab of 5 points: engine update | {dab[0]:.1f} |")
+    print(f"| a dab of 5 points: renderer update + draw | {dab[1]:.1f} |")
+    print(f"| a dab of 5 points: edit to frame | {dab[2]:.1f} |")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("file", nargs="?", default=str(DEFAULT_FILE))
     parser.add_argument("--size", type=int, default=1024)
     parser.add_argument("--repeat", type=int, default=5)
     parser.add_argument("--frames", type=int, default=60)
+    parser.add_argument("--points", type=int, default=2000,
+                        help="also time the view with this many random diffusion points (0: skip)")
     args = parser.parse_args()
 
     xvfb = start_xvfb()
@@ -213,6 +266,8 @@ def main() -> None:
         delta, segments, full = evaluated
         print(f"| {curve} | {reported:,} | {delta:,} ({segments:,}) | {full:,} ({renderer.last_evaluation}) "
               f"| {t[0]:.0f} | {t[1]:.1f} | {t[2]:.1f} | {np.array(timings)[:, 3].min() * 1e3:.0f} |")
+    if args.points:
+        points_rows(args, canvas, live.document, view, fbo)
     canvas.close()
     app.quit()
     del xvfb  # it ends itself (-terminate) when Qt's connection closes at exit

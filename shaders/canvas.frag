@@ -4,11 +4,11 @@
 // Outside the canvas: a checkerboard.  A delta pass (u_delta = 1) evaluates the change of the colour from
 // change tables bound in place of the data (no near points) and writes 0 outside the canvas, to be added.
 //
-// The loader (fmr_editor/render/programs.py) inserts after the #version line:
+// The loader (shader_source in fmr_editor/render/canvas_renderer.py) inserts after the #version line:
 //     #define ORDER n             polynomial degree P
 //     #define HARMONIC 0|1        1: coefficients are the complex local expansion K_l = L_l / 2pi,
-//                                 u = Re sum_l K_l (xi + i eta)^l, packed per l as Re rgb, Im rgb;
-//                                 0: the full tensor c[i][j] (rgb) of xi^i eta^j, packed per (i, j)
+//                                 u = Re sum_l K_l (xi + i eta)^l, a texel (rgb) for Re K_l, one for Im K_l;
+//                                 0: the full tensor c[i][j] of xi^i eta^j, a texel (rgb) per (i, j)
 //     #define COEFF_TEXELS m      RGBA texels per cell of u_coeffs
 // Data (texture buffers, layouts written by fmr_editor/render/packing.py):
 //     u_coeffs           RGBA32F, COEFF_TEXELS texels per cell, cells row-major
@@ -46,31 +46,30 @@ out vec4 colour;
 const float INV_TWO_PI = 0.15915494309189535;
 const float INV_FOUR_PI = 0.07957747154594767;
 
-#define COEFF(k) coeffs[(k) >> 2][(k) & 3]
+vec3 coefficient(int texel) {
+    return texelFetch(u_coeffs, texel).rgb;
+}
 
 vec3 far_field(int row, vec2 xi) {
-    vec4 coeffs[COEFF_TEXELS];
     int base = row * COEFF_TEXELS;
-    for (int k = 0; k < COEFF_TEXELS; ++k) {
-        coeffs[k] = texelFetch(u_coeffs, base + k);
-    }
 #if HARMONIC
-    // Horner in z = xi + i eta, three channels at once
-    vec3 re = vec3(COEFF(6 * ORDER), COEFF(6 * ORDER + 1), COEFF(6 * ORDER + 2));
-    vec3 im = vec3(COEFF(6 * ORDER + 3), COEFF(6 * ORDER + 4), COEFF(6 * ORDER + 5));
+    // Horner in z = xi + i eta, three channels at once; texels Re K_l, Im K_l
+    vec3 re = coefficient(base + 2 * ORDER);
+    vec3 im = coefficient(base + 2 * ORDER + 1);
     for (int l = ORDER - 1; l >= 0; --l) {
-        vec3 next = re * xi.x - im * xi.y + vec3(COEFF(6 * l), COEFF(6 * l + 1), COEFF(6 * l + 2));
-        im = re * xi.y + im * xi.x + vec3(COEFF(6 * l + 3), COEFF(6 * l + 4), COEFF(6 * l + 5));
+        vec3 next = re * xi.x - im * xi.y + coefficient(base + 2 * l);
+        im = re * xi.y + im * xi.x + coefficient(base + 2 * l + 1);
         re = next;
     }
     return re;
 #else
+    // Horner in eta along each row i, then in xi; texel i * (ORDER + 1) + j holds c[i][j]
     vec3 value = vec3(0.0);
     for (int i = ORDER; i >= 0; --i) {
-        vec3 row = vec3(0.0);
-        for (int j = ORDER; j >= 0; --j) {
-            int k = 3 * (i * (ORDER + 1) + j);
-            row = row * xi.y + vec3(COEFF(k), COEFF(k + 1), COEFF(k + 2));
+        int first = base + i * (ORDER + 1);
+        vec3 row = coefficient(first + ORDER);
+        for (int j = ORDER - 1; j >= 0; --j) {
+            row = row * xi.y + coefficient(first + j);
         }
         value = value * xi.x + row;
     }

@@ -29,13 +29,13 @@ def with_points():
 def unpack_harmonic(rep, texels):
     """``K_l`` (cells, channel, l) complex from packed harmonic texels."""
     n, order = rep.lattice.cells_per_side, rep.order
-    values = texels.reshape(n * n, -1)[:, : 6 * (order + 1)].reshape(n * n, order + 1, 2, 3)
+    values = texels.reshape(n * n, order + 1, 2, 4)[..., :3]
     return (values[:, :, 0] + 1j * values[:, :, 1]).transpose(0, 2, 1)
 
 
 def unpack_tensor(rep, texels):
     n, order = rep.lattice.cells_per_side, rep.order
-    values = texels.reshape(n * n, -1)[:, : 3 * (order + 1) ** 2].reshape(n * n, order + 1, order + 1, 3)
+    values = texels.reshape(n * n, order + 1, order + 1, 4)[..., :3]
     return values.transpose(0, 3, 1, 2).reshape(n, n, 3, order + 1, order + 1)
 
 
@@ -131,16 +131,17 @@ def test_far_bound_bounds_the_change_of_the_far_field(curves, with_points):
         harmonic = packing.uses_harmonic(rep)
         per_cell = packing.cell_coefficients(rep).reshape(rep.lattice.cells_per_side**2, -1).astype(np.float64)
         delta = rng.normal(size=per_cell.shape) * 1e-3
+        delta.reshape(len(delta), -1, 4)[..., 3] = 0.0  # the texels' unused fourth component
         bound = bounds.far_bound(delta, rep.order, harmonic)
         # evaluate the change at corners and random points of each cell
         xi, eta = np.concatenate([rng.uniform(-0.5, 0.5, (2, 30)), [[-0.5, 0.5, 0.5, -0.5], [-0.5, -0.5, 0.5, 0.5]]], 1)
         p = rep.order + 1
         if harmonic:
-            values = delta[:, : 6 * p].reshape(-1, p, 2, 3)
+            values = delta.reshape(-1, p, 2, 4)[..., :3]
             k = values[:, :, 0] + 1j * values[:, :, 1]
             change = np.einsum("klc,lm->kcm", k, (xi + 1j * eta)[None] ** np.arange(p)[:, None]).real
         else:
-            c = delta[:, : 3 * p * p].reshape(-1, p, p, 3)
+            c = delta.reshape(-1, p, p, 4)[..., :3]
             change = np.einsum("kijc,im,jm->kcm", c, xi[None] ** np.arange(p)[:, None], eta[None] ** np.arange(p)[:, None])
         assert (np.abs(change).max(axis=(1, 2)) <= bound * (1 + 1e-12)).all()
         assert (np.abs(change).max(axis=(1, 2)) >= 0.05 * bound).all()  # and not hopelessly loose

@@ -36,12 +36,11 @@ def far_bound(delta: np.ndarray, order: int, harmonic: bool) -> np.ndarray:
     delta = np.asarray(delta, np.float32)
     terms = order + 1
     if harmonic:
-        square = delta * delta
-        square = square[:, : 6 * terms].reshape(-1, terms, 6)  # per l: Re rgb, Im rgb
-        size = np.sqrt(square[:, :, :3] + square[:, :, 3:])  # |dK_l| per channel, (m, l, channel)
+        square = (delta * delta).reshape(-1, terms, 8)  # per l: Re rgb 0, Im rgb 0
+        size = np.sqrt(square[:, :, 0:3] + square[:, :, 4:7])  # |dK_l| per channel, (m, l, channel)
         weight = 2.0 ** (-0.5 * np.arange(terms))
     else:
-        size = np.abs(delta[:, : 3 * terms**2].reshape(-1, terms**2, 3))
+        size = np.abs(delta.reshape(-1, terms**2, 4)[:, :, :3])
         degree = np.add.outer(np.arange(terms), np.arange(terms)).ravel()
         weight = 2.0 ** (-degree.astype(np.float64))
     # float32 sums of at most a few hundred terms: within 1e-5 relative, covered by the last factor

@@ -2,11 +2,12 @@
 
 Layouts (``shaders/canvas.frag`` reads them):
 
-- **coefficients**: ``texels(order, harmonic)`` RGBA texels per fine cell, cells row-major.
-  Harmonic form (documents without points): ``K_l = L_l / 2pi`` of the local
-  expansion, ``u = Re sum_l K_l (xi + i eta)^l``, packed per ``l`` as Re r, g, b
-  then Im r, g, b.  Tensor form: ``Representation.polynomials()``'s ``c[i, j]``
-  (r, g, b) of ``xi^i eta^j``, packed per ``(i, j)``.  Zero-padded to whole texels.
+- **coefficients**: ``texels(order, harmonic)`` RGBA texels per fine cell, cells
+  row-major, one texel (r, g, b, 0) a term.  Harmonic form (documents without
+  points): ``K_l = L_l / 2pi`` of the local expansion, ``u = Re sum_l K_l (xi +
+  i eta)^l``, per ``l`` a texel of Re K_l then one of Im K_l.  Tensor form:
+  ``Representation.polynomials()``'s ``c[i, j]`` of ``xi^i eta^j``, per ``(i, j)``
+  (row-major).  The shader fetches each term as it needs it.
 - **segments**: per fine cell, the segments of its 3x3 block (each segment is
   listed up to 9 times), 3 texels each: ``(p - centre, q - centre)``,
   ``(E, length)``, ``(C, 0)``, with ``centre`` that cell's centre, so a pixel
@@ -30,9 +31,8 @@ TWO_PI = 2.0 * np.pi
 
 
 def texels(order: int, harmonic: bool) -> int:
-    """RGBA texels per cell of the coefficient table."""
-    floats = 6 * (order + 1) if harmonic else 3 * (order + 1) ** 2
-    return -(-floats // 4)
+    """RGBA texels per cell of the coefficient table: one per term (rgb)."""
+    return 2 * (order + 1) if harmonic else (order + 1) ** 2
 
 
 @lru_cache(maxsize=8)
@@ -44,10 +44,10 @@ def _real_mapping(order: int) -> np.ndarray:
     return real
 
 
-def _padded(values: np.ndarray, per_cell: int) -> np.ndarray:
-    """``(m, floats)`` float64 to ``(m * per_cell, 4)`` float32 texels, zero-padded."""
-    out = np.zeros((values.shape[0], per_cell * 4), np.float32)
-    out[:, : values.shape[1]] = values
+def _padded(values: np.ndarray) -> np.ndarray:
+    """``(m, terms, 3)`` float64 to ``(m * terms, 4)`` float32 texels (rgb, 0)."""
+    out = np.zeros(values.shape[:2] + (4,), np.float32)
+    out[..., :3] = values
     return out.reshape(-1, 4)
 
 
@@ -83,7 +83,7 @@ def cell_coefficients(rep: Representation, cells: np.ndarray | None = None, harm
             values = np.concatenate([k.real, k.imag], axis=1).transpose(0, 2, 1)
         else:
             values = tensor.reshape(len(tensor), 3, -1).transpose(0, 2, 1)
-        return _padded(values.reshape(len(values), -1), texels(order, harmonic))
+        return _padded(values.reshape(len(values), -1, 3))
     local = rep.local.reshape(n * n, 3, -1)[chosen, :, : order + 1]  # a view until indexed
     if harmonic:
         k = local / TWO_PI  # (m, channel, l)
@@ -94,7 +94,7 @@ def cell_coefficients(rep: Representation, cells: np.ndarray | None = None, harm
         if rep.points is not None:
             tensor += rep.points.polynomials(order).reshape(n * n, 3, -1)[chosen]
         values = tensor.transpose(0, 2, 1)  # (m, ij, channel)
-    return _padded(values.reshape(len(values), -1), texels(order, harmonic))
+    return _padded(values.reshape(len(values), -1, 3))
 
 
 def uses_harmonic(rep: Representation) -> bool:
