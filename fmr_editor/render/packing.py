@@ -86,15 +86,14 @@ def cell_coefficients(rep: Representation, cells: np.ndarray | None = None, harm
         return _padded(values.reshape(len(values), -1, 3))
     local = rep.local.reshape(n * n, 3, -1)[chosen, :, : order + 1]  # a view until indexed
     if harmonic:
-        k = local / TWO_PI  # (m, channel, l)
-        k[:, :, 0] = k[:, :, 0].real  # Im K_0 never shows (u = Re ...)
-        values = np.concatenate([k.real, k.imag], axis=1).transpose(0, 2, 1)  # (m, l, [re rgb, im rgb])
-    else:
-        tensor = np.concatenate([local.real, local.imag], axis=-1) @ _real_mapping(order)  # (m, channel, ij)
-        if rep.points is not None:
-            tensor += rep.points.polynomials(order).reshape(n * n, 3, -1)[chosen]
-        values = tensor.transpose(0, 2, 1)  # (m, ij, channel)
-    return _padded(values.reshape(len(values), -1, 3))
+        out = np.zeros((len(local), order + 1, 2, 4), np.float32)  # (cell, l, Re/Im, rgb + 0)
+        out[:, :, 0, :3] = local.real.transpose(0, 2, 1) / TWO_PI
+        out[:, 1:, 1, :3] = local.imag[:, :, 1:].transpose(0, 2, 1) / TWO_PI  # Im K_0 never shows (u = Re ...)
+        return out.reshape(-1, 4)
+    tensor = np.concatenate([local.real, local.imag], axis=-1) @ _real_mapping(order)  # (m, channel, ij)
+    if rep.points is not None:
+        tensor += rep.points.polynomials(order).reshape(n * n, 3, -1)[chosen]
+    return _padded(tensor.transpose(0, 2, 1))  # (m, ij, channel)
 
 
 def uses_harmonic(rep: Representation) -> bool:
