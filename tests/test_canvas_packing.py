@@ -142,7 +142,8 @@ def test_far_bound_bounds_the_change_of_the_far_field(curves, with_points):
             change = np.einsum("klc,lm->kcm", k, (xi + 1j * eta)[None] ** np.arange(p)[:, None]).real
         else:
             c = delta.reshape(-1, p, p, 4)[..., :3]
-            change = np.einsum("kijc,im,jm->kcm", c, xi[None] ** np.arange(p)[:, None], eta[None] ** np.arange(p)[:, None])
+            powers = np.arange(p)[:, None]
+            change = np.einsum("kijc,im,jm->kcm", c, xi[None] ** powers, eta[None] ** powers)
         assert (np.abs(change).max(axis=(1, 2)) <= bound * (1 + 1e-12)).all()
         assert (np.abs(change).max(axis=(1, 2)) >= 0.05 * bound).all()  # and not hopelessly loose
 

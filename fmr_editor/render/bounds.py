@@ -85,6 +85,9 @@ def block_sums(per_segment: np.ndarray, rep: Representation) -> np.ndarray:
 
 
 def near_bound(before: Representation, after: Representation) -> np.ndarray | None:
-    """Largest change of the segments' near field over each cell's pixels, ``(2^L, 2^L)``; None as ``segment_changes``."""
+    """Largest change of the segments' near field over each cell's pixels, ``(2^L, 2^L)``.
+
+    None as for ``segment_changes``.
+    """
     changes = segment_changes(before, after)
     return None if changes is None else block_sums(changes, after)

@@ -37,7 +37,7 @@ def texels(order: int, harmonic: bool) -> int:
 
 @lru_cache(maxsize=8)
 def _real_mapping(order: int) -> np.ndarray:
-    """``(2 (P + 1), (P + 1)^2)`` real map from (Re L, Im L) to tensor coefficients, as in ``Representation.polynomials``."""
+    """``(2 (P + 1), (P + 1)^2)`` real map from (Re L, Im L) to tensor coefficients (``Representation.polynomials``)."""
     mapping = harmonic_to_polynomial(order).reshape(order + 1, -1)
     real = np.concatenate([mapping.real, -mapping.imag]) / TWO_PI
     real.flags.writeable = False

@@ -22,7 +22,7 @@ from PySide6.QtGui import QImage, QSurfaceFormat
 from PySide6.QtOpenGLWidgets import QOpenGLWidget
 
 from ..engine import Representation
-from ..render import CanvasRenderer, View
+from ..render import CanvasRenderer, ShaderError, View
 
 #: Zoom factor of one wheel notch and of Ctrl+plus.
 ZOOM_STEP = 1.25
@@ -191,16 +191,21 @@ class Canvas(QOpenGLWidget):
         renderer = self.renderer
         if renderer is None:
             return
-        if self._rep is None:
-            renderer.forget()
-        elif self._full_upload:
-            renderer.upload(self._rep, self._polynomials)
-        elif self._changed is not None:
-            renderer.update(self._rep, self._changed, self._polynomials)
-        self._full_upload, self._changed = False, None
         if self._view.width != max(self.width(), 1) or self._view.height != max(self.height(), 1):
             self._view = self._view.resized(max(self.width(), 1), max(self.height(), 1))
-        renderer.draw(self.device_view(), self.defaultFramebufferObject(), preview=self._settle.isActive())
+        try:
+            if self._rep is None:
+                renderer.forget()
+            elif self._full_upload:
+                renderer.upload(self._rep, self._polynomials)
+            elif self._changed is not None:
+                renderer.update(self._rep, self._changed, self._polynomials)
+            self._full_upload, self._changed = False, None
+            renderer.draw(self.device_view(), self.defaultFramebufferObject(), preview=self._settle.isActive())
+        except ShaderError as error:  # the driver refused the shader: say so once, draw nothing more
+            self.error = str(error)
+            self.renderer = None
+            renderer.release()
 
     def grab_image(self) -> np.ndarray:
         """What the canvas shows, ``(height, width, 3)`` uint8 in device pixels (``grabFramebuffer``), sharp."""
