@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 import select
 import shutil
+import socket
 import subprocess
 import sys
 import time
@@ -61,6 +62,20 @@ def _start_xvfb() -> tuple[subprocess.Popen, str] | None:
     return process, f":{int(number)}"
 
 
+def _local_x_server_answers(display: str) -> bool:
+    """Whether ``display`` (``:N`` or ``:N.S``) is a local X server that accepts a connection."""
+    number = display.partition(":")[2].partition(".")[0]
+    if display.partition(":")[0] not in ("", "unix") or not number.isdigit():
+        return False
+    with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as client:
+        client.settimeout(XVFB_TIMEOUT)
+        try:
+            client.connect(f"/tmp/.X11-unix/X{number}")
+        except OSError:
+            return False
+    return True
+
+
 def _qt_application_exists() -> bool:
     widgets = sys.modules.get("PySide6.QtWidgets")
     return widgets is not None and widgets.QApplication.instance() is not None
@@ -75,6 +90,8 @@ def x_display():
     saved = {key: os.environ.get(key) for key in ("DISPLAY", "QT_QPA_PLATFORM")}
     started = _start_xvfb()
     display = started[1] if started else os.environ.get("DISPLAY") or None
+    if not started and display and not _local_x_server_answers(display):
+        display = None  # Qt's xcb platform would abort the whole run on a dead display
     if display:
         os.environ["DISPLAY"], os.environ["QT_QPA_PLATFORM"] = display, "xcb"
     else:
