@@ -182,8 +182,8 @@ def segment_table(rep: Representation, flux: np.ndarray | None = None, jump: np.
     jump = seg.jump if jump is None else jump
     if like is not None and keep is None:
         table = like.texels.reshape(-1, 3, 4).copy()
-        table[:, 1, 0:3] = flux[like.segments]
-        table[:, 2, 0:3] = jump[like.segments]
+        table[:, 1, 0:3] = np.asarray(flux, np.float32)[like.segments]  # cast the few, then gather the many
+        table[:, 2, 0:3] = np.asarray(jump, np.float32)[like.segments]
         return SegmentTable(table.reshape(-1, 4), like.cell_start, like.segments)
     cell_start = np.asarray(rep.cell_start, np.int64)
     index = np.arange(len(seg.p))
