@@ -306,3 +306,12 @@ def test_no_document_shows_a_plain_background(canvas, qtbot, lady_bug):
     canvas.set_representation(None)
     shown = canvas.grab_image()
     assert shown.shape == (48, 64, 3) and np.ptp(shown) == 0
+
+
+def test_an_update_that_changed_no_cell_keeps_the_image(canvas, qtbot):
+    """Esc, an undo before a build finished or a black dab: nothing changed, and nothing must break."""
+    live = LiveRepresentation(points_document())
+    view = View(1.0, 0.0, 0.0, live.document.width, live.document.height)
+    before = show(canvas, qtbot, live.representation, view)
+    canvas.update_representation(live.representation, np.zeros_like(live.update(live.document).changed))
+    np.testing.assert_array_equal(canvas.grab_image(), before)

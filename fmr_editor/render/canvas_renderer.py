@@ -186,13 +186,15 @@ class CanvasRenderer:
         if changed.shape != (n, n):
             raise ValueError(f"changed must be ({n}, {n})")
         cells = np.flatnonzero(changed)
-        fresh = packing.cell_coefficients(rep, cells, polynomials=polynomials).reshape(len(cells), -1)
-        delta = fresh - self._mirror[cells]
-        moved = bounds.far_bound(delta, self._layout.order, self._layout.harmonic)
-        self._mirror[cells] = fresh
-        texels = self._layout.texels
-        for start, stop in packing.cell_runs(cells):
-            self._buffers["u_coeffs"].set_subdata(start * texels, self._mirror[start:stop])
+        delta, moved = np.zeros((0, self._mirror.shape[1]), self._mirror.dtype), np.zeros(0)
+        if len(cells):  # none: only segments or near points may have changed
+            fresh = packing.cell_coefficients(rep, cells, polynomials=polynomials).reshape(len(cells), -1)
+            delta = fresh - self._mirror[cells]
+            moved = bounds.far_bound(delta, self._layout.order, self._layout.harmonic)
+            self._mirror[cells] = fresh
+            texels = self._layout.texels
+            for start, stop in packing.cell_runs(cells):
+                self._buffers["u_coeffs"].set_subdata(start * texels, self._mirror[start:stop])
         old = self._rep
         segment_moves = bounds.segment_changes(old, rep)
         near_points_changed = _near(rep) is not _near(old)
