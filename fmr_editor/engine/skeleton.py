@@ -489,12 +489,12 @@ class SkeletonFactorization:
         keys = [key for key, box in boxes.items() if len(box.indices) >= 2]
         # Largest first, so that no thread is left with a big box at the end.
         order = sorted(keys, key=lambda key: -len(boxes[key].indices))
+        if sum(len(boxes[key].indices) for key in keys) < THREADED_BOX * len(keys):
+            pool = None
 
         def compress(key):
             return self._compress_box(key, boxes[key], active, width)
 
-        if pool and sum(len(boxes[key].indices) for key in keys) < THREADED_BOX * len(keys):
-            pool = None
         results = {}
         for key, result in zip(order, pool.map(compress, order) if pool else map(compress, order)):
             if result is not None:
