@@ -17,7 +17,7 @@ import numba
 import numpy as np
 
 from .expansions import l2l_matrix, m2l_matrix, m2m_matrix
-from .lattice import Lattice, _child_offset, coarser_multipoles, downward_pass, interaction_offsets
+from .lattice import Lattice, _child_offset, _times, coarser_multipoles, downward_pass, interaction_offsets
 
 #: Share of fine cells changed above which the whole-level passes are faster (measured at L = 6, 7).
 SPARSE_SOURCES = 0.25
@@ -53,13 +53,19 @@ def _sparse_m2l(rows, columns, moments, offsets, masks, matrices, out):
                         out[tr, tc, channel, l] += a * matrices[o, k, l]
 
 
+@lru_cache(maxsize=64)
+def _m2l_matrices(order: int, log_size: float) -> np.ndarray:
+    """``(k, P + 1, P + 1)`` M2L matrices of ``offset_parities()``'s offsets at one level."""
+    return np.array([m2l_matrix(complex(dx, dy), order, log_size) for dx, dy in offset_parities()[0]])
+
+
 def _sparse_parents(child: np.ndarray, rows: np.ndarray, columns: np.ndarray, order: int):
     """Multipoles of the parents of cells ``(rows, columns)`` of level ``child`` (M2M), on a zero level."""
     parent = np.zeros((child.shape[0] // 2,) * 2 + child.shape[2:], complex)
     pr, pc = np.unique(np.stack([rows // 2, columns // 2]), axis=1)
     for py in (0, 1):
         for px in (0, 1):
-            parent[pr, pc] += child[2 * pr + py, 2 * pc + px] @ m2m_matrix(_child_offset(px, py), order)
+            parent[pr, pc] += _times(child[2 * pr + py, 2 * pc + px], m2m_matrix(_child_offset(px, py), order))
     return parent, pr, pc
 
 
@@ -94,10 +100,9 @@ def delta_local(delta_fine: np.ndarray, lattice: Lattice, order: int) -> np.ndar
         if local is not None:
             for py in (0, 1):
                 for px in (0, 1):
-                    level_local[py::2, px::2] = local @ l2l_matrix(_child_offset(px, py), order)
+                    level_local[py::2, px::2] = _times(local, l2l_matrix(_child_offset(px, py), order))
         if len(rows):
-            log_size = float(np.log(lattice.level_size(level)))
-            matrices = np.array([m2l_matrix(complex(dx, dy), order, log_size) for dx, dy in offsets])
+            matrices = _m2l_matrices(order, float(np.log(lattice.level_size(level))))
             _sparse_m2l(rows, columns, np.ascontiguousarray(sources[rows, columns]), offsets, masks, matrices,
                         level_local)
         local = level_local

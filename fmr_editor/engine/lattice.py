@@ -147,7 +147,7 @@ def coarser_multipoles(fine: np.ndarray, order: int) -> list[np.ndarray | None]:
         parent = np.zeros((2 ** (level - 1),) * 2 + child.shape[2:], complex)
         for py in (0, 1):
             for px in (0, 1):
-                parent += child[py::2, px::2] @ m2m_matrix(_child_offset(px, py), order)
+                parent += _times(child[py::2, px::2], m2m_matrix(_child_offset(px, py), order))
         multipoles[level - 1] = parent
     return multipoles
 
@@ -170,7 +170,7 @@ def downward_pass(multipoles: list[np.ndarray], lattice: Lattice, order: int) ->
             for px in (0, 1):
                 target = np.zeros((half, half) + multipoles[level].shape[2:], complex)
                 if local is not None:
-                    target += local @ l2l_matrix(_child_offset(px, py), order)
+                    target += _times(local, l2l_matrix(_child_offset(px, py), order))
                 rows = target.reshape(half, -1, order + 1)
                 for dx, dy in interaction_offsets(px, py):
                     row0, col0 = _PAD // 2 + (py + dy) // 2, _PAD // 2 + (px + dx) // 2
@@ -179,6 +179,11 @@ def downward_pass(multipoles: list[np.ndarray], lattice: Lattice, order: int) ->
                 level_local[py::2, px::2] = target
         local = level_local
     return local
+
+
+def _times(expansions: np.ndarray, matrix: np.ndarray) -> np.ndarray:
+    """``expansions @ matrix`` over the last axis as one product (numpy loops over stacked small ones: 4x slower)."""
+    return (expansions.reshape(-1, matrix.shape[0]) @ matrix).reshape(expansions.shape[:-1] + (matrix.shape[1],))
 
 
 #: Zero cells around a level for the interaction-list windows (even, so parities are kept).
