@@ -22,7 +22,9 @@ entry the next levels need is an original matrix entry, computed on demand.
 
 The boxes of one level are compressed independently (each sees its
 neighbours as they were when the level began), on as many threads as numba
-uses: the entry kernels release the GIL, and so do BLAS and LAPACK.
+uses once the boxes are large enough (``THREADED_BOX``): the entry and
+sketch kernels release the GIL, and so do BLAS and LAPACK.  The tall stacks
+are sketched by sparse sign matrices (``SparseSign``) before the pivoted QR.
 
 The factorisation costs far less than dense LU for large systems; its
 accuracy follows ``tolerance``.  ``fast_solve`` uses it to precondition
