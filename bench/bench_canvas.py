@@ -77,6 +77,20 @@ def best(times: list[float]) -> float:
     return min(times) * 1e3
 
 
+def full_evaluations(renderer, view, fbo, repeat: int) -> list[float]:
+    """Seconds of ``repeat`` draws that each evaluate the whole view (the cached image dropped first)."""
+    from OpenGL import GL
+
+    runs = []
+    for _ in range(repeat):
+        renderer.invalidate()
+        start = time.perf_counter()
+        renderer.draw(view, fbo)
+        GL.glFinish()
+        runs.append(time.perf_counter() - start)
+    return runs
+
+
 def points_rows(args, canvas, document, view, fbo) -> None:
     """The same view with diffusion points added (tensor far field, near points): full evaluation and a dab."""
     from OpenGL import GL
@@ -98,13 +112,7 @@ def points_rows(args, canvas, document, view, fbo) -> None:
     renderer.upload(rep)
     renderer.draw(view, fbo)
     GL.glFinish()
-    runs = []
-    for _ in range(args.repeat):
-        renderer.invalidate()
-        start = time.perf_counter()
-        renderer.draw(view, fbo)
-        GL.glFinish()
-        runs.append(time.perf_counter() - start)
+    runs = full_evaluations(renderer, view, fbo, args.repeat)
     dabs = []
     for _ in range(args.repeat):
         start = time.perf_counter()
@@ -204,13 +212,7 @@ def main() -> None:
         runs.append((time.perf_counter() - start) / args.frames)
     rows.append(("redraw (CanvasRenderer.draw alone)", best(runs), 1e3 / best(runs)))
 
-    runs = []
-    for _ in range(args.repeat):
-        renderer.invalidate()
-        start = time.perf_counter()
-        renderer.draw(view, fbo)
-        GL.glFinish()
-        runs.append(time.perf_counter() - start)
+    runs = full_evaluations(renderer, view, fbo, args.repeat)
     rows.append((f"full evaluation ({size}x{size} pixels: zoom, resize)", best(runs), 1e3 / best(runs)))
     runs = []
     for i in range(args.repeat):

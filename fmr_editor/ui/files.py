@@ -35,20 +35,20 @@ def ask_open_path(parent, folder: str = "") -> Path | None:
 
 def ask_save_path(parent, suggested: str | os.PathLike) -> Path | None:
     """Ask where to save as ``.fmr`` (the suffix is added when missing); None when cancelled."""
-    path, _ = QFileDialog.getSaveFileName(parent, "Save Document As", str(suggested), SAVE_FILTER)
-    if not path:
-        return None
-    path = Path(path)
-    return path if path.suffix.lower() == ".fmr" else path.with_name(path.name + ".fmr")
+    return _ask_target(parent, "Save Document As", suggested, SAVE_FILTER, ".fmr")
 
 
 def ask_png_path(parent, suggested: str | os.PathLike) -> Path | None:
     """Ask where to export a PNG (the suffix is added when missing); None when cancelled."""
-    path, _ = QFileDialog.getSaveFileName(parent, "Export PNG", str(suggested), PNG_FILTER)
+    return _ask_target(parent, "Export PNG", suggested, PNG_FILTER, ".png")
+
+
+def _ask_target(parent, title: str, suggested: str | os.PathLike, filters: str, suffix: str) -> Path | None:
+    path, _ = QFileDialog.getSaveFileName(parent, title, str(suggested), filters)
     if not path:
         return None
     path = Path(path)
-    return path if path.suffix.lower() == ".png" else path.with_name(path.name + ".png")
+    return path if path.suffix.lower() == suffix else path.with_name(path.name + suffix)
 
 
 def ask_keep_changes(parent, name: str) -> str:
