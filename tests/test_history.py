@@ -83,6 +83,26 @@ def test_a_drag_is_one_step_and_cancel_restores_the_start(history_and_calls):
         history.commit()
 
 
+def test_step_listeners_hear_of_every_new_step_and_every_transactions_end(history_and_calls):
+    history, _ = history_and_calls
+    seen = []
+    history.subscribe_steps(lambda: seen.append((history.labels, history.index, history.in_transaction)))
+    history.apply(edits.add_points(history.document, [dot(1)]), "Paint")
+    assert seen[-1] == (("", "Paint"), 1, False)
+    history.begin("Move Point")
+    history.preview(edits.add_points(history.document, [dot(2)]))
+    assert len(seen) == 1 and history.in_transaction  # previews add no step
+    history.commit()  # the document shown does not change, but a step was added: a history list must hear of it
+    assert seen[-1] == (("", "Paint", "Move Point"), 2, False) and len(seen) == 2
+    history.begin("Move Point")
+    history.preview(edits.add_points(history.document, [dot(3)]))
+    history.cancel()
+    assert len(seen) == 3 and seen[-1][1:] == (2, False)
+    history.undo()
+    history.mark_saved()
+    assert [entry[1] for entry in seen[-2:]] == [1, 1]
+
+
 def test_modified_follows_the_saved_step(history_and_calls):
     history, _ = history_and_calls
     assert not history.modified

@@ -8,7 +8,7 @@ from hypothesis import HealthCheck, settings
 from hypothesis import strategies as st
 from hypothesis.stateful import RuleBasedStateMachine, initialize, invariant, precondition, rule
 
-from fmr_editor.engine import LiveRepresentation, build, rasterise
+from fmr_editor.engine import LiveRepresentation, Settings, build, rasterise
 from fmr_editor.engine.delta import delta_local
 from fmr_editor.engine.lattice import Lattice, coarser_multipoles, downward_pass
 from fmr_editor.model import ColorStop, DiffusionCurve, DiffusionPoint, Document
@@ -27,9 +27,12 @@ colors = st.tuples(*[st.floats(0.0, 1.0)] * 3)
 
 
 def assert_same_as_rebuild(live: LiveRepresentation, document: Document) -> None:
-    fresh = build(document)
+    """The live FMR equals a rebuild on its lattice, which is the curves' lattice or the points' as first built."""
     incremental = live.representation
-    assert incremental.lattice == fresh.lattice
+    curve_levels = build(edits.remove_points(document, range(len(document.points)))).lattice.levels
+    assert incremental.lattice.levels in (curve_levels, live._point_levels) \
+        and incremental.lattice.levels >= curve_levels
+    fresh = build(document, Settings(levels=incremental.lattice.levels))
     np.testing.assert_allclose(incremental.polynomials(), fresh.polynomials(), rtol=0, atol=COEFFICIENTS)
     np.testing.assert_allclose(rasterise(incremental, PIXELS, PIXELS, samples=1),
                                rasterise(fresh, PIXELS, PIXELS, samples=1), rtol=0, atol=PIXEL)
@@ -62,7 +65,8 @@ class Editing(RuleBasedStateMachine):
     def start(self, first, dots):
         self.history = History(Document(SIZE, SIZE, (first,), tuple(dots)))
         self.live = LiveRepresentation(self.history.document)
-        self.history.subscribe(lambda before, after: self.live.update(after))
+        # a drag's previews are approximate; its commit asks for the exact result, as the editor does
+        self.history.subscribe(lambda before, after: self.live.update(after, exact=not self.history.in_transaction))
 
     @rule(curve=curves())
     def add_curve(self, curve):
@@ -81,6 +85,19 @@ class Editing(RuleBasedStateMachine):
         curve = data.draw(st.integers(0, len(document.curves) - 1))
         point = data.draw(st.integers(0, len(document.curves[curve].control_points) - 2))  # closed circles: not the end
         self.history.apply(edits.move_control_point(document, curve, point, (x, y)), "Move Control Point")
+
+    @precondition(lambda self: self.history.document.curves)
+    @rule(data=st.data(), path=st.lists(st.tuples(coordinates, coordinates), min_size=1, max_size=3))
+    def drag_control_point(self, data, path):
+        document = self.history.document
+        curve = data.draw(st.integers(0, len(document.curves) - 1))
+        point = data.draw(st.integers(0, len(document.curves[curve].control_points) - 2))
+        self.history.begin("Move Control Point")
+        for x, y in path:
+            self.history.preview(edits.move_control_point(document, curve, point, (x, y)))
+        self.history.commit()
+        self.live.update(self.history.document)
+        assert not self.live.approximate
 
     @precondition(lambda self: self.history.document.curves)
     @rule(data=st.data(), color=colors)
@@ -158,3 +175,51 @@ def test_resuming_a_saved_representation_solves_only_when_an_edit_needs_it(monke
     assert_same_as_rebuild(resumed, edited)
     other = scattered_document(64, circles=3, seed=7)
     assert LiveRepresentation(other, saved=saved).timings.keys() != {"resume"}  # not its representation: built
+
+
+def test_undo_and_redo_of_geometry_edits_return_the_exact_earlier_representations():
+    from shapes import scattered_document
+
+    document = scattered_document(96, circles=3, seed=5)
+    history = History(document)
+    live = LiveRepresentation(document)
+    history.subscribe(lambda before, after: live.update(after))
+    states = [live.representation]
+    history.apply(edits.move_control_point(history.document, 1, 0, (30.0, 40.0)), "Move")
+    states.append(live.representation)
+    history.apply(edits.remove_curves(history.document, [2]), "Delete")
+    states.append(live.representation)
+    for step in (1, 0, 1, 2, 0, 2):
+        history.jump(step)
+        rep, kept = live.representation, states[step]
+        assert live.document is history.document
+        for name in ("local", "cell_start"):
+            np.testing.assert_array_equal(getattr(rep, name), getattr(kept, name))
+        np.testing.assert_array_equal(rep.segments.unknowns(), kept.segments.unknowns())
+        np.testing.assert_array_equal(rasterise(rep, PIXELS, PIXELS, samples=1), rasterise(kept, PIXELS, PIXELS, 1))
+
+
+def test_kept_states_stay_within_their_memory():
+    from shapes import scattered_document
+
+    document = scattered_document(96, circles=3, seed=5)
+    budget = 3 * LiveRepresentation(document)._state().nbytes  # about three states
+    live = LiveRepresentation(document, memory=budget)
+    for x in range(10):
+        live.update(edits.move_control_point(live.document, 1, 0, (30.0 + x, 40.0)))
+    assert 1 <= len(live._kept) <= 3
+
+
+def test_the_first_dab_changes_neither_the_lattice_nor_more_than_its_cells():
+    document = Document(1024, 1024, (DiffusionCurve(circle_points(512, 512, 20), left=(ColorStop(0, (1, 0, 0)),),
+                                                    right=(ColorStop(0, (0, 0, 1)),)),))
+    dab = DiffusionPoint((400.0, 390.0), 3.0, (0, 1, 0))
+    assert build(edits.add_points(document, [dab])).lattice.levels > build(document).lattice.levels  # it would refine
+    live = LiveRepresentation(document)
+    lattice = live.lattice
+    for radius in (3.0, 0.6, 40.0):  # narrow enough to refine a lattice built with it, near, wide
+        update = live.update(edits.add_points(live.document, [DiffusionPoint((400.0, 390.0), radius, (0, 1, 0))]))
+        assert update.kind == "points" and live.lattice == lattice
+        assert update.changed.sum() < update.changed.size
+    fresh = build(live.document, Settings(levels=lattice.levels))
+    np.testing.assert_allclose(live.representation.polynomials(), fresh.polynomials(), rtol=0, atol=COEFFICIENTS)

@@ -433,7 +433,7 @@ def test_selection_drops_indices_an_undo_takes_away():
 def test_a_brush_stroke_paints_evenly_spaced_dabs_as_one_step():
     context = make_context(Document(100, 100))
     options = context.options
-    options.color, options.brush_radius, options.brush_amplitude, options.brush_spacing = BLUE, 7.0, 0.25, 10.0
+    options.brush_color, options.brush_radius, options.brush_amplitude, options.brush_spacing = BLUE, 7.0, 0.25, 10.0
     brush = BrushTool(context)
     drag(brush, [(10, 10), (13, 10), (27, 10), (27, 10), (50, 10), (50, 25)])
     assert context.history.labels == ("", "Paint")

@@ -176,16 +176,24 @@ def test_eyedropper_picks_the_colour_shown(two_stops):
     assert editor.history.index == 0
 
 
-def test_double_click_on_a_stop_in_the_canvas_asks_for_its_colour(two_stops, qtbot):
+def test_double_click_on_a_stop_in_the_canvas_opens_its_live_colour_dialog(two_stops, qtbot):
     editor = two_stops
     editor.key(Qt.Key.Key_V)
     start = editor.history.index
-    editor.answers["color"] = QColor(0, 255, 255)
     marker = (16.0, 64 - editor.context.marker_offset)  # the red stop at the start, on the left (above)
     qtbot.mouseDClick(editor.canvas, Qt.MouseButton.LeftButton, pos=editor.at(*marker))
+    dialog = editor.window.stops_panel.dialog
+    assert dialog is not None and dialog.isVisible()  # the panel's live dialog, not a blocking one
+    dialog.setCurrentColor(QColor(255, 128, 0))  # shown at once
+    assert editor.document.curves[0].left[0].color == pytest.approx((1.0, 128 / 255, 0.0))
+    dialog.setCurrentColor(QColor(0, 255, 255))
+    dialog.accept()
     assert editor.history.index == start + 1 and editor.history.labels[-1] == "Change Stop Colour"
     assert editor.document.curves[0].left == (ColorStop(0.0, (0.0, 1.0, 1.0)), ColorStop(2.0, GREEN))
-    editor.answers["color"] = QColor()  # cancelled: nothing changes
     qtbot.mouseDClick(editor.canvas, Qt.MouseButton.LeftButton, pos=editor.at(*marker))
+    dialog = editor.window.stops_panel.dialog
+    dialog.setCurrentColor(QColor(10, 20, 30))
+    dialog.reject()  # cancelled: nothing changes
     assert editor.history.index == start + 1
+    assert editor.document.curves[0].left[0].color == (0.0, 1.0, 1.0)
     editor.wait_idle()

@@ -281,11 +281,12 @@ class BoundarySolver:
         self.operator = CollocationOperator(ordered, cell_start, lattice, order=20)
         self.dense = self.size <= DENSE_CROSSOVER
         self.factors = None
+        self.least_squares = False  # True where the dense matrix is nearly singular (see _dense_factors)
         if self.trivial:
             return
         if self.dense:
             check_dense_fits(self.size)
-            self.factors = _dense_factors(assemble(ordered)[0])
+            self.factors, self.least_squares = _dense_factors(assemble(ordered)[0])
         else:
             self.factors = SkeletonFactorization(ordered, compression_tolerance(self.size), progress=progress)
 
@@ -330,8 +331,8 @@ def _unsorted(values: np.ndarray, order: np.ndarray) -> np.ndarray:
     return out
 
 
-def _dense_factors(matrix: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
-    """A solver for ``matrix``: its LU factors, or least squares where it is nearly singular.
+def _dense_factors(matrix: np.ndarray) -> tuple[Callable[[np.ndarray], np.ndarray], bool]:
+    """A solver for ``matrix``: its LU factors, or least squares where it is nearly singular (then True).
 
     Where curves nearly coincide the system is nearly singular; the
     least-squares solution (rank-revealing QR) then shares the density of
@@ -341,8 +342,9 @@ def _dense_factors(matrix: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
     lu, pivots = scipy.linalg.lu_factor(matrix, check_finite=False)
     condition, _ = scipy.linalg.lapack.dgecon(lu, norm, norm="1")
     if condition >= np.finfo(float).eps:
-        return lambda rhs: scipy.linalg.lu_solve((lu, pivots), rhs, check_finite=False)
-    return lambda rhs: scipy.linalg.lstsq(matrix, rhs, cond=1e-12, lapack_driver="gelsy", check_finite=False)[0]
+        return (lambda rhs: scipy.linalg.lu_solve((lu, pivots), rhs, check_finite=False)), False
+    return (lambda rhs: scipy.linalg.lstsq(matrix, rhs, cond=1e-12, lapack_driver="gelsy",
+                                           check_finite=False)[0]), True
 
 
 def solve_boundary(

@@ -6,15 +6,28 @@ The FMR is linear in its sources, so an edit is applied as a change:
 - **curve colours** (same geometry): the boundary system's matrix is the
   same, so its factorisation is reused and only the change of the solution
   is solved for, from the change of the right-hand side;
-- **curve geometry**: the system is factorised and solved again (flattened
-  curves are cached, so only edited curves are flattened again).
+- **curve geometry**: the system differs from the factorised one in the
+  few segments that were replaced, so it is solved through that
+  factorisation (``updated_solve``: a Schur complement over the replaced
+  segments) with one defect-correction step from the previous solution;
+  only when many segments were replaced is it factorised again.  Flattened
+  curves are cached, so only edited curves are flattened again.  A
+  *preview* (``exact=False``, for drags) skips the solve: the moved
+  segments keep their old densities (``carried_unknowns``), the
+  representation is marked ``approximate`` and ``refine`` makes it exact.
 
 Either curve edit ends with the change of the fine cells' multipoles,
 carried up the quadtree and down through the interaction lists from the
 changed cells only (``delta.delta_local``).  A change that moves the
-lattice (the canvas, or the density of curves or points) rebuilds.  Every
-update reports the fine cells whose pixels may have changed, so a view can
-upload just those.
+lattice (the canvas, or the density of curves) rebuilds; points never move
+it once it is built.  Every update reports the fine cells whose pixels may
+have changed, so a view can upload just those.
+
+Arrays handed out in ``representation`` are never changed afterwards (each
+update makes new ones), so a representation taken once stays a consistent
+snapshot while later updates run on another thread, and the states of
+recent steps can be kept and returned to at once (``kept_states``: undo and
+redo).
 """
 
 from __future__ import annotations
@@ -25,16 +38,18 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..model import DiffusionCurve, Document
+from ..model import DiffusionCurve, DiffusionPoint, Document
 from ..model.changes import ChangeSet
 from .delta import delta_local
 from .fast_solve import BoundarySolver
+from .kept_states import KeptStates, State
 from .lattice import Lattice, coarser_multipoles, dilated, downward_pass, fine_multipoles, sort_into_cells
 from .point_field import LivePoints, lattice_radius, point_levels, sorted_radii_after
 from .representation import (
     SOLVE_SEGMENTS_PER_CELL, Representation, Settings, choose_levels,
 )
 from .segments import Segments, boundary_segments, curve_colors, curve_segments, flatten_curve
+from .updated_solve import UpdatedSolver, carried_unknowns, updated_solver
 
 Progress = Callable[[str, float], None]
 
@@ -42,6 +57,8 @@ Progress = Callable[[str, float], None]
 #: own accuracy (relative to the largest multipole) keeps the change pending:
 #: it is added with a later one.  Such changes are mostly the solve's noise.
 NEGLIGIBLE = 0.1
+#: Relative accuracy a preview's densities are taken to have (only for what counts as negligible).
+PREVIEW_ACCURACY = 1e-3
 #: A cell is reported changed once its local expansion moved by more than this
 #: since it was last reported, so a view that uploads what is reported stays
 #: within it of the truth.
@@ -56,15 +73,19 @@ class Update:
     ----------
     kind : str
         ``"none"``, ``"points"``, ``"colours"``, ``"geometry"`` (curves, and
-        points if they changed too) or ``"rebuild"``.
+        points if they changed too), ``"restored"`` (a kept state, see
+        ``LiveRepresentation``) or ``"rebuild"``.
     changed : numpy.ndarray
         ``(2^L, 2^L)`` bool: fine cells whose pixels may differ.
     seconds : float
+    exact : bool
+        False for a preview whose shading is approximate (``refine`` follows).
     """
 
     kind: str
     changed: np.ndarray
     seconds: float
+    exact: bool = True
 
 
 class LiveRepresentation:
@@ -82,27 +103,48 @@ class LiveRepresentation:
         factorised only when a colour edit first needs it.  Ignored (a build)
         if it does not belong to ``document`` with ``settings``.
 
+    memory : int
+        Bytes the states of recent steps may take (``kept_states``).
+
     Attributes
     ----------
     document : Document
         The document the representation is of.
     representation : Representation
-        The current FMR (its arrays are updated in place by ``update``).
+        The current FMR, a snapshot: later updates replace its arrays, never change them.
+    approximate : bool
+        True after a preview of a geometry edit, until ``refine`` (or an exact update).
     """
 
     def __init__(self, document: Document, settings: Settings = Settings(), progress: Progress | None = None,
-                 saved: Representation | None = None) -> None:
+                 saved: Representation | None = None, memory: int = 500 * 2**20) -> None:
         self.settings = settings
+        self.approximate = False
         self._flattened: dict[DiffusionCurve, Segments] = {}
+        self._columns: dict[int, np.ndarray] = {}  # the factorisation applied to unit vectors (updated_solve)
+        self._kept = KeptStates(memory)
         if saved is None or not self._resume(document, saved):
             self._rebuild(document, progress)
+        self._kept.keep(self._state())
 
     @property
-    def solver(self) -> BoundarySolver:
-        """The boundary system's solver, factorised when first needed after ``saved`` (see the constructor)."""
+    def solver(self) -> BoundarySolver | UpdatedSolver:
+        """The current geometry's solver: the factorisation, or an update of it; made when first needed."""
         if self._solver is None:
-            self._solver = self._new_solver()
+            self._solver = self._solver_for(self._boundary)
         return self._solver
+
+    def _solver_for(self, boundary: Segments) -> BoundarySolver | UpdatedSolver:
+        """A solver for ``boundary``: through the kept factorisation when it is close enough, else a new one."""
+        base = self._base
+        if base is not None:
+            solver = updated_solver(base, self._base_boundary, boundary, base.operator.lattice, self._columns)
+            if solver is not None:
+                removed = set(solver.removed.tolist())
+                self._columns = {r: column for r, column in self._columns.items() if r in removed}
+                return solver
+        self._base, self._base_boundary, self._columns = self._new_solver(boundary), boundary, {}
+        return self._base
 
     # -- building ----------------------------------------------------------------------------
     def _flatten(self, curve: DiffusionCurve, tolerance: float, max_length: float) -> Segments:
@@ -119,10 +161,16 @@ class LiveRepresentation:
     def _curve_segments(self, document: Document) -> Segments:
         return curve_segments(document, self.settings.tolerance, self.settings.max_length, flatten=self._flatten)
 
-    def _levels(self, curves: Segments, radii: np.ndarray) -> int:
+    def _levels(self, curves: Segments) -> int:
+        """The lattice depth for ``curves``: what they ask for, or what the points asked for when built.
+
+        Points are fitted to the lattice only when it is built: an edit of
+        points never moves it (the narrow ones are summed exactly on any
+        lattice), so the first dab costs what later ones do.
+        """
         if self.settings.levels:
             return self.settings.levels
-        return max(choose_levels(curves, self._side), point_levels(lattice_radius(radii), self._side))
+        return max(choose_levels(curves, self._side), self._point_levels)
 
     def _rebuild(self, document: Document, progress: Progress | None) -> None:
         report = progress or (lambda stage, fraction: None)
@@ -139,8 +187,9 @@ class LiveRepresentation:
         settings = self.settings
         self._discretise(document)
         lap("discretise", 0.1)
-        self._solver = self._new_solver(lambda fraction: report("solve", 0.1 + 0.5 * fraction))
         boundary = self._boundary
+        self._solver = self._base = self._new_solver(boundary, lambda fraction: report("solve", 0.1 + 0.5 * fraction))
+        self._base_boundary, self._columns, self.approximate = boundary, {}, False
         rhs = self._solver.right_hand_side(boundary.jump, boundary.mean)
         self._unknowns = self._solver.solve(rhs, lambda fraction: report("solve", 0.6 + 0.1 * fraction))
         lap("solve", 0.7)
@@ -151,6 +200,7 @@ class LiveRepresentation:
         self._local = downward_pass(multipoles, self.lattice, settings.propagation_order)
         self._unreported = np.zeros(self._local.shape[:2])
         lap("downward", 0.95 if document.points else 1.0)
+        self._kept.clear()
         self._points = LivePoints(document.points, self.lattice, settings.order) if document.points else None
         if self._points is not None:
             lap("points", 1.0)
@@ -162,7 +212,8 @@ class LiveRepresentation:
         self._side = float(max(document.width, document.height))
         self._curves = self._curve_segments(document)
         self._radii = np.sort([point.radius for point in document.points])
-        self.lattice = Lattice(self._levels(self._curves, self._radii), self._side)
+        self._point_levels = point_levels(lattice_radius(self._radii), self._side)
+        self.lattice = Lattice(self._levels(self._curves), self._side)
         self._boundary = boundary_segments(self._curves, document, self.lattice.cell_size, self.settings.border_spacing)
 
     def _resume(self, document: Document, saved: Representation) -> bool:
@@ -181,7 +232,8 @@ class LiveRepresentation:
             return False
         self._unknowns = np.empty_like(ordered.flux)
         self._unknowns[order] = saved.segments.unknowns()
-        self._solver = None
+        self._solver = self._base = None
+        self._base_boundary = None
         self._sort_solution()
         self._fine = self._fine_moments()
         self._local = np.array(saved.local, dtype=complex)
@@ -191,9 +243,9 @@ class LiveRepresentation:
         self._forget_curves(document.curves)
         return True
 
-    def _new_solver(self, progress: Callable[[float], None] | None = None) -> BoundarySolver:
+    def _new_solver(self, boundary: Segments, progress: Callable[[float], None] | None = None) -> BoundarySolver:
         solve_lattice = Lattice(choose_levels(self._curves, self._side, SOLVE_SEGMENTS_PER_CELL), self._side)
-        return BoundarySolver(self._boundary, solve_lattice, progress)
+        return BoundarySolver(boundary, solve_lattice, progress)
 
     def _sort_solution(self) -> None:
         solved = self._boundary.with_unknowns(self._unknowns)
@@ -210,9 +262,33 @@ class LiveRepresentation:
             self.settings.order, self.timings, self._points.field() if self._points is not None else None,
         )
 
+    def warm_up(self) -> None:
+        """Do once, now, the work the first edit of each kind would otherwise pay for.
+
+        That is the points' truncation table (0.2 s) and loading their
+        compiled kernels: an editor calls this while the user looks at a
+        freshly opened document, so the first dab costs what later ones do.
+        """
+        lattice = self.lattice
+        centre = (lattice.side / 2, lattice.side / 2)
+        probes = (DiffusionPoint(centre, 2 * lattice.cell_size, (1.0, 1.0, 1.0)),
+                  DiffusionPoint(centre, 0.25 * lattice.cell_size, (1.0, 1.0, 1.0)))  # polynomial and near
+        scratch = LivePoints((), Lattice(2, lattice.side), self.settings.order)
+        scratch.update(probes, [], list(probes))
+        scratch.update((), list(probes), [])
+
     # -- updating ----------------------------------------------------------------------------
-    def update(self, document: Document, progress: Progress | None = None) -> Update:
+    def update(self, document: Document, progress: Progress | None = None, exact: bool = True) -> Update:
         """Bring the representation to ``document``, doing as little work as the change allows.
+
+        Parameters
+        ----------
+        document : Document
+        progress : callable, optional
+            As for the constructor (rebuilds only).
+        exact : bool
+            False for a preview (a drag): a geometry edit then carries the old
+            densities over instead of solving (``approximate`` until ``refine``).
 
         Returns
         -------
@@ -222,9 +298,16 @@ class LiveRepresentation:
         before = self.document
         changes = ChangeSet.between(before, document)
         n = self.lattice.cells_per_side
+        changed = np.zeros((n, n), bool)
+        kept = self._kept.find(document) if exact and not changes.empty else None
+        if kept is not None and kept.lattice == self.lattice:
+            self._restore(kept, changed)
+            self._forget_curves(before.curves)
+            return Update("restored", changed, time.perf_counter() - start)
         if changes.empty:
             self.document = document
-            return Update("none", np.zeros((n, n), bool), time.perf_counter() - start)
+            kind = self._refine(changed) if exact and self.approximate else "none"
+            return Update(kind, changed, time.perf_counter() - start, not self.approximate)
         removed = [before.points[i] for i in changes.removed_points]
         added = [document.points[i] for i in changes.added_points]
         recoloured = _recoloured(before, document, changes) if changes.curves_changed else None
@@ -232,24 +315,43 @@ class LiveRepresentation:
             curves = _with_colors(self._curves, document, recoloured)
         else:
             curves = self._curve_segments(document) if changes.curves_changed else self._curves
-        radii = sorted_radii_after(self._radii, np.array([p.radius for p in removed]),
-                                   np.array([p.radius for p in added]))
-        if changes.canvas_changed or self._levels(curves, radii) != self.lattice.levels:
+        if changes.canvas_changed or self._levels(curves) != self.lattice.levels:
             self._rebuild(document, progress)
+            self._kept.keep(self._state())
             n = self.lattice.cells_per_side
             return Update("rebuild", np.ones((n, n), bool), time.perf_counter() - start)
-        changed = np.zeros((n, n), bool)
         kind = "points"
         if changes.curves_changed:
-            kind = self._update_curves(document, curves, changed, recoloured)
+            kind = self._update_curves(document, curves, changed, recoloured, exact)
+        if exact and self.approximate:
+            self._refine(changed)
         if removed or added:
             self._update_points(document, removed, added, changed)
-        self.document, self._curves, self._radii = document, curves, radii
+        self._radii = sorted_radii_after(self._radii, np.array([p.radius for p in removed]),
+                                         np.array([p.radius for p in added]))
+        self.document = document
         self._forget_curves(before.curves)
+        if not self.approximate:
+            self._kept.keep(self._state())
+        return Update(kind, changed, time.perf_counter() - start, not self.approximate)
+
+    def refine(self) -> Update:
+        """Make an approximate representation (a preview of a geometry edit) exact; nothing if it is."""
+        start = time.perf_counter()
+        n = self.lattice.cells_per_side
+        changed = np.zeros((n, n), bool)
+        kind = self._refine(changed) if self.approximate else "none"
         return Update(kind, changed, time.perf_counter() - start)
 
+    def _refine(self, changed: np.ndarray) -> str:
+        self._unknowns = self._solve_geometry(self.solver, self._boundary, self._unknowns)
+        self.approximate = False
+        self._propagate(changed, self.solver.accuracy())
+        self._kept.keep(self._state())
+        return "geometry"
+
     def _update_curves(self, document: Document, curves: Segments, changed: np.ndarray,
-                       recoloured: tuple[int, ...] | None) -> str:
+                       recoloured: tuple[int, ...] | None, exact: bool) -> str:
         old = self._boundary
         if recoloured is not None:
             new, same_geometry = _with_colors(old, document, recoloured), True
@@ -259,24 +361,46 @@ class LiveRepresentation:
                 np.array_equal(getattr(new, name), getattr(old, name)) for name in ("p", "q", "on_border"))
         self._boundary, self._curves = new, curves
         if same_geometry:
-            rhs_change = self.solver.right_hand_side(new.jump - old.jump, new.mean - old.mean)
-            self._unknowns = self._unknowns + self.solver.solve(rhs_change, iterate=False)
+            solver = self.solver
+            rhs_change = solver.right_hand_side(new.jump - old.jump, new.mean - old.mean)
+            self._unknowns = self._unknowns + solver.solve(rhs_change, iterate=False)
+            accuracy = solver.accuracy(iterate=False)
         else:
-            self._solver = self._new_solver()
-            self._unknowns = self._solver.solve(self._solver.right_hand_side(new.jump, new.mean))
+            carried = carried_unknowns(old, self._unknowns, new)
+            if exact:
+                self._solver = self._solver_for(new)
+                self._unknowns = self._solve_geometry(self._solver, new, carried)
+                accuracy = self._solver.accuracy()
+            else:
+                self._solver, self._unknowns, self.approximate = None, carried, True
+                accuracy = PREVIEW_ACCURACY
+        self._propagate(changed, accuracy)
+        return "colours" if same_geometry else "geometry"
+
+    @staticmethod
+    def _solve_geometry(solver: BoundarySolver | UpdatedSolver, boundary: Segments, initial: np.ndarray) -> np.ndarray:
+        """The unknowns of ``boundary``'s system: corrected from ``initial`` through an update, or solved."""
+        if isinstance(solver, UpdatedSolver):
+            return solver.correct(initial, boundary.jump, boundary.mean)
+        return solver.solve(solver.right_hand_side(boundary.jump, boundary.mean))
+
+    def _propagate(self, changed: np.ndarray, accuracy: float) -> None:
+        """Carry the change of the fine multipoles of the new unknowns through the tree; mark what moved."""
         self._sort_solution()
         delta = self._fine_moments() - self._fine
         size = np.abs(delta).max(axis=(2, 3))
-        negligible = NEGLIGIBLE * self.solver.accuracy(iterate=not same_geometry)
-        moved = size > negligible * max(float(np.abs(self._fine).max(initial=0.0)), 1e-300)
+        moved = size > NEGLIGIBLE * accuracy * max(float(np.abs(self._fine).max(initial=0.0)), 1e-300)
         delta[~moved] = 0.0
-        self._fine += delta
+        self._fine = self._fine + delta
         local_change = delta_local(delta, self.lattice, self.settings.propagation_order)
-        self._local += local_change
-        self._unreported += np.abs(local_change).max(axis=(2, 3), initial=0.0)
-        changed |= (self._unreported > UNSEEN) | dilated(moved)
+        self._local = self._local + local_change
+        self._report(changed, np.abs(local_change).max(axis=(2, 3), initial=0.0), dilated(moved))
+
+    def _report(self, changed: np.ndarray, local_change: np.ndarray, moved: np.ndarray) -> None:
+        """Mark the cells whose unreported change of the local expansions passed ``UNSEEN``, or ``moved``."""
+        self._unreported += local_change
+        changed |= (self._unreported > UNSEEN) | moved
         self._unreported[changed] = 0.0
-        return "colours" if same_geometry else "geometry"
 
     def _update_points(self, document: Document, removed: list, added: list, changed: np.ndarray) -> None:
         if not document.points:
@@ -287,6 +411,38 @@ class LiveRepresentation:
             self._points = LivePoints((), self.lattice, self.settings.order)
         for a, b, c, d in self._points.update(document.points, removed, added):
             changed[a:b, c:d] = True
+
+    # -- kept states (undo, redo) -------------------------------------------------------------
+    def _state(self) -> State:
+        points = self._points.copy() if self._points is not None else None
+        return State(self.document, self.lattice, self._curves, self._radii, self._boundary, self._unknowns,
+                     self._segments, self._cell_start, self._fine, self._local, points)
+
+    def _restore(self, state: State, changed: np.ndarray) -> None:
+        """Return to ``state`` (of this lattice), marking the cells whose pixels differ."""
+        moved = np.any(state.fine != self._fine, axis=(2, 3)) | _point_cells(self._points, state.points)
+        self._report(changed, np.abs(state.local - self._local).max(axis=(2, 3), initial=0.0), dilated(moved))
+        self.document, self._curves, self._radii = state.document, state.curves, state.radii
+        self._boundary, self._unknowns, self._segments = state.boundary, state.unknowns, state.segments
+        self._cell_start, self._fine, self._local = state.cell_start, state.fine, state.local
+        self._points = state.points.copy() if state.points is not None else None
+        self._solver, self.approximate = None, False
+        self._kept.keep(state)
+
+
+def _point_cells(a: LivePoints | None, b: LivePoints | None) -> np.ndarray | bool:
+    """Cells whose points' polynomials or near points differ between ``a`` and ``b``."""
+    if a is None and b is None:
+        return False
+    if a is None or b is None:
+        return True
+    cells = np.any(a.tensor != b.tensor, axis=(2, 3, 4)) if a.tensor is not b.tensor else False
+    near_a, near_b = a.field().near, b.field().near
+    if near_a is not near_b:  # either's near points may be gone or new: their cells
+        n = a.lattice.cells_per_side
+        occupied = (np.diff(near_a.cell_start) > 0) | (np.diff(near_b.cell_start) > 0)
+        cells = cells | occupied.reshape(n, n)
+    return cells
 
 
 def _recoloured(before: Document, after: Document, changes: ChangeSet) -> tuple[int, ...] | None:

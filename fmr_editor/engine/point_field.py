@@ -9,6 +9,7 @@ plain reference the tests compare against.
 
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -114,7 +115,8 @@ class LivePoints:
     """A document's points on a lattice, updated point by point.
 
     Adding and removing points changes the tensor in the cells they reach
-    (``gauss_delta.add_points``).  Near points join the near lists in place;
+    (``gauss_delta.add_points``), in a copy: a tensor handed out by ``field``
+    never changes afterwards.  Near points join the near lists in place;
     a removed one keeps its slot with zero weight (its terms are exact
     zeros) until dead slots outnumber live ones and the lists are compacted.
 
@@ -150,7 +152,9 @@ class LivePoints:
         delta = GaussPoints.from_points([*removed, *added])
         delta = GaussPoints(delta.positions, delta.radii,
                             np.concatenate([-delta.weights[: len(removed)], delta.weights[len(removed):]]))
-        rectangles = add_points(self.tensor, delta, self.lattice, self.settings)
+        tensor = self.tensor.copy()
+        rectangles = add_points(tensor, delta, self.lattice, self.settings)
+        self.tensor = tensor
         near = expansion_ratios(delta, self.lattice, self.settings) == 0
         if near.any():
             rectangles[near] = changed_cells(delta.take(near), self.lattice, self.settings)
@@ -180,5 +184,11 @@ class LivePoints:
         self._dead = 0
 
     def field(self) -> PointField:
-        """The current points as a ``PointField`` (sharing the tensor)."""
+        """The current points as a ``PointField`` (sharing the tensor, which later updates replace)."""
         return PointField(self.source, self.tensor, self._near)
+
+    def copy(self) -> LivePoints:
+        """An independent ``LivePoints`` in the same state (arrays shared: updates replace them)."""
+        twin = copy.copy(self)
+        twin._slots = {point: list(slots) for point, slots in self._slots.items()}
+        return twin

@@ -5,7 +5,10 @@ label per step ("Move Stop").  Undo, redo and jumps move along it; a new edit
 after an undo drops the undone steps.  A drag is a *transaction*: ``begin``,
 any number of ``preview`` documents (shown, not recorded), then ``commit``
 (one step) or ``cancel`` (back to the state before it).  Listeners are told
-of every change of the current document as ``listener(before, after)``.
+of every change of the current document as ``listener(before, after)``;
+step listeners (``subscribe_steps``) of every change of the recorded steps,
+the current step or the saved mark, and of every transaction's end (a drag's
+commit changes no document that is shown but adds a step).
 """
 
 from __future__ import annotations
@@ -35,11 +38,21 @@ class History:
         self._preview: Document | None = None
         self._pending: str | None = None
         self._listeners: list[Listener] = []
+        self._step_listeners: list[Callable[[], None]] = []
 
     # -- observing ---------------------------------------------------------------------------
     def subscribe(self, listener: Listener) -> None:
         """Call ``listener(before, after)`` whenever the current document changes."""
         self._listeners.append(listener)
+
+    def subscribe_steps(self, listener: Callable[[], None]) -> None:
+        """Call ``listener()`` whenever the steps, their labels, the current step or the saved mark change,
+        and when a transaction ends."""
+        self._step_listeners.append(listener)
+
+    def _steps_changed(self) -> None:
+        for listener in list(self._step_listeners):
+            listener()
 
     def _show(self, before: Document) -> None:
         after = self.document
@@ -67,7 +80,7 @@ class History:
             self._record(document, label, merge_key)
             self._show(before)
 
-    def _record(self, document: Document, label: str, merge_key: Hashable | None) -> None:
+    def _record(self, document: Document, label: str, merge_key: Hashable | None, notify: bool = True) -> None:
         del self._documents[self._index + 1 :], self._labels[self._index + 1 :], self._merge_keys[self._index + 1 :]
         if self._saved is not None and self._saved > self._index:
             self._saved = None  # the saved state is no longer reachable
@@ -80,6 +93,8 @@ class History:
             self._labels.append(label)
             self._merge_keys.append(merge_key)
             self._index += 1
+        if notify:
+            self._steps_changed()
 
     def begin(self, label: str) -> None:
         """Open a transaction (a drag) that ``commit`` records as one step named ``label``."""
@@ -99,13 +114,15 @@ class History:
         """Record the transaction's last preview as one step (nothing if it changed nothing)."""
         label, final = self._finish()
         if final is not None and final != self._documents[self._index]:
-            self._record(final, label, None)  # listeners already show it: no notification
+            self._record(final, label, None, notify=False)  # document listeners already show it
+        self._steps_changed()  # a step, or at least the transaction's end
 
     def cancel(self) -> None:
         """Drop the open transaction and return to the document before it."""
         _, final = self._finish()
         if final is not None:
             self._show(final)
+        self._steps_changed()
 
     def _finish(self) -> tuple[str, Document | None]:
         if self._pending is None:
@@ -113,6 +130,11 @@ class History:
         label, final = self._pending, self._preview
         self._pending, self._preview = None, None
         return label, final
+
+    @property
+    def in_transaction(self) -> bool:
+        """True between ``begin`` and ``commit`` or ``cancel`` (a drag in progress)."""
+        return self._pending is not None
 
     # -- moving ------------------------------------------------------------------------------
     @property
@@ -150,8 +172,10 @@ class History:
         if not 0 <= index < len(self._documents):
             raise IndexError(f"no step {index}: the history has steps 0 to {len(self._documents) - 1}")
         before = self.document
-        self._index = index
+        moved, self._index = index != self._index, index
         self._show(before)
+        if moved:
+            self._steps_changed()
 
     def undo(self) -> None:
         """Revert the last step; nothing when there is none."""
@@ -167,6 +191,7 @@ class History:
     def mark_saved(self) -> None:
         """Remember the current step as the one on disk."""
         self._saved = self._index
+        self._steps_changed()
 
     @property
     def modified(self) -> bool:

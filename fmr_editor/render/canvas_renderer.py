@@ -24,6 +24,9 @@ current around every call and passes the framebuffer to draw into.
 
 from __future__ import annotations
 
+import functools
+from collections import Counter
+from contextlib import nullcontext
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -32,7 +35,7 @@ from OpenGL import GL
 
 from ..engine import Representation
 from . import bounds, packing
-from .gl import BufferTexture, Framebuffer, Program, VertexArray
+from .gl import BufferTexture, Framebuffer, Program, VertexArray, additive, plain_state
 from .view import View
 
 #: The repository's shader folder.
@@ -53,6 +56,15 @@ FULL_SHARE = 0.5
 _UNITS = {"u_coeffs": 0, "u_segment_start": 1, "u_segments": 2, "u_point_start": 3, "u_point_members": 4,
           "u_points": 5, "u_cell_list": 6}
 _DELTA = {"u_coeffs": "delta_coeffs", "u_segment_start": "delta_segment_start", "u_segments": "delta_segments"}
+
+
+def _plain(method):
+    """Run a GL-drawing method in ``gl.plain_state``: it sets what its passes need and restores the rest."""
+    @functools.wraps(method)
+    def wrapped(self, *args, **kwargs):
+        with plain_state():
+            return method(self, *args, **kwargs)
+    return wrapped
 
 
 def shader_source(name: str, defines: dict[str, object] | None = None) -> str:
@@ -105,6 +117,10 @@ class CanvasRenderer:
         What the latest ``draw`` evaluated: ``"none"``, ``"cells"``, ``"shift"``
         (a pan; with any changed cells), ``"full"`` or ``"preview"`` (nothing:
         the cached image was scaled).
+    evaluations : collections.Counter
+        How many draws evaluated each of those since the renderer was made:
+        compare counts before and after an action (``last_evaluation`` belongs
+        to whichever draw came last, which a window may repeat at any time).
     last_update : dict
         Counts of the latest ``update``'s cells: ``"changed"`` (reported),
         ``"delta"`` (their change added), ``"evaluate"`` (to be evaluated in
@@ -133,6 +149,7 @@ class CanvasRenderer:
         self._unseen = np.zeros((0, 0))  # bound on each cell's change missing from the cached image
         self._cached_view: View | None = None  # what the cached image shows; None: nothing
         self.last_evaluation = "none"
+        self.evaluations: Counter[str] = Counter()
         self.last_update = {"changed": 0, "delta": 0, "evaluate": 0, "segments": 0}
 
     # -- data ---------------------------------------------------------------------------------
@@ -140,19 +157,11 @@ class CanvasRenderer:
     def representation(self) -> Representation | None:
         return self._rep
 
-    def upload(self, rep: Representation, polynomials: np.ndarray | None = None) -> None:
-        """Upload all of ``rep``; the next ``draw`` evaluates the whole window.
-
-        Parameters
-        ----------
-        rep : Representation
-        polynomials : numpy.ndarray, optional
-            ``rep.polynomials()``, to be read instead of ``rep``'s expansions
-            (which a ``LiveRepresentation`` on another thread changes in place).
-        """
+    def upload(self, rep: Representation) -> None:
+        """Upload all of ``rep``; the next ``draw`` evaluates the whole window."""
         self._layout = Layout.of(rep)
         n = self._layout.cells
-        self._mirror = packing.cell_coefficients(rep, polynomials=polynomials).reshape(n * n, -1)
+        self._mirror = packing.cell_coefficients(rep).reshape(n * n, -1)
         self._buffers["u_coeffs"].set_data(self._mirror)
         self._upload_segments(rep)
         self._upload_points(rep)
@@ -161,7 +170,8 @@ class CanvasRenderer:
         self._dirty = np.zeros((n, n), bool)
         self._cached_view = None
 
-    def update(self, rep: Representation, changed: np.ndarray, polynomials: np.ndarray | None = None) -> None:
+    @_plain
+    def update(self, rep: Representation, changed: np.ndarray) -> None:
         """Go over to ``rep``, whose pixels differ from the uploaded one's only in the ``changed`` cells.
 
         Uploads those cells' coefficients (segments and near points whole, when
@@ -175,11 +185,9 @@ class CanvasRenderer:
         rep : Representation
         changed : numpy.ndarray
             ``(2^L, 2^L)`` bool, as ``engine.Update.changed``.
-        polynomials : numpy.ndarray, optional
-            As for ``upload``.
         """
         if self._rep is None or Layout.of(rep) != self._layout:
-            self.upload(rep, polynomials)
+            self.upload(rep)
             return
         changed = np.asarray(changed, bool)
         n = self._layout.cells
@@ -188,7 +196,7 @@ class CanvasRenderer:
         cells = np.flatnonzero(changed)
         delta, moved = np.zeros((0, self._mirror.shape[1]), self._mirror.dtype), np.zeros(0)
         if len(cells):  # none: only segments or near points may have changed
-            fresh = packing.cell_coefficients(rep, cells, polynomials=polynomials).reshape(len(cells), -1)
+            fresh = packing.cell_coefficients(rep, cells).reshape(len(cells), -1)
             delta = fresh - self._mirror[cells]
             moved = bounds.far_bound(delta, self._layout.order, self._layout.harmonic)
             self._mirror[cells] = fresh
@@ -241,13 +249,7 @@ class CanvasRenderer:
         self._buffers["delta_segments"].set_data(table.texels)
         self._buffers["delta_segment_start"].set_data(table.cell_start)
         self._cache.bind()
-        GL.glEnable(GL.GL_BLEND)
-        GL.glBlendEquation(GL.GL_FUNC_ADD)
-        GL.glBlendFunc(GL.GL_ONE, GL.GL_ONE)
-        try:
-            self._pass(self._cached_view, cells, delta=True)
-        finally:
-            GL.glDisable(GL.GL_BLEND)
+        self._pass(self._cached_view, cells, delta=True)
 
     def _upload_segments(self, rep: Representation, same_geometry: bool = False) -> None:
         """Upload the segment lists; with ``same_geometry``, only E and C changed since the last upload."""
@@ -281,6 +283,7 @@ class CanvasRenderer:
                                           label="canvas shader")
         return self._programs[key]
 
+    @_plain
     def draw(self, view: View, target: int = 0, preview: bool = False) -> None:
         """Bring the cached image up to date for ``view`` and copy it into framebuffer ``target``.
 
@@ -298,6 +301,7 @@ class CanvasRenderer:
         if preview and self._rep is not None and self._cached_view is not None and self._needs_full(view):
             self._preview(view, target)
             self.last_evaluation = "preview"
+            self.evaluations["preview"] += 1
         else:
             self._evaluate(view)
             self._shown().blit_to(target)
@@ -361,6 +365,7 @@ class CanvasRenderer:
                              round(dx0), round(view.height - dy1), round(dx1), round(view.height - dy0),
                              GL.GL_COLOR_BUFFER_BIT, GL.GL_LINEAR)
 
+    @_plain
     def evaluate(self, view: View) -> str:
         """Bring the cached image up to date for ``view`` without drawing it anywhere; what was evaluated."""
         self._evaluate(view)
@@ -374,6 +379,7 @@ class CanvasRenderer:
             GL.glClear(GL.GL_COLOR_BUFFER_BIT)
             self._cached_view, self.last_evaluation = None, "full"
             self._touch(view)
+            self.evaluations["blank"] += 1
             return
         shift = _integer_shift(self._cached_view, view)
         if self._needs_full(view):
@@ -389,6 +395,7 @@ class CanvasRenderer:
                     self.last_evaluation = "cells"
         self._cached_view = view
         self._dirty[:] = False
+        self.evaluations[self.last_evaluation] += 1
 
     def _full(self, view: View) -> None:
         self._cache.resize(view.width, view.height)
@@ -459,12 +466,12 @@ class CanvasRenderer:
             u_cell_origin=(view.offset_x, view.offset_y), u_cell_window=layout.cell_size * view.scale,
             u_window=(view.width, view.height), u_delta=int(delta), u_rows_by_instance=int(delta),
         )
-        GL.glDisable(GL.GL_DEPTH_TEST)
         self._vao.bind()
-        if instances:
-            GL.glDrawArraysInstanced(GL.GL_TRIANGLE_STRIP, 0, 4, instances)
-        else:
-            GL.glDrawArrays(GL.GL_TRIANGLE_STRIP, 0, 4)
+        with additive() if delta else nullcontext():
+            if instances:
+                GL.glDrawArraysInstanced(GL.GL_TRIANGLE_STRIP, 0, 4, instances)
+            else:
+                GL.glDrawArrays(GL.GL_TRIANGLE_STRIP, 0, 4)
         GL.glBindVertexArray(0)
         GL.glUseProgram(0)
 

@@ -6,6 +6,9 @@ objects belong to that context and are freed by ``delete`` (with it current).
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
+
 import numpy as np
 from OpenGL import GL
 
@@ -39,6 +42,50 @@ _SETTERS = {
     GL.GL_BOOL: lambda loc, v: GL.glUniform1i(loc, int(v)),
 }
 _SAMPLERS = {GL.GL_SAMPLER_BUFFER, GL.GL_INT_SAMPLER_BUFFER, GL.GL_UNSIGNED_INT_SAMPLER_BUFFER, GL.GL_SAMPLER_2D}
+
+
+#: Capabilities our passes and blits never use; Qt (or anyone sharing the context) may leave them on.
+_OFF = (GL.GL_BLEND, GL.GL_SCISSOR_TEST, GL.GL_DEPTH_TEST, GL.GL_STENCIL_TEST, GL.GL_CULL_FACE)
+_BLEND = (GL.GL_BLEND_SRC_RGB, GL.GL_BLEND_DST_RGB, GL.GL_BLEND_SRC_ALPHA, GL.GL_BLEND_DST_ALPHA,
+          GL.GL_BLEND_EQUATION_RGB, GL.GL_BLEND_EQUATION_ALPHA)
+
+
+@contextmanager
+def plain_state() -> Iterator[None]:
+    """Run the body with blending, scissor, depth, stencil and culling off and every colour written.
+
+    Whatever the context had before is put back afterwards, so that neither
+    the caller's state nor an earlier draw changes what the body writes.
+    Inside, a pass that needs more (``additive``, a scissor) sets it and
+    turns it off again.
+    """
+    enabled = {cap: bool(GL.glIsEnabled(cap)) for cap in _OFF}
+    blend = [int(GL.glGetIntegerv(name)) for name in _BLEND]
+    mask = [bool(v) for v in GL.glGetBooleanv(GL.GL_COLOR_WRITEMASK)]
+    for cap in _OFF:
+        GL.glDisable(cap)
+    GL.glColorMask(True, True, True, True)
+    try:
+        yield
+    finally:
+        for cap, on in enabled.items():
+            (GL.glEnable if on else GL.glDisable)(cap)
+        GL.glBlendFuncSeparate(*blend[:4])
+        GL.glBlendEquationSeparate(*blend[4:])
+        GL.glColorMask(*mask)
+
+
+@contextmanager
+def additive() -> Iterator[None]:
+    """Add the body's fragments to the target (blending ``ONE, ONE``), then blend no more."""
+    GL.glEnable(GL.GL_BLEND)
+    GL.glBlendEquation(GL.GL_FUNC_ADD)
+    GL.glBlendFunc(GL.GL_ONE, GL.GL_ONE)
+    try:
+        yield
+    finally:
+        GL.glBlendFunc(GL.GL_ONE, GL.GL_ZERO)
+        GL.glDisable(GL.GL_BLEND)
 
 
 class Program:

@@ -51,8 +51,7 @@ def _padded(values: np.ndarray) -> np.ndarray:
     return out.reshape(-1, 4)
 
 
-def cell_coefficients(rep: Representation, cells: np.ndarray | None = None, harmonic: bool | None = None,
-                      polynomials: np.ndarray | None = None) -> np.ndarray:
+def cell_coefficients(rep: Representation, cells: np.ndarray | None = None, harmonic: bool | None = None) -> np.ndarray:
     """Coefficient texels of ``cells`` (flat indices, default all), ``(len(cells) * texels, 4)`` float32.
 
     Parameters
@@ -62,9 +61,6 @@ def cell_coefficients(rep: Representation, cells: np.ndarray | None = None, harm
         Flat fine-cell indices ``row * 2^L + column``.
     harmonic : bool, optional
         The harmonic form; defaults to ``uses_harmonic(rep)``.  Only for representations without points.
-    polynomials : numpy.ndarray, optional
-        ``rep.polynomials()`` (a copy of it, say, made where ``rep`` is updated): taken instead of
-        ``rep``'s expansions, which a live representation changes in place.
     """
     harmonic = uses_harmonic(rep) if harmonic is None else harmonic
     if harmonic and rep.points is not None:
@@ -72,18 +68,6 @@ def cell_coefficients(rep: Representation, cells: np.ndarray | None = None, harm
     order = rep.order
     n = rep.lattice.cells_per_side
     chosen = slice(None) if cells is None else np.asarray(cells, np.int64)
-    if polynomials is not None:
-        if polynomials.shape != (n, n, 3, order + 1, order + 1):
-            raise ValueError(f"polynomials must be {(n, n, 3, order + 1, order + 1)}")
-        tensor = polynomials.reshape(n * n, 3, order + 1, order + 1)[chosen]
-        if harmonic:
-            # c[l, 0] = Re K_l and c[l - 1, 1] = -l Im K_l (DESIGN 4: M[l, l - j, j] = binom(l, j) i^j)
-            k = tensor[:, :, :, 0].astype(complex)
-            k[:, :, 1:] -= 1j * tensor[:, :, np.arange(order), 1] / np.arange(1, order + 1)
-            values = np.concatenate([k.real, k.imag], axis=1).transpose(0, 2, 1)
-        else:
-            values = tensor.reshape(len(tensor), 3, -1).transpose(0, 2, 1)
-        return _padded(values.reshape(len(values), -1, 3))
     local = rep.local.reshape(n * n, 3, -1)[chosen, :, : order + 1]  # a view until indexed
     if harmonic:
         out = np.zeros((len(local), order + 1, 2, 4), np.float32)  # (cell, l, Re/Im, rgb + 0)

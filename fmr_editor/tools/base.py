@@ -118,6 +118,8 @@ class Tool:
     title = ""
     shortcut = ""
     cursor = "arrow"
+    #: One line for the status bar: what the tool does and how.
+    hint = ""
 
     def __init__(self, context: ToolContext) -> None:
         self.context = context

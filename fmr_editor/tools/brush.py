@@ -3,7 +3,7 @@
 A press places a dab; dragging places further dabs every ``brush_spacing``
 document pixels along the pointer's path (spacing carries over between
 pointer moves, so dabs stay evenly spaced however the events arrive).  Each
-dab is a ``DiffusionPoint`` with the options' colour, radius and amplitude,
+dab is a ``DiffusionPoint`` with the options' brush colour, radius and amplitude,
 fixed at the press.  The whole stroke is one undo step "Paint"; Esc during
 it removes the stroke.
 """
@@ -25,7 +25,7 @@ class Stroke(EditDrag):
     def __init__(self, context: ToolContext, event: PointerEvent) -> None:
         options = context.options
         self.spacing = max(float(options.brush_spacing), 1e-3)
-        radius, color, amplitude = options.brush_radius, options.color, options.brush_amplitude
+        radius, color, amplitude = options.brush_radius, options.brush_color, options.brush_amplitude
         self.dab = lambda x, y: DiffusionPoint((x, y), radius, color, amplitude)
         self.dabs = [self.dab(*event.position)]
         self.last = event.position  # the pointer's previous position
@@ -58,6 +58,7 @@ class BrushTool(Tool):
 
     name = "brush"
     title = "Point Brush"
+    hint = "Drag to paint dabs: each adds amplitude x brush colour, so overlapping dabs add up (towards white); a negative amplitude takes colour away"
     shortcut = "B"
     cursor = "crosshair"
 

@@ -30,6 +30,9 @@ class ToolOptions:
     secondary_color : tuple of float
         The background colour: a new curve's right side; the eyedropper sets
         it with Alt held.
+    brush_color : tuple of float
+        Colour of the brush's dabs (a dab adds ``amplitude * colour``, so
+        black would add nothing).
     brush_radius : float
         Gaussian radius of each dab, document pixels.
     brush_amplitude : float
@@ -40,8 +43,9 @@ class ToolOptions:
 
     color: Color = (0.0, 0.0, 0.0)
     secondary_color: Color = (1.0, 1.0, 1.0)
+    brush_color: Color = (1.0, 0.55, 0.15)
     brush_radius: float = 20.0
-    brush_amplitude: float = 0.5
+    brush_amplitude: float = 0.3
     brush_spacing: float = 10.0
 
 

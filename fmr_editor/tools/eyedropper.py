@@ -42,6 +42,7 @@ class EyedropperTool(Tool):
 
     name = "eyedropper"
     title = "Eyedropper"
+    hint = "Click to take the foreground colour from the image; Alt+click for the background colour"
     shortcut = "I"
     cursor = "picker"
 

@@ -60,6 +60,7 @@ class PenTool(Tool):
 
     name = "pen"
     title = "Pen"
+    hint = "Click for a corner, drag for a smooth anchor; Return or double click ends the curve; click the first anchor to close it"
     shortcut = "P"
     cursor = "pen"
 

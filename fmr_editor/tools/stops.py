@@ -48,7 +48,12 @@ class StopDrag(EditDrag):
 
 
 def pick_stop_color(context: ToolContext, stop: tuple[int, str, int]) -> bool:
-    """Ask ``context.choose_color`` for a colour of ``stop``; one step when the user picks one."""
+    """Select ``stop`` and ask ``context.choose_color`` for its colour; one step when the user picks one.
+
+    A ui whose dialog applies its changes itself (live, as one merged step)
+    answers None here.
+    """
+    context.selection = Selection.of(stops=[stop])
     if context.choose_color is None:
         return False
     c, side, i = stop
@@ -70,6 +75,7 @@ class StopsTool(Tool):
 
     name = "stops"
     title = "Colour Stops"
+    hint = "Click beside a curve to add a stop on that side; drag stops along the curve; double click a stop for its colour"
     shortcut = "G"
     cursor = "crosshair"
 

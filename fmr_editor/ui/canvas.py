@@ -69,7 +69,6 @@ class Canvas(QOpenGLWidget):
         self._rep: Representation | None = None
         self._full_upload = False
         self._changed: np.ndarray | None = None
-        self._polynomials: np.ndarray | None = None
         self._view = View(width=max(self.width(), 1), height=max(self.height(), 1))
         self._fitted = True  # the view follows the widget's size until the user pans or zooms
         self._pan_from: QPointF | None = None
@@ -84,30 +83,21 @@ class Canvas(QOpenGLWidget):
     def representation(self) -> Representation | None:
         return self._rep
 
-    def set_representation(self, rep: Representation | None, fit: bool = True,
-                           polynomials: np.ndarray | None = None) -> None:
-        """Show ``rep`` (all of it is uploaded); ``fit`` fits its canvas in the window.
-
-        ``polynomials``, if given, is ``rep.polynomials()`` (e.g. ``ui.engine_thread.Frame.polynomials``),
-        read instead of ``rep``'s expansions, which a live representation changes in place.
-        """
-        self._rep, self._full_upload, self._changed, self._polynomials = rep, True, None, polynomials
+    def set_representation(self, rep: Representation | None, fit: bool = True) -> None:
+        """Show ``rep`` (all of it is uploaded); ``fit`` fits its canvas in the window."""
+        self._rep, self._full_upload, self._changed = rep, True, None
         if fit and rep is not None:
             self.fit()
         self.update()
 
-    def update_representation(self, rep: Representation, changed: np.ndarray,
-                              polynomials: np.ndarray | None = None) -> None:
-        """Show ``rep``, which differs from the shown one only in the ``changed`` cells (``engine.Update.changed``).
-
-        ``polynomials`` as for ``set_representation``.
-        """
+    def update_representation(self, rep: Representation, changed: np.ndarray) -> None:
+        """Show ``rep``, which differs from the shown one only in the ``changed`` cells (``engine.Update.changed``)."""
         if not self._full_upload:
             if self._changed is not None and self._changed.shape != changed.shape:
                 self._full_upload = True
             else:
                 self._changed = changed.copy() if self._changed is None else self._changed | changed
-        self._rep, self._polynomials = rep, polynomials
+        self._rep = rep
         self.update()
 
     # -- view ---------------------------------------------------------------------------------
@@ -197,9 +187,9 @@ class Canvas(QOpenGLWidget):
             if self._rep is None:
                 renderer.forget()
             elif self._full_upload:
-                renderer.upload(self._rep, self._polynomials)
+                renderer.upload(self._rep)
             elif self._changed is not None:
-                renderer.update(self._rep, self._changed, self._polynomials)
+                renderer.update(self._rep, self._changed)
             self._full_upload, self._changed = False, None
             renderer.draw(self.device_view(), self.defaultFramebufferObject(), preview=self._settle.isActive())
         except ShaderError as error:  # the driver refused the shader: say so once, draw nothing more

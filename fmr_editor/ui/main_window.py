@@ -18,7 +18,6 @@ from PySide6.QtWidgets import QDockWidget, QLabel, QMainWindow, QMenu, QMessageB
 
 from ..tools import Selection, ToolOptions, delete_selection
 from .canvas import Canvas
-from .colors import pick_color
 from .events import modifier_names, pointer_event, tool_key
 from .file_commands import FileCommands
 from .files import RecentFiles
@@ -95,13 +94,20 @@ class MainWindow(FileCommands, QMainWindow):
         build_menus(self, self.actions, self.recent_menu, [d.toggleViewAction() for d in docks])
 
         self.status_label = QLabel()
+        self.hint_label = QLabel()  # what the active tool does
+        self.shading_label = QLabel("Preview: approximate shading")  # shown while a frame is a drag's preview
+        self.shading_label.setToolTip("While dragging, moved curves keep their old densities; "
+                                      "the exact image follows when the drag ends")
+        self.shading_label.hide()
         self.position_label = QLabel()
         self.progress_bar = QProgressBar()
         self.progress_bar.setRange(0, 1000)
         self.progress_bar.setMaximumWidth(220)
         self.progress_bar.hide()
         status = self.statusBar()
-        status.addWidget(self.status_label, 1)
+        status.addWidget(self.status_label)
+        status.addWidget(self.hint_label, 1)
+        status.addPermanentWidget(self.shading_label)
         status.addPermanentWidget(self.progress_bar)
         status.addPermanentWidget(self.position_label)
 
@@ -135,6 +141,7 @@ class MainWindow(FileCommands, QMainWindow):
         self.actions[f"tool:{name}"].setChecked(True)
         cursor = self.workspace.tools[name].cursor if self.workspace is not None else "arrow"
         self.canvas.setCursor(QCursor(CURSORS.get(cursor, Qt.CursorShape.ArrowCursor)))
+        self.hint_label.setText(self.tool.hint if self.tool is not None else "")
         self._after_tool()
 
     def _pointer(self, kind: str, event) -> None:
@@ -253,12 +260,13 @@ class MainWindow(FileCommands, QMainWindow):
             old.deleteLater()
         workspace = Workspace(opened, self.options, self._choose_stop_color, self)
         workspace.document_changed.connect(self._document_changed)
+        workspace.steps_changed.connect(self._update_state)
         workspace.frame_ready.connect(self._frame_ready)
         workspace.engine_failed.connect(self._engine_failed)
         workspace.engine_progress.connect(self._engine_progress)
         self.workspace = workspace
         frame = opened.frame
-        self.canvas.set_representation(frame.representation, fit=True, polynomials=frame.polynomials)
+        self.canvas.set_representation(frame.representation, fit=True)
         workspace.context.zoom = self.canvas.view.scale
         first = f"Open {workspace.name}" if workspace.path is not None else "New Document"
         self.history_panel.bind(workspace.history, first)
@@ -271,8 +279,13 @@ class MainWindow(FileCommands, QMainWindow):
         if self.canvas.error:  # no suitable OpenGL: editing works, the image cannot be shown
             self.status_label.setText(f"The canvas cannot draw the image: {self.canvas.error}")
 
-    def _choose_stop_color(self, current):
-        return pick_color(self, current, "Stop Colour")
+    def _choose_stop_color(self, current) -> None:
+        """The stops tool's double click: the selected stop's live colour dialog (``StopsPanel.edit_color``)."""
+        stops = self.workspace.context.selection.stops if self.workspace is not None else ()
+        if stops:
+            self.stops_panel.refresh()
+            self.stops_panel.edit_color(next(iter(stops))[1])
+        return None
 
     def _document_changed(self) -> None:
         self.history_panel.refresh()
@@ -280,8 +293,9 @@ class MainWindow(FileCommands, QMainWindow):
         self._update_title()
 
     def _frame_ready(self, frame) -> None:
+        self.shading_label.setVisible(not frame.exact)
         if frame.changed.any():  # the renderer takes no empty update (an edit undone before it was built)
-            self.canvas.update_representation(frame.representation, frame.changed, frame.polynomials)
+            self.canvas.update_representation(frame.representation, frame.changed)
         if self.job is None:
             self.progress_bar.hide()
 

@@ -70,6 +70,8 @@ class OptionsPanel(QWidget):
 
         brush = QGroupBox("Point brush")
         form = QFormLayout(brush)
+        self.brush_swatch = self._swatch_button("Brush colour: each dab adds amplitude x this colour", "brush_color")
+        form.addRow("Colour", self.brush_swatch)
         self.spins: dict[str, QDoubleSpinBox] = {}
         for name, label, low, high, step, decimals, tip in BRUSH_FIELDS:
             spin = QDoubleSpinBox(self)
@@ -104,8 +106,8 @@ class OptionsPanel(QWidget):
         self.changed.emit()
 
     def choose(self, attribute: str) -> None:
-        """Ask for the foreground (``"color"``) or background (``"secondary_color"``) colour."""
-        title = "Foreground Colour" if attribute == "color" else "Background Colour"
+        """Ask for the foreground (``"color"``), background (``"secondary_color"``) or brush colour."""
+        title = {"color": "Foreground Colour", "secondary_color": "Background Colour"}.get(attribute, "Brush Colour")
         chosen = pick_color(self.window(), getattr(self.options, attribute), title)
         if chosen is not None:
             setattr(self.options, attribute, chosen)
@@ -126,7 +128,8 @@ class OptionsPanel(QWidget):
     def refresh(self) -> None:
         """Show the options as they are (the eyedropper changes the colours)."""
         options = self.options
-        for button, color in ((self.foreground, options.color), (self.background, options.secondary_color)):
+        for button, color in ((self.foreground, options.color), (self.background, options.secondary_color),
+                              (self.brush_swatch, options.brush_color)):
             button.setIcon(swatch(qcolor(color), 28))
         for name, spin in self.spins.items():
             value = float(getattr(options, name))

@@ -18,7 +18,7 @@ from PySide6.QtCore import QObject, Signal
 
 from ..engine import LiveRepresentation, Settings, evaluate_points
 from ..io import load_document, load_fmr
-from ..model import Document
+from ..model import ColorStop, DiffusionCurve, Document
 from ..model.history import History
 from ..tools import ToolContext, ToolOptions, create_tools
 from .engine_thread import EngineThread, Frame
@@ -27,6 +27,9 @@ Progress = Callable[[str, float], None]
 
 #: Canvas size of a new document, pixels.
 DEFAULT_SIZE = (512, 512)
+#: A new document's background: a closed curve this far inside the canvas edge, white on both sides.
+BACKGROUND_INSET = 2.0
+BACKGROUND = (1.0, 1.0, 1.0)
 
 
 @dataclass(frozen=True, eq=False)
@@ -53,9 +56,7 @@ class Opened:
 
 
 def _opened(live: LiveRepresentation, path: Path | None) -> Opened:
-    rep = live.representation
-    n = rep.lattice.cells_per_side
-    return Opened(live, Frame(live.document, rep, rep.polynomials(), np.ones((n, n), bool), "build"), path)
+    return Opened(live, Frame.first(live), path)
 
 
 def open_file(path: str | os.PathLike, progress: Progress | None = None) -> Opened:
@@ -77,10 +78,26 @@ def open_file(path: str | os.PathLike, progress: Progress | None = None) -> Open
     return _opened(live, path)
 
 
+def background_curve(width: float, height: float, color=BACKGROUND) -> DiffusionCurve:
+    """A closed rectangle just inside the canvas with ``color`` on both sides: the canvas shows ``color``.
+
+    With no curve at all a diffusion image is black; this gives a new
+    document a background the user can select and recolour like any curve.
+    """
+    a, w, h = BACKGROUND_INSET, width - BACKGROUND_INSET, height - BACKGROUND_INSET
+    corners = np.array([(a, a), (w, a), (w, h), (a, h), (a, a)])
+    points = [corners[0]]
+    for start, end in zip(corners[:-1], corners[1:]):  # straight pieces: handles a third of the way along
+        points += [start + (end - start) / 3, start + 2 * (end - start) / 3, end]
+    stop = (ColorStop(0.0, tuple(color)),)
+    return DiffusionCurve(np.array(points), left=stop, right=stop)
+
+
 def new_document(width: int = DEFAULT_SIZE[0], height: int = DEFAULT_SIZE[1],
                  progress: Progress | None = None) -> Opened:
-    """An empty canvas of ``width x height`` pixels, built."""
-    return _opened(LiveRepresentation(Document(int(width), int(height)), Settings(), progress), None)
+    """A canvas of ``width x height`` pixels with a white background curve (``background_curve``), built."""
+    document = Document(int(width), int(height), (background_curve(width, height),))
+    return _opened(LiveRepresentation(document, Settings(), progress), None)
 
 
 class Workspace(QObject):
@@ -110,12 +127,16 @@ class Workspace(QObject):
     frame_ready(Frame)
     document_changed()
         After every change of the current document (edits, previews, undo, jumps).
+    steps_changed()
+        After every change of the history's steps, current step or saved mark
+        (a drag's commit adds a step without changing the document shown).
     engine_failed(str)
     engine_progress(str, float)
     """
 
     frame_ready = Signal(object)
     document_changed = Signal()
+    steps_changed = Signal()
     engine_failed = Signal(str)
     engine_progress = Signal(str, float)
 
@@ -128,11 +149,13 @@ class Workspace(QObject):
         self.tools = create_tools(self.context)
         self.frame = opened.frame
         self._waiting: list[Callable[[Frame | None], None]] = []
+        self._previewing = False  # the last request was a drag's preview
         self.engine = EngineThread(opened.live)
         self.engine.ready.connect(self._ready)
         self.engine.failed.connect(self._failed)
         self.engine.progress.connect(self.engine_progress)
         self.history.subscribe(self._changed)
+        self.history.subscribe_steps(self._steps_changed)
 
     # -- naming ------------------------------------------------------------------------------
     @property
@@ -147,8 +170,15 @@ class Workspace(QObject):
 
     # -- the engine --------------------------------------------------------------------------
     def _changed(self, before: Document, after: Document) -> None:
-        self.engine.request(after)
+        self._previewing = self.history.in_transaction
+        self.engine.request(after, preview=self._previewing)
         self.document_changed.emit()
+
+    def _steps_changed(self) -> None:
+        if self._previewing and not self.history.in_transaction:  # a drag ended: its last preview, exactly
+            self._previewing = False
+            self.engine.request(self.history.document)
+        self.steps_changed.emit()
 
     def _ready(self, frame: Frame) -> None:
         self.frame = frame
@@ -166,8 +196,8 @@ class Workspace(QObject):
 
     @property
     def current(self) -> bool:
-        """True when the newest frame shows the current document (the engine is idle)."""
-        return self.frame.document is self.history.document
+        """True when the newest frame shows the current document exactly (the engine is idle)."""
+        return self.frame.document is self.history.document and self.frame.exact
 
     def when_current(self, callback: Callable[[Frame | None], None]) -> None:
         """Call ``callback(frame)`` once the engine has caught up with the current document.

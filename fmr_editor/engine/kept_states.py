@@ -1,0 +1,82 @@
+"""The states of recent steps, kept so that undo and redo return to them at once.
+
+A ``LiveRepresentation`` never changes an array it has made (updates make
+new ones), so keeping a state is keeping references: what costs memory is
+the arrays no later state shares.  ``KeptStates`` holds the newest states up
+to a memory budget and finds a state by its document (the very object:
+a history hands the same ``Document`` back on undo).
+"""
+
+from __future__ import annotations
+
+from collections import OrderedDict
+from dataclasses import dataclass, fields
+
+import numpy as np
+
+from ..model import Document
+from .lattice import Lattice
+from .point_field import LivePoints
+from .segments import Segments
+
+
+@dataclass(frozen=True, eq=False)
+class State:
+    """Everything a ``LiveRepresentation``'s representation of one document is made of."""
+
+    document: Document
+    lattice: Lattice
+    curves: Segments
+    radii: np.ndarray
+    boundary: Segments
+    unknowns: np.ndarray
+    segments: Segments
+    cell_start: np.ndarray
+    fine: np.ndarray
+    local: np.ndarray
+    points: LivePoints | None
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes of the arrays the state holds (shared ones counted in every state that holds them)."""
+        arrays = [self.radii, self.unknowns, self.cell_start, self.fine, self.local]
+        for segments in (self.curves, self.boundary, self.segments):
+            arrays += [getattr(segments, field.name) for field in fields(segments)]
+        if self.points is not None:
+            arrays.append(self.points.tensor)
+        return sum(array.nbytes for array in arrays if array is not None)
+
+
+class KeptStates:
+    """The newest states, at most ``memory`` bytes of them (the newest is always kept).
+
+    Parameters
+    ----------
+    memory : int
+    """
+
+    def __init__(self, memory: int) -> None:
+        self.memory = int(memory)
+        self._states: OrderedDict[int, State] = OrderedDict()
+        self._bytes: dict[int, int] = {}
+
+    def keep(self, state: State) -> None:
+        key = id(state.document)
+        self._states.pop(key, None)
+        self._states[key] = state
+        self._bytes[key] = state.nbytes
+        while len(self._states) > 1 and sum(self._bytes.values()) > self.memory:
+            oldest, _ = self._states.popitem(last=False)
+            del self._bytes[oldest]
+
+    def find(self, document: Document) -> State | None:
+        """The kept state of ``document`` (this very object), or None."""
+        state = self._states.get(id(document))
+        return state if state is not None and state.document is document else None
+
+    def clear(self) -> None:
+        self._states.clear()
+        self._bytes.clear()
+
+    def __len__(self) -> int:
+        return len(self._states)

@@ -1,0 +1,154 @@
+"""The screen never lies: after any sequence of edits, undos, view changes and file switches, the
+editor's canvas shows what the CPU gives for the same document and view.
+
+A Hypothesis state machine drives the real window under Xvfb; after every step it waits for the
+engine's exact frame and compares what the canvas shows (8 bits, ``grabFramebuffer``) with a fresh
+CPU build of the history's current document at each window pixel's centre (one sample per pixel,
+so antialiasing plays no part; pixels whose centre lies on a curve are left out, see
+``canvas_oracle.mismatches``).  Derandomised, so CI runs the same sequences every time.
+"""
+
+from __future__ import annotations
+
+import pytest
+from canvas_oracle import mismatches
+from hypothesis import HealthCheck, settings
+from hypothesis import strategies as st
+from hypothesis.stateful import RuleBasedStateMachine, initialize, invariant, precondition, rule, run_state_machine_as_test
+from shapes import circle_points, scattered_document
+
+pytest.importorskip("pytestqt", reason="pytest-qt is in the [test] extra")
+
+from PySide6.QtCore import Qt  # noqa: E402
+
+from fmr_editor.engine import build  # noqa: E402
+from fmr_editor.io import save_fmr  # noqa: E402
+from fmr_editor.model import ColorStop, DiffusionCurve, DiffusionPoint, Document, edits  # noqa: E402
+
+pytestmark = pytest.mark.gui
+
+#: What the canvas may differ from the CPU by: the shader's float32 and the 8-bit rounding (0.5)
+#: with room for the lattice a fresh build picks (the live one may differ after dabs).
+LEVELS = 2.0
+colors = st.tuples(*[st.floats(0.0, 1.0)] * 3)
+
+
+def documents(tmp_path) -> list:
+    """Two small files to switch between: a square one with points and a wide one."""
+    square = scattered_document(160, circles=3, seed=4).with_points(
+        (DiffusionPoint((60.0, 70.0), 9.0, (0.9, 0.6, 0.1), 0.6), DiffusionPoint((120.0, 40.0), 0.8, (0.1, 0.2, 0.9))))
+    wide = Document(220, 120, scattered_document(220, circles=3, seed=8).curves)
+    paths = []
+    for name, document in (("square.fmr", square), ("wide.fmr", wide)):
+        paths.append(save_fmr(tmp_path / name, document, build(document)))
+    return paths
+
+
+class CanvasTruth(RuleBasedStateMachine):
+    """Random edits, history moves, views and files; the canvas always shows the CPU's image."""
+
+    def __init__(self, editor, paths) -> None:
+        super().__init__()
+        self.editor, self.paths = editor, paths
+        self.builds: dict[int, tuple] = {}  # id(document) -> (document, fresh representation)
+
+    @property
+    def document(self) -> Document:
+        return self.editor.document
+
+    @initialize(which=st.integers(0, 1))
+    def open_a_file(self, which):
+        self.editor.open(self.paths[which])
+
+    @rule(which=st.integers(0, 1))
+    def open_another_file(self, which):
+        self.editor.open(self.paths[which])
+
+    @precondition(lambda self: self.document.curves)
+    @rule(data=st.data(), color=colors)
+    def change_a_stop_colour(self, data, color):
+        document = self.document
+        curve = data.draw(st.integers(0, len(document.curves) - 1))
+        side = data.draw(st.sampled_from(["left", "right"]))
+        if getattr(document.curves[curve], side):
+            self.editor.history.apply(edits.set_stop_color(document, curve, side, 0, color), "Change Stop Colour")
+
+    @precondition(lambda self: self.document.curves)
+    @rule(data=st.data(), moves=st.lists(st.tuples(st.floats(-12, 12), st.floats(-12, 12)), min_size=1, max_size=4))
+    def drag_an_anchor(self, data, moves):
+        """A drag as the select tool makes it: previews (approximate), then one committed step."""
+        document, history = self.document, self.editor.history
+        curve = data.draw(st.integers(0, len(document.curves) - 1))
+        anchor = 3 * data.draw(st.integers(0, (len(document.curves[curve].control_points) - 2) // 3))
+        start = document.curves[curve].control_points[anchor]
+        history.begin("Move Anchor")
+        for dx, dy in moves:
+            history.preview(edits.move_control_point(document, curve, anchor, tuple(start + (dx, dy))))
+            self.editor.qtbot.wait(1)  # let the window show what the engine sends meanwhile
+        history.commit()
+
+    @rule(x=st.floats(0.1, 0.9), y=st.floats(0.1, 0.9))
+    def paint_a_dab(self, x, y):
+        editor = self.editor
+        editor.key(Qt.Key.Key_B)
+        editor.click(x * self.document.width, y * self.document.height)
+
+    @rule(cx=st.floats(0.3, 0.7), cy=st.floats(0.3, 0.7), radius=st.floats(8, 30), color=colors)
+    def add_a_curve(self, cx, cy, radius, color):
+        document = self.document
+        curve = DiffusionCurve(circle_points(cx * document.width, cy * document.height, radius),
+                               left=(ColorStop(0.0, color),), right=(ColorStop(0.0, (0.0, 0.0, 0.0)),))
+        self.editor.history.apply(edits.add_curve(document, curve), "Add Curve")
+
+    @precondition(lambda self: len(self.document.curves) > 1)
+    @rule(data=st.data())
+    def delete_a_curve(self, data):
+        index = data.draw(st.integers(0, len(self.document.curves) - 1))
+        self.editor.history.apply(edits.remove_curves(self.document, [index]), "Delete Curve")
+
+    @rule()
+    def undo(self):
+        self.editor.key(Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier)
+
+    @rule()
+    def redo(self):
+        self.editor.key(Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier | Qt.KeyboardModifier.ShiftModifier)
+
+    @rule(factor=st.sampled_from([0.8, 1.25, 1.5625, 2.0]), x=st.floats(0.0, 1.0), y=st.floats(0.0, 1.0))
+    def zoom(self, factor, x, y):
+        canvas = self.editor.canvas
+        canvas.zoom(factor, x * canvas.width(), y * canvas.height())
+
+    @rule(dx=st.integers(-60, 60), dy=st.integers(-60, 60))
+    def pan(self, dx, dy):
+        self.editor.canvas.pan(dx, dy)
+
+    @rule()
+    def fit(self):
+        self.editor.key(Qt.Key.Key_0, Qt.KeyboardModifier.ControlModifier)
+
+    @invariant()
+    def the_canvas_shows_the_document(self):
+        editor = self.editor
+        editor.wait_idle()
+        document = editor.document
+        kept = self.builds.get(id(document))
+        if kept is None or kept[0] is not document:
+            kept = self.builds[id(document)] = (document, build(document))
+        shown = editor.canvas.grab_image()
+        off = mismatches(shown, kept[1], editor.canvas.device_view(), LEVELS)
+        assert off["inside"] == 0 and off["outside"] == 0, off
+        assert off["on_curves"] < 0.01 * shown.shape[0] * shown.shape[1]  # a few pixel centres lie on lines
+
+
+def test_the_canvas_always_shows_what_the_cpu_gives(editor, tmp_path):
+    from PySide6.QtWidgets import QMessageBox
+
+    paths = documents(tmp_path)
+    editor.answers["question"] = QMessageBox.StandardButton.Discard  # opening another file drops the edits
+    run_state_machine_as_test(
+        lambda: CanvasTruth(editor, paths),
+        settings=settings(max_examples=6, stateful_step_count=10, deadline=None, derandomize=True, database=None,
+                          suppress_health_check=list(HealthCheck)),
+    )
+    assert editor.errors == []
