@@ -14,6 +14,12 @@ Every time is the best of N runs (the machine is shared and noisy); the
 rebuild is ``engine.build`` of the edited document, timed in the same run.
 "Pixels" is the largest difference between the updated and the rebuilt
 representation's images (one sample per pixel), in 1/255.
+
+The editing session of issue 11 (``--session``, on lady_bug, fruits and
+roses): a drag's previews, the exact result after it, a direct anchor move,
+deleting a curve, undo and redo, jumping through the history, the first and
+later brush dabs and a stop colour, each the best of N with the spread
+(slowest) beside it, and the final image against a fresh build.
 """
 
 from __future__ import annotations
@@ -113,12 +119,76 @@ def dab(repeat: int) -> None:
           "not counted above.")
 
 
+def spread(times: list[float]) -> str:
+    return f"{min(times) * 1e3:.0f} ({max(times) * 1e3:.0f})"
+
+
+def session(path: Path, repeat: int) -> None:
+    """The editor's edits on one file, as ``LiveRepresentation`` serves them (see the module)."""
+    document = load_document(path)
+    start = time.perf_counter()
+    live = LiveRepresentation(document)
+    built = time.perf_counter() - start
+    live.warm_up()  # as the editor's engine thread does after opening
+    k = edited_curve(document)
+    anchor = document.curves[k].control_points[3]
+    rows = {}
+
+    def timed(name: str, document: Document, exact: bool = True) -> None:
+        start = time.perf_counter()
+        live.update(document, exact=exact)
+        rows.setdefault(name, []).append(time.perf_counter() - start)
+
+    for run in range(repeat):
+        base = live.document
+        moved = [edits.move_control_point(base, k, 3, tuple(anchor + 0.5 * (i + 1) * np.array([1.0, run % 3 - 1])))
+                 for i in range(10)]
+        for preview in moved:  # a drag: 10 previews, then the exact result of the last
+            timed("drag preview (frame interval)", preview, exact=False)
+        timed("exact image after release", moved[-1])
+        timed("anchor move, exact", edits.move_control_point(live.document, k, 3, tuple(anchor + (run + 1, 0.0))))
+        moved[-1] = live.document
+        timed("delete a curve", edits.remove_curves(live.document, [k]))
+        deleted, before = live.document, moved[-1]
+        timed("undo (kept state)", before)
+        timed("redo (kept state)", deleted)
+        timed("history jump to the start (kept)", document)
+        timed("stop colour", edits.set_stop_color(live.document, k, "left", 0, COLOURS[run % len(COLOURS)]))
+    final = live.document
+    fresh = LiveRepresentation(final)
+    error = pixel_error(live, fresh.representation)
+    first, later = [], []
+    for run in range(repeat):  # dabs into a freshly opened document
+        dab_doc = LiveRepresentation(final)
+        dab_doc.warm_up()
+        for times in (first, later, later):
+            stroke = [DiffusionPoint((100.0 + 10 * i + run, 120.0 + len(times)), 20.0, (1.0, 0.55, 0.15), 0.3)
+                      for i in range(3)]
+            start = time.perf_counter()
+            dab_doc.update(edits.add_points(dab_doc.document, stroke))
+            times.append(time.perf_counter() - start)
+    rows["first dab (3 points)"], rows["later dab (3 points)"] = first, later
+    print(f"\n{path.stem}: {len(live.representation.segments.p):,} segments, built in {built:.1f} s; "
+          f"final image vs a fresh build: {error:.4f}/255\n")
+    print("| edit | best (slowest) ms |")
+    print("| --- | ---: |")
+    for name, times in rows.items():
+        print(f"| {name} | {spread(times)} |", flush=True)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=5, help="updates per edit (best of)")
     parser.add_argument("--rebuilds", type=int, default=3, help="rebuilds of lady_bug (best of); fruits: 2")
     parser.add_argument("--data", type=Path, default=DATA)
+    parser.add_argument("--session", nargs="*", metavar="FILE",
+                        help="the editing session of issue 11 on these files (default: lady_bug fruits roses) instead")
     args = parser.parse_args()
+    if args.session is not None:
+        print(f"# Editing session\n\n{machine()}\n\nBest of {args.repeat} (slowest in brackets).")
+        for name in args.session or ["lady_bug", "fruits", "roses"]:
+            session(args.data / f"{name}.xml", args.repeat)
+        return
     warm = LiveRepresentation(load_document(args.data / "lady_bug.xml"))  # numba cache loads
     warm.update(edits.set_stop_color(warm.document, edited_curve(warm.document), "left", 0, (1, 1, 1)))
     print(f"# Edits\n\n{machine()}\n\nBest of {args.repeat} updates and of {args.rebuilds} rebuilds (fruits: 2, "

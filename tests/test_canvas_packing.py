@@ -158,7 +158,25 @@ def test_near_bound_bounds_the_change_of_the_near_field():
     cells = lattice.cell_of(targets)
     assert (np.abs(new - old).max(axis=1) <= bound[cells[:, 0], cells[:, 1]] + 1e-12).all()
     moved = live.update(edits.move_control_point(live.document, 1, 0, (10.0, 10.0)))
-    assert moved.kind == "geometry" and bounds.near_bound(after, live.representation) is None
+    assert moved.kind == "geometry"
+    final = live.representation
+    bound = bounds.near_bound(after, final)  # inf beside the moved curve, a true bound elsewhere
+    assert np.isinf(bound).any() and np.isfinite(bound).any()
+    old = near_sum(targets, *args[:2], after.cell_start, after.segments.p, after.segments.q, after.segments.flux,
+                   after.segments.jump)
+    new = near_sum(targets, *args[:2], final.cell_start, final.segments.p, final.segments.q, final.segments.flux,
+                   final.segments.jump)
+    finite = np.isfinite(bound[cells[:, 0], cells[:, 1]])
+    assert finite.sum() > 100 and not finite.all()
+    assert (np.abs(new - old).max(axis=1)[finite] <= bound[cells[finite, 0], cells[finite, 1]] + 1e-12).all()
+    for cell in np.argwhere(np.isfinite(bound)):  # no finite cell has a moved segment in its block
+        rows, columns = slice(max(cell[0] - 1, 0), cell[0] + 2), slice(max(cell[1] - 1, 0), cell[1] + 2)
+        n = final.lattice.cells_per_side
+        block = np.zeros((n, n), bool)
+        block[rows, columns] = True
+        own_after = np.repeat(block.ravel(), np.diff(after.cell_start))
+        own_final = np.repeat(block.ravel(), np.diff(final.cell_start))
+        np.testing.assert_array_equal(after.segments.p[own_after], final.segments.p[own_final])
 
 
 def test_single_layer_bound():

@@ -87,3 +87,35 @@ def test_a_singular_system_falls_back_to_the_least_squares_solution(monkeypatch)
     got = bem._solve_or_least_squares(None)
     np.testing.assert_allclose(matrix @ got, rhs, atol=1e-9)
     np.testing.assert_allclose(got[4], got[5], atol=1e-9)  # shared, not blown up
+
+
+def test_the_bucket_filter_finds_every_pair_a_full_search_finds(monkeypatch):
+    """Collinear pieces in random directions (some just below pi: the wrap of the direction), tiny pieces,
+    and noise: the same pairs with ``_candidates`` as with every segment handed to shapely."""
+    from fmr_editor.engine import overlaps
+    from fmr_editor.engine.segments import Segments
+
+    rng = np.random.default_rng(3)
+    lines = []
+    for angle in [*rng.uniform(0, np.pi, 30), np.pi - 1e-4, np.pi - 3e-7, 1e-7]:
+        origin, t = rng.uniform(0, 1500, 2), np.array([np.cos(angle), np.sin(angle)])
+        for _ in range(3):  # pieces of one line, overlapping some of the time
+            a, b = np.sort(rng.uniform(-40, 40, 2))
+            if rng.random() < 0.2:
+                b = a + rng.uniform(1e-5, 1e-3)  # tiny: direction rounded off
+            lines.append((origin + a * t, origin + b * t) if rng.random() < 0.5 else (origin + b * t, origin + a * t))
+    for x, y in rng.uniform(0, 1000, (5, 2)):  # two horizontal pieces, one rising and one falling within the
+        for rise in (2e-7, -2e-7):             # tolerance: their directions round to either end of [0, pi)
+            lines.append((np.array([x, y]), np.array([x + 60, y + rise])))
+    lines += [tuple(rng.uniform(0, 1500, (2, 2))) for _ in range(200)]
+    p, q = np.array([line[0] for line in lines]), np.array([line[1] for line in lines])
+    n = len(p)
+    segments = Segments(p, q, np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(n, bool), np.zeros((n, 3)))
+
+    def pairs():
+        found = overlapping_pairs(segments)
+        return sorted(zip(*(np.round(values, 9).tolist() for values in found)))
+
+    filtered = pairs()
+    monkeypatch.setattr(overlaps, "_candidates", lambda segments: np.arange(len(segments)))
+    assert filtered == pairs() and len(filtered) > 10

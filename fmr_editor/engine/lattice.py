@@ -103,15 +103,37 @@ def sort_into_cells(segments: Segments, lattice: Lattice) -> tuple[Segments, np.
     return segments.take(order), np.concatenate([[0], np.cumsum(counts)])
 
 
-def fine_multipoles(segments: Segments, cell_start: np.ndarray, lattice: Lattice, order: int) -> np.ndarray:
-    """Scaled multipoles of the fine cells (P2M), ``(2^L, 2^L, 3, order + 1)`` complex."""
+def fine_multipoles(segments: Segments, cell_start: np.ndarray, lattice: Lattice, order: int,
+                    cells: np.ndarray | None = None) -> np.ndarray:
+    """Scaled multipoles of the fine cells (P2M), ``(2^L, 2^L, 3, order + 1)`` complex.
+
+    With ``cells`` (flat indices ``row * 2^L + column``), only theirs: ``(len(cells), 3, order + 1)``.
+    """
     n = lattice.cells_per_side
-    rows, columns = np.divmod(np.arange(n * n), n)
-    centres = lattice.cell_centres(np.stack([rows, columns], axis=1))
-    fine = cell_moments(
-        cell_start, centres, lattice.cell_size, segments.p, segments.q, segments.flux, segments.jump, order
-    )
-    return fine.reshape(n, n, 3, order + 1)
+    flat = np.arange(n * n) if cells is None else np.asarray(cells, np.int64)
+    centres = lattice.cell_centres(np.stack(np.divmod(flat, n), axis=1))
+    fine = cell_moments(cell_start, centres, lattice.cell_size, segments.p, segments.q, segments.flux, segments.jump,
+                        order, cells=None if cells is None else flat)
+    return fine.reshape(n, n, 3, order + 1) if cells is None else fine
+
+
+def changed_runs(before: Segments, before_start: np.ndarray, after: Segments, after_start: np.ndarray) -> np.ndarray:
+    """Flat indices of the cells whose runs of sorted segments differ (in geometry, E or C)."""
+    counts = np.diff(after_start)
+    same_count = counts == np.diff(before_start)
+    cells = np.flatnonzero(same_count & (counts > 0))
+    runs = counts[cells]
+    firsts = np.cumsum(runs) - runs
+    within = np.arange(runs.sum()) - np.repeat(firsts, runs)
+    old = np.repeat(before_start[cells], runs) + within
+    new = np.repeat(after_start[cells], runs) + within
+    equal = np.ones(len(old), bool)
+    for name in ("p", "q", "flux", "jump"):
+        equal &= (getattr(before, name)[old] == getattr(after, name)[new]).all(axis=1)
+    differs = ~same_count
+    if len(runs):
+        differs[cells[~np.minimum.reduceat(equal, firsts)]] = True
+    return np.flatnonzero(differs)
 
 
 def upward_pass(segments: Segments, cell_start: np.ndarray, lattice: Lattice, order: int) -> list[np.ndarray]:

@@ -43,7 +43,9 @@ from ..model.changes import ChangeSet
 from .delta import delta_local
 from .fast_solve import BoundarySolver
 from .kept_states import KeptStates, State
-from .lattice import Lattice, coarser_multipoles, dilated, downward_pass, fine_multipoles, sort_into_cells
+from .lattice import (
+    Lattice, changed_runs, coarser_multipoles, dilated, downward_pass, fine_multipoles, sort_into_cells,
+)
 from .point_field import LivePoints, lattice_radius, point_levels, sorted_radii_after
 from .representation import (
     SOLVE_SEGMENTS_PER_CELL, Representation, Settings, choose_levels,
@@ -141,7 +143,8 @@ class LiveRepresentation:
             solver = updated_solver(base, self._base_boundary, boundary, base.operator.lattice, self._columns)
             if solver is not None:
                 removed = set(solver.removed.tolist())
-                self._columns = {r: column for r, column in self._columns.items() if r in removed}
+                for r in [r for r in self._columns if r not in removed]:  # in place: the solver fills this dict
+                    del self._columns[r]
                 return solver
         self._base, self._base_boundary, self._columns = self._new_solver(boundary), boundary, {}
         return self._base
@@ -307,6 +310,8 @@ class LiveRepresentation:
         if changes.empty:
             self.document = document
             kind = self._refine(changed) if exact and self.approximate else "none"
+            if not self.approximate:
+                self._kept.keep(self._state())  # an equal document, another object: undo may come back to it
             return Update(kind, changed, time.perf_counter() - start, not self.approximate)
         removed = [before.points[i] for i in changes.removed_points]
         added = [document.points[i] for i in changes.added_points]
@@ -344,7 +349,7 @@ class LiveRepresentation:
         return Update(kind, changed, time.perf_counter() - start)
 
     def _refine(self, changed: np.ndarray) -> str:
-        self._unknowns = self._solve_geometry(self.solver, self._boundary, self._unknowns)
+        self._unknowns = self._solve_geometry(self._boundary, self._unknowns)
         self.approximate = False
         self._propagate(changed, self.solver.accuracy())
         self._kept.keep(self._state())
@@ -361,40 +366,68 @@ class LiveRepresentation:
                 np.array_equal(getattr(new, name), getattr(old, name)) for name in ("p", "q", "on_border"))
         self._boundary, self._curves = new, curves
         if same_geometry:
-            solver = self.solver
-            rhs_change = solver.right_hand_side(new.jump - old.jump, new.mean - old.mean)
-            self._unknowns = self._unknowns + solver.solve(rhs_change, iterate=False)
-            accuracy = solver.accuracy(iterate=False)
+            self._unknowns = self._unknowns + self._with_solver(lambda solver: solver.solve(
+                solver.right_hand_side(new.jump - old.jump, new.mean - old.mean), iterate=False))
+            accuracy = self.solver.accuracy(iterate=False)
         else:
             carried = carried_unknowns(old, self._unknowns, new)
             if exact:
-                self._solver = self._solver_for(new)
-                self._unknowns = self._solve_geometry(self._solver, new, carried)
-                accuracy = self._solver.accuracy()
+                self._solver = None  # the property makes the solver for the new geometry
+                self._unknowns = self._solve_geometry(new, carried)
+                accuracy = self.solver.accuracy()
             else:
                 self._solver, self._unknowns, self.approximate = None, carried, True
-                accuracy = PREVIEW_ACCURACY
+                self._propagate(changed, PREVIEW_ACCURACY, local=True)
+                return "geometry"
         self._propagate(changed, accuracy)
         return "colours" if same_geometry else "geometry"
 
-    @staticmethod
-    def _solve_geometry(solver: BoundarySolver | UpdatedSolver, boundary: Segments, initial: np.ndarray) -> np.ndarray:
-        """The unknowns of ``boundary``'s system: corrected from ``initial`` through an update, or solved."""
-        if isinstance(solver, UpdatedSolver):
-            return solver.correct(initial, boundary.jump, boundary.mean)
-        return solver.solve(solver.right_hand_side(boundary.jump, boundary.mean))
+    def _solve_geometry(self, boundary: Segments, initial: np.ndarray) -> np.ndarray:
+        """The unknowns of ``boundary``'s system (the current one): corrected from ``initial`` through an
+        update of the factorisation, or solved afresh."""
+        def solve(solver: BoundarySolver | UpdatedSolver) -> np.ndarray:
+            if isinstance(solver, UpdatedSolver):
+                return solver.correct(initial, boundary.jump, boundary.mean)
+            return solver.solve(solver.right_hand_side(boundary.jump, boundary.mean))
 
-    def _propagate(self, changed: np.ndarray, accuracy: float) -> None:
-        """Carry the change of the fine multipoles of the new unknowns through the tree; mark what moved."""
+        return self._with_solver(solve)
+
+    def _with_solver(self, work: Callable[[BoundarySolver | UpdatedSolver], np.ndarray]) -> np.ndarray:
+        """``work(self.solver)``; an update found singular gives way to a new factorisation, which handles that."""
+        try:
+            return work(self.solver)
+        except np.linalg.LinAlgError:
+            if not isinstance(self._solver, UpdatedSolver):
+                raise
+        boundary = self._boundary
+        self._solver = self._base = self._new_solver(boundary)
+        self._base_boundary, self._columns = boundary, {}
+        return work(self._solver)
+
+    def _propagate(self, changed: np.ndarray, accuracy: float, local: bool = False) -> None:
+        """Carry the change of the fine multipoles of the new unknowns through the tree; mark what moved.
+
+        ``local``: only segments that moved or were replaced changed (a preview
+        keeps every other density), so only their cells' multipoles are made again.
+        """
+        before, before_start = self._segments, self._cell_start
         self._sort_solution()
-        delta = self._fine_moments() - self._fine
-        size = np.abs(delta).max(axis=(2, 3))
-        moved = size > NEGLIGIBLE * accuracy * max(float(np.abs(self._fine).max(initial=0.0)), 1e-300)
+        if local:
+            n = self.lattice.cells_per_side
+            cells = changed_runs(before, before_start, self._segments, self._cell_start)
+            fresh = self._fine.copy()
+            fresh.reshape(n * n, *fresh.shape[2:])[cells] = fine_multipoles(
+                self._segments, self._cell_start, self.lattice, self.settings.propagation_order, cells)
+        else:
+            fresh = self._fine_moments()
+        delta = fresh - self._fine
+        scale = max(_largest_part(fresh), 1e-300)
+        moved = _largest_part(delta, axis=(2, 3)) > NEGLIGIBLE * accuracy * scale
         delta[~moved] = 0.0
         self._fine = self._fine + delta
         local_change = delta_local(delta, self.lattice, self.settings.propagation_order)
         self._local = self._local + local_change
-        self._report(changed, np.abs(local_change).max(axis=(2, 3), initial=0.0), dilated(moved))
+        self._report(changed, _largest_part(local_change, axis=(2, 3)), dilated(moved))
 
     def _report(self, changed: np.ndarray, local_change: np.ndarray, moved: np.ndarray) -> None:
         """Mark the cells whose unreported change of the local expansions passed ``UNSEEN``, or ``moved``."""
@@ -421,13 +454,19 @@ class LiveRepresentation:
     def _restore(self, state: State, changed: np.ndarray) -> None:
         """Return to ``state`` (of this lattice), marking the cells whose pixels differ."""
         moved = np.any(state.fine != self._fine, axis=(2, 3)) | _point_cells(self._points, state.points)
-        self._report(changed, np.abs(state.local - self._local).max(axis=(2, 3), initial=0.0), dilated(moved))
+        self._report(changed, _largest_part(state.local - self._local, axis=(2, 3)), dilated(moved))
         self.document, self._curves, self._radii = state.document, state.curves, state.radii
         self._boundary, self._unknowns, self._segments = state.boundary, state.unknowns, state.segments
         self._cell_start, self._fine, self._local = state.cell_start, state.fine, state.local
         self._points = state.points.copy() if state.points is not None else None
         self._solver, self.approximate = None, False
         self._kept.keep(state)
+
+
+def _largest_part(values: np.ndarray, axis=None) -> np.ndarray | float:
+    """Largest absolute real or imaginary part of complex ``values`` (over ``axis``): a cheap size."""
+    parts = np.abs(values.view(np.float64))
+    return parts.max(axis=axis, initial=0.0) if axis is not None else float(parts.max(initial=0.0))
 
 
 def _point_cells(a: LivePoints | None, b: LivePoints | None) -> np.ndarray | bool:

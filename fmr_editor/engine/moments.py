@@ -35,27 +35,31 @@ def _cell_moments(occupied, cell_start, centres, size, p, q, flux, jump, out):
 def cell_moments(
     cell_start: np.ndarray, centres: np.ndarray, size: float,
     p: np.ndarray, q: np.ndarray, flux: np.ndarray, jump: np.ndarray, order: int,
+    cells: np.ndarray | None = None,
 ) -> np.ndarray:
-    """Scaled multipole moments of every fine cell, ``(cells, 3, order + 1)`` complex.
+    """Scaled multipole moments of every fine cell (or of ``cells``), ``(len(centres), 3, order + 1)`` complex.
 
     Parameters
     ----------
     cell_start : numpy.ndarray
         CSR offsets of each cell's segments (segments sorted by cell).
     centres : numpy.ndarray
-        ``(cells, 2)`` cell centres.
+        ``(m, 2)`` centres of the cells wanted: every cell, or those of ``cells``.
     size : float
         Cell size r.
     p, q, flux, jump : numpy.ndarray
         Sorted segments and their E and C.
     order : int
+    cells : numpy.ndarray, optional
+        Indices (into ``cell_start``) of the cells wanted; default all.
     """
     out = np.zeros((len(centres), 3, order + 1), complex)
-    occupied = np.flatnonzero(np.diff(cell_start))
+    wanted = np.arange(len(centres)) if cells is None else np.asarray(cells, np.int64)
+    occupied = np.flatnonzero(cell_start[wanted + 1] > cell_start[wanted])  # positions in ``wanted``
     if len(occupied):
         sums = np.zeros((len(occupied), 3, order + 1), complex)
         _cell_moments(
-            occupied, cell_start, np.ascontiguousarray(centres[occupied]), float(size),
+            wanted[occupied], cell_start, np.ascontiguousarray(centres[occupied]), float(size),
             p, q, np.ascontiguousarray(flux), np.ascontiguousarray(jump), sums,
         )
         out[occupied] = sums

@@ -18,6 +18,40 @@ from .segments import Segments
 
 #: Distance in pixels under which end points count as on another segment's line.
 COLLINEAR_TOLERANCE = 1e-6
+#: Buckets of line direction (radians) and offset from the origin (pixels) for ``_candidates``: two
+#: collinear segments at least ``SHORT`` long differ by at most 2 tolerance / SHORT = 1e-3 radians in
+#: direction and so (on canvases up to 2,000 px) by less than 2 px in offset: neighbouring buckets.
+ANGLE_BUCKET, OFFSET_BUCKET, SHORT = 1e-3, 4.0, 2e-3
+
+
+def _candidates(segments: Segments) -> np.ndarray:
+    """Indices of the segments that may overlap another collinearly: a cheap filter before shapely.
+
+    Each segment's line is put in a bucket of direction and offset; a
+    segment whose bucket or a neighbouring one holds another segment (or
+    that is shorter than ``SHORT``, whose direction says little) is kept.
+    """
+    d = segments.q - segments.p
+    theta = np.mod(np.arctan2(d[:, 1], d[:, 0]), np.pi)
+    offset = np.cos(theta) * segments.p[:, 1] - np.sin(theta) * segments.p[:, 0]
+    index = np.arange(len(segments))
+    # a direction just below pi is the same line as one just above 0, with the normal (and offset) flipped
+    wraps = theta > np.pi - 2 * ANGLE_BUCKET
+    theta = np.concatenate([theta, theta[wraps] - np.pi])
+    offset = np.concatenate([offset, -offset[wraps]])
+    index = np.concatenate([index, index[wraps]])
+    keys = np.stack([np.floor(theta / ANGLE_BUCKET), np.floor(offset / OFFSET_BUCKET)], axis=1).astype(np.int64)
+    flat = keys[:, 0] * (1 << 32) + keys[:, 1]
+    occupied, counts = np.unique(flat, return_counts=True)
+    crowded = np.zeros(len(index), bool)
+    for da in (-1, 0, 1):
+        for dc in (-1, 0, 1):
+            neighbour = flat + da * (1 << 32) + dc
+            at = np.clip(np.searchsorted(occupied, neighbour), 0, len(occupied) - 1)
+            others = np.where(occupied[at] == neighbour, counts[at], 0) - (da == 0 and dc == 0)
+            crowded |= others > 0
+    short = np.hypot(d[:, 0], d[:, 1]) < SHORT
+    return np.union1d(np.unique(index[crowded]), np.flatnonzero(short))
 
 
 def overlapping_pairs(segments: Segments, tolerance: float = COLLINEAR_TOLERANCE):
@@ -30,8 +64,10 @@ def overlapping_pairs(segments: Segments, tolerance: float = COLLINEAR_TOLERANCE
     start, end : numpy.ndarray
         The shared stretch as parameters ``0 <= start < end <= 1`` along ``earlier``.
     """
-    lines = shapely.linestrings(np.stack([segments.p, segments.q], axis=1))
+    chosen = _candidates(segments) if tolerance <= COLLINEAR_TOLERANCE else np.arange(len(segments))
+    lines = shapely.linestrings(np.stack([segments.p[chosen], segments.q[chosen]], axis=1))
     earlier, later = shapely.STRtree(lines).query(lines, predicate="dwithin", distance=tolerance)
+    earlier, later = chosen[earlier], chosen[later]
     forward = earlier < later
     earlier, later = earlier[forward], later[forward]
     d = segments.q - segments.p

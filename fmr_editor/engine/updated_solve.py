@@ -45,16 +45,43 @@ MIN_CONDITION = 1e-10
 MAX_REPLACED = 600
 
 
+def _rows(segments: Segments) -> np.ndarray:
+    return np.column_stack([segments.p, segments.q, segments.on_border]).astype(np.float64)
+
+
 def match_segments(old: Segments, new: Segments) -> tuple[np.ndarray, np.ndarray]:
     """Pairs of identical segments (end points and border flag): indices into ``old`` and ``new``.
 
-    Each segment is matched at most once, in order among equal ones.
+    Each segment is matched at most once, in order among equal ones.  An edit
+    replaces a run of segments and keeps the order of the rest, so the common
+    head and tail are matched by comparing rows in place, and only what lies
+    between by sorting (``match_segments_reference``).
     """
-    def keys(segments: Segments) -> np.ndarray:
-        rows = np.ascontiguousarray(np.column_stack([segments.p, segments.q, segments.on_border]), np.float64)
+    old_rows, new_rows = _rows(old), _rows(new)
+    shortest = min(len(old_rows), len(new_rows))
+    same = (old_rows[:shortest] == new_rows[:shortest]).all(axis=1)
+    head = int(np.argmin(same)) if not same.all() else shortest
+    rest = shortest - head
+    same = (old_rows[len(old_rows) - rest:][::-1] == new_rows[len(new_rows) - rest:][::-1]).all(axis=1)
+    tail = int(np.argmin(same)) if not same.all() else rest
+    old_end, new_end = len(old_rows) - tail, len(new_rows) - tail
+    middle_old, middle_new = _sorted_match(old_rows[head:old_end], new_rows[head:new_end])
+    return (np.concatenate([np.arange(head), head + middle_old, np.arange(old_end, len(old_rows))]),
+            np.concatenate([np.arange(head), head + middle_new, np.arange(new_end, len(new_rows))]))
+
+
+def match_segments_reference(old: Segments, new: Segments) -> tuple[np.ndarray, np.ndarray]:
+    """``match_segments`` by sorting everything (plain; for tests)."""
+    return _sorted_match(_rows(old), _rows(new))
+
+
+def _sorted_match(old_rows: np.ndarray, new_rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Matched rows of two arrays of rows, by sorting the old rows as bytes and searching the new ones."""
+    def keys(rows: np.ndarray) -> np.ndarray:
+        rows = np.ascontiguousarray(rows)
         return rows.view(np.dtype((np.void, rows.dtype.itemsize * rows.shape[1]))).ravel()
 
-    old_keys, new_keys = keys(old), keys(new)
+    old_keys, new_keys = keys(old_rows), keys(new_rows)
     order = np.argsort(old_keys, kind="stable")
     ranked = old_keys[order]
     first = np.searchsorted(ranked, new_keys)
@@ -86,19 +113,23 @@ def updated_solver(base: BoundarySolver, base_segments: Segments, segments: Segm
     kept_base, kept = match_segments(base_segments, segments)
     if base.size - len(kept) + len(segments) - len(kept) > max_replaced:
         return None
-    try:
-        return UpdatedSolver(base, segments, lattice, kept_base, kept, columns)
-    except np.linalg.LinAlgError:
-        return None
+    return UpdatedSolver(base, segments, lattice, kept_base, kept, columns)
 
 
-def _factors(matrix: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """LU factors of ``matrix``; ``LinAlgError`` when it is singular to ``MIN_CONDITION``."""
+def _factors(matrix: np.ndarray, scale: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """LU factors of ``matrix``; ``LinAlgError`` when it is singular to ``MIN_CONDITION``.
+
+    ``scale`` (a 1-norm, default the matrix's own) is what the matrix's
+    smallest singular value is measured against: a Schur complement of a
+    singular system is rounding noise, well conditioned in itself but tiny
+    next to the blocks it came from.
+    """
     norm = float(np.abs(matrix).sum(axis=0).max(initial=0.0))
     lu, pivots = scipy.linalg.lu_factor(matrix, check_finite=False)
     condition, _ = scipy.linalg.lapack.dgecon(lu, norm, norm="1")
-    if not condition >= MIN_CONDITION:
-        raise np.linalg.LinAlgError(f"singular to {condition:.1e}")
+    relative = condition * norm / (norm if scale is None else max(scale, 1e-300))
+    if not relative >= MIN_CONDITION:
+        raise np.linalg.LinAlgError(f"singular to {relative:.1e}")
     return lu, pivots
 
 
@@ -107,7 +138,9 @@ class UpdatedSolver:
 
     Offers what ``LiveRepresentation`` asks of a ``BoundarySolver``
     (``right_hand_side``, ``solve``, ``accuracy``) plus ``correct``; made by
-    ``updated_solver``.
+    ``updated_solver``.  Its first solve (or ``correct``) raises
+    ``numpy.linalg.LinAlgError`` when the new system is (nearly) singular:
+    a fresh factorisation handles that case.
 
     Parameters
     ----------
@@ -134,36 +167,49 @@ class UpdatedSolver:
         self.order = np.argsort(cells[:, 0] * lattice.cells_per_side + cells[:, 1], kind="stable")
         ordered, cell_start = sort_into_cells(segments, lattice)
         self.operator = CollocationOperator(ordered, cell_start, lattice, order=base.operator.order)
-        self._removed_columns(columns if columns is not None else {})
+        self._columns = columns if columns is not None else {}
         entries = CollocationEntries(segments)
         added = self.added
         self._kept_to_added = entries.block(kept, added)  # A_KA
         self._added_to_kept = entries.block(added, kept)  # A_AK
-        self._z = self._kept_solve(self._kept_to_added)  # A_KK^-1 A_KA
-        schur = entries.block(added, added) - self._added_to_kept @ self._z
-        self._schur = _factors(schur) if len(added) else None
-
-    def _removed_columns(self, cache: dict[int, np.ndarray]) -> None:
-        """G applied to the unit vectors of the removed segments (G_:R), and G_RR's factors."""
-        missing = [r for r in self.removed.tolist() if r not in cache]
-        if missing:
-            units = np.zeros((self.base.size, len(missing)))
-            units[missing, np.arange(len(missing))] = 1.0
-            for r, column in zip(missing, self.base.solve(units, iterate=False).T):
-                cache[r] = column
-        self._g_r = np.column_stack([cache[r] for r in self.removed.tolist()]) if len(self.removed) \
-            else np.zeros((self.base.size, 0))
-        self._g_rr = _factors(self._g_r[self.removed]) if len(self.removed) else None
+        self._added_block = entries.block(added, added)  # A_AA
+        self._z = self._schur = None  # made by the first solve, in the same base solve as its right-hand side
 
     def _kept_solve(self, values: np.ndarray) -> np.ndarray:
-        """``A_KK^-1 values`` for ``values`` of shape ``(len(kept), m)``."""
-        embedded = np.zeros((self.base.size, values.shape[1]))
-        embedded[self.kept_base] = values
+        """``A_KK^-1 values`` for ``values`` of shape ``(len(kept), m)``: one base solve.
+
+        The first call also solves for what the update itself needs: the
+        removed segments' unit vectors not yet cached (G_:R, giving G_RR's
+        factors) and A_KA (giving Z = A_KK^-1 A_KA and the Schur complement).
+
+        Raises
+        ------
+        numpy.linalg.LinAlgError
+            When G_RR or the Schur complement is singular (see ``MIN_CONDITION``).
+        """
+        first = self._z is None
+        removed, cache, n = self.removed.tolist(), self._columns, self.base.size
+        missing = [r for r in removed if r not in cache] if first else []
+        parts = [self._kept_to_added, values] if first else [values]
+        embedded = np.zeros((n, len(missing) + sum(part.shape[1] for part in parts)))
+        embedded[missing, np.arange(len(missing))] = 1.0
+        embedded[self.kept_base, len(missing):] = np.hstack(parts)
         solved = self.base.solve(embedded, iterate=False)
+        if first:
+            for r, column in zip(missing, solved[:, : len(missing)].T):
+                cache[r] = column
+            self._g_r = np.column_stack([cache[r] for r in removed]) if removed else np.zeros((n, 0))
+            self._g_rr = _factors(self._g_r[self.removed]) if removed else None
+        solved = solved[:, len(missing):]
         kept = solved[self.kept_base]
         if self._g_rr is not None:
             kept -= self._g_r[self.kept_base] @ scipy.linalg.lu_solve(self._g_rr, solved[self.removed],
                                                                       check_finite=False)
+        if first:
+            self._z, kept = kept[:, : len(self.added)], kept[:, len(self.added):]
+            schur = self._added_block - self._added_to_kept @ self._z
+            scale = float(np.abs(self._added_block).sum(axis=0).max(initial=0.0))
+            self._schur = _factors(schur, scale) if len(self.added) else None
         return kept
 
     def solve(self, rhs: np.ndarray, progress=None, iterate: bool = False) -> np.ndarray:

@@ -57,22 +57,57 @@ def single_layer_bound(length: np.ndarray, cell_size: float) -> np.ndarray:
     return (length * max(np.log(far), 0.0) + singular) / (2 * np.pi)
 
 
-def segment_changes(before: Representation, after: Representation) -> np.ndarray | None:
-    """Bound on each segment's change of the near field it adds to any pixel, ``(segments,)``.
-
-    None when the segments' geometry (or cell lists) differ: then no bound is
-    known and every reported cell has to be evaluated again.
-    """
+def same_geometry(before: Representation, after: Representation) -> bool:
+    """Whether both have the same segments in the same cells (only their E and C may differ)."""
     old, new = before.segments, after.segments
-    if old is new:
-        return np.zeros(len(new.p))
-    if not (np.array_equal(before.cell_start, after.cell_start) and np.array_equal(old.p, new.p)
-            and np.array_equal(old.q, new.q)):
+    return old is new or (np.array_equal(before.cell_start, after.cell_start) and np.array_equal(old.p, new.p)
+                          and np.array_equal(old.q, new.q))
+
+
+def segment_changes(before: Representation, after: Representation) -> np.ndarray | None:
+    """Bound on each segment's change of the near field it adds to any pixel, ``(segments,)`` of ``after``.
+
+    Segments of a cell whose run of segments changed geometry (a curve moved
+    through it) get ``inf``: no bound is known there.  None when the
+    lattices differ.
+    """
+    matched = _matched_runs(before, after)
+    if matched is None:
         return None
-    flux = np.abs(new.flux - old.flux).max(axis=1, initial=0.0)
-    jump = np.abs(new.jump - old.jump).max(axis=1, initial=0.0)
-    length = np.hypot(*(new.q - new.p).T)
-    return flux * single_layer_bound(length, after.lattice.cell_size) + jump / 2
+    old_index, new_index, _ = matched
+    old, new = before.segments, after.segments
+    out = np.full(len(new.p), np.inf)
+    flux = np.abs(new.flux[new_index] - old.flux[old_index]).max(axis=1, initial=0.0)
+    jump = np.abs(new.jump[new_index] - old.jump[old_index]).max(axis=1, initial=0.0)
+    length = np.hypot(*(new.q[new_index] - new.p[new_index]).T)
+    out[new_index] = flux * single_layer_bound(length, after.lattice.cell_size) + jump / 2
+    return out
+
+
+def _matched_runs(before: Representation, after: Representation):
+    """Segments (indices before and after) of the cells whose runs kept their geometry, and the
+    ``(2^L, 2^L)`` mask of the cells whose runs did not; None when the lattices differ."""
+    if len(before.cell_start) != len(after.cell_start):
+        return None
+    n = after.lattice.cells_per_side
+    if same_geometry(before, after):
+        index = np.arange(len(after.segments.p))
+        return index, index, np.zeros((n, n), bool)
+    old, new = before.segments, after.segments
+    counts = np.diff(after.cell_start)
+    same_count = counts == np.diff(before.cell_start)
+    cells = np.flatnonzero(same_count & (counts > 0))
+    runs = counts[cells]
+    firsts = np.cumsum(runs) - runs
+    within = np.arange(runs.sum()) - np.repeat(firsts, runs)
+    old_index = np.repeat(before.cell_start[cells], runs) + within
+    new_index = np.repeat(after.cell_start[cells], runs) + within
+    equal = (old.p[old_index] == new.p[new_index]).all(axis=1) & (old.q[old_index] == new.q[new_index]).all(axis=1)
+    cell_kept = np.minimum.reduceat(equal, firsts) if len(runs) else np.zeros(0, bool)
+    changed = ~same_count
+    changed[cells[~cell_kept]] = True
+    kept = np.repeat(cell_kept, runs)
+    return old_index[kept], new_index[kept], changed.reshape(n, n)
 
 
 def block_sums(per_segment: np.ndarray, rep: Representation) -> np.ndarray:
@@ -80,6 +115,11 @@ def block_sums(per_segment: np.ndarray, rep: Representation) -> np.ndarray:
     n = rep.lattice.cells_per_side
     own = np.repeat(np.arange(n * n), np.diff(rep.cell_start))
     per_cell = np.bincount(own, per_segment, minlength=n * n).reshape(n, n)
+    return _block(per_cell)
+
+
+def _block(per_cell: np.ndarray) -> np.ndarray:
+    n = len(per_cell)
     padded = np.pad(per_cell, 1)
     return sum(padded[1 + dy : 1 + dy + n, 1 + dx : 1 + dx + n] for dy in (-1, 0, 1) for dx in (-1, 0, 1))
 
@@ -87,7 +127,11 @@ def block_sums(per_segment: np.ndarray, rep: Representation) -> np.ndarray:
 def near_bound(before: Representation, after: Representation) -> np.ndarray | None:
     """Largest change of the segments' near field over each cell's pixels, ``(2^L, 2^L)``.
 
-    None as for ``segment_changes``.
+    ``inf`` for the cells whose 3x3 block holds a cell whose segments moved
+    (or went); None when the lattices differ.
     """
-    changes = segment_changes(before, after)
-    return None if changes is None else block_sums(changes, after)
+    matched = _matched_runs(before, after)
+    if matched is None:
+        return None
+    sums = block_sums(segment_changes(before, after), after)
+    return np.where(_block(matched[2].astype(np.float64)) > 0, np.inf, sums)

@@ -204,18 +204,19 @@ class CanvasRenderer:
             for start, stop in packing.cell_runs(cells):
                 self._buffers["u_coeffs"].set_subdata(start * texels, self._mirror[start:stop])
         old = self._rep
-        segment_moves = bounds.segment_changes(old, rep)
+        same_geometry = bounds.same_geometry(old, rep)
+        near = bounds.near_bound(old, rep)  # inf beside segments that moved
         near_points_changed = _near(rep) is not _near(old)
         if rep.segments is not old.segments or rep.cell_start is not old.cell_start:
-            self._upload_segments(rep, same_geometry=segment_moves is not None)
+            self._upload_segments(rep, same_geometry=same_geometry)
         if near_points_changed:
             self._upload_points(rep)
         self._rep = rep
-        exact = segment_moves is not None and not near_points_changed  # the bounds cover every change
-        if exact:
-            moved += bounds.block_sums(segment_moves, rep).ravel()[cells]
+        if near is not None and not near_points_changed:  # the bounds cover every change
+            moved += near.ravel()[cells]
         else:
             moved[:] = np.inf
+        exact = same_geometry and not near_points_changed  # the change can also be added to the image
         unseen = self._unseen.ravel()
         before = unseen[cells]
         total = before + moved
@@ -225,6 +226,7 @@ class CanvasRenderer:
         counts = {"changed": len(cells), "delta": 0, "evaluate": 0, "segments": 0}
         if self._cached_view is not None and len(shown):
             if exact and self._additive:
+                segment_moves = bounds.segment_changes(old, rep)
                 keep = segment_moves > SEGMENT_SHARE * self.tolerance
                 left_out = bounds.block_sums(np.where(keep, 0.0, segment_moves), rep).ravel()[shown]
                 after = before[show] + left_out + DELTA_ROUNDING

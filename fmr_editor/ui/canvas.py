@@ -66,6 +66,7 @@ class Canvas(QOpenGLWidget):
         self.setFocusPolicy(Qt.FocusPolicy.StrongFocus)
         self.renderer: CanvasRenderer | None = None
         self.error: str | None = None  # why nothing can be drawn (no suitable OpenGL)
+        self.frames_shown = 0  # paints that showed a representation not shown before
         self._rep: Representation | None = None
         self._full_upload = False
         self._changed: np.ndarray | None = None
@@ -190,6 +191,7 @@ class Canvas(QOpenGLWidget):
                 renderer.upload(self._rep)
             elif self._changed is not None:
                 renderer.update(self._rep, self._changed)
+            self.frames_shown += self._rep is not None and (self._full_upload or self._changed is not None)
             self._full_upload, self._changed = False, None
             renderer.draw(self.device_view(), self.defaultFramebufferObject(), preview=self._settle.isActive())
         except ShaderError as error:  # the driver refused the shader: say so once, draw nothing more
