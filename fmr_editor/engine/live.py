@@ -41,6 +41,7 @@ import numpy as np
 from ..model import DiffusionCurve, DiffusionPoint, Document
 from ..model.changes import ChangeSet
 from .delta import delta_local
+from .curve_cache import CurveSegments
 from .fast_solve import BoundarySolver
 from .kept_states import KeptStates, State
 from .lattice import (
@@ -50,7 +51,7 @@ from .point_field import LivePoints, lattice_radius, point_levels, sorted_radii_
 from .representation import (
     SOLVE_SEGMENTS_PER_CELL, Representation, Settings, choose_levels,
 )
-from .segments import Segments, boundary_segments, curve_colors, curve_segments, flatten_curve
+from .segments import Segments, boundary_segments, curve_colors
 from .updated_solve import UpdatedSolver, carried_unknowns, updated_solver
 
 Progress = Callable[[str, float], None]
@@ -122,7 +123,7 @@ class LiveRepresentation:
                  saved: Representation | None = None, memory: int = 500 * 2**20) -> None:
         self.settings = settings
         self.approximate = False
-        self._flattened: dict[DiffusionCurve, Segments] = {}
+        self._curve_cache = CurveSegments(settings.tolerance, settings.max_length)
         self._columns: dict[int, np.ndarray] = {}  # the factorisation applied to unit vectors (updated_solve)
         self._kept = KeptStates(memory)
         if saved is None or not self._resume(document, saved):
@@ -150,19 +151,12 @@ class LiveRepresentation:
         return self._base
 
     # -- building ----------------------------------------------------------------------------
-    def _flatten(self, curve: DiffusionCurve, tolerance: float, max_length: float) -> Segments:
-        segments = self._flattened.get(curve)
-        if segments is None:
-            segments = self._flattened[curve] = flatten_curve(curve, tolerance, max_length)
-        return segments
-
     def _forget_curves(self, keep: tuple[DiffusionCurve, ...]) -> None:
-        """Drop cached flattenings of curves in neither ``keep`` nor the current document."""
-        wanted = set(keep) | set(self.document.curves)
-        self._flattened = {curve: segments for curve, segments in self._flattened.items() if curve in wanted}
+        """Drop the kept segments of curves in neither ``keep`` nor the current document."""
+        self._curve_cache.forget(keep + self.document.curves)
 
     def _curve_segments(self, document: Document) -> Segments:
-        return curve_segments(document, self.settings.tolerance, self.settings.max_length, flatten=self._flatten)
+        return self._curve_cache.segments(document)
 
     def _levels(self, curves: Segments) -> int:
         """The lattice depth for ``curves``: what they ask for, or what the points asked for when built.
@@ -464,9 +458,13 @@ class LiveRepresentation:
 
 
 def _largest_part(values: np.ndarray, axis=None) -> np.ndarray | float:
-    """Largest absolute real or imaginary part of complex ``values`` (over ``axis``): a cheap size."""
-    parts = np.abs(values.view(np.float64))
-    return parts.max(axis=axis, initial=0.0) if axis is not None else float(parts.max(initial=0.0))
+    """Largest absolute real or imaginary part of complex ``values`` (over ``axis``): a cheap size.
+
+    From the largest and smallest parts, so that no array of absolute values is made.
+    """
+    parts = values.view(np.float64)
+    largest = np.maximum(parts.max(axis=axis, initial=0.0), -parts.min(axis=axis, initial=0.0))
+    return largest if axis is not None else float(largest)
 
 
 def _point_cells(a: LivePoints | None, b: LivePoints | None) -> np.ndarray | bool:

@@ -24,12 +24,13 @@ COLLINEAR_TOLERANCE = 1e-6
 ANGLE_BUCKET, OFFSET_BUCKET, SHORT = 1e-3, 4.0, 2e-3
 
 
-def _candidates(segments: Segments) -> np.ndarray:
-    """Indices of the segments that may overlap another collinearly: a cheap filter before shapely.
+def _candidates(segments: Segments, among: np.ndarray | None = None) -> np.ndarray:
+    """Indices of the segments that may overlap another collinearly (one of ``among``): a filter before shapely.
 
     Each segment's line is put in a bucket of direction and offset; a
-    segment whose bucket or a neighbouring one holds another segment (or
-    that is shorter than ``SHORT``, whose direction says little) is kept.
+    segment whose bucket or a neighbouring one holds another segment (of
+    ``among``, a boolean mask, when given; those are kept too), or that is
+    shorter than ``SHORT`` (its direction says little), is kept.
     """
     d = segments.q - segments.p
     theta = np.mod(np.arctan2(d[:, 1], d[:, 0]), np.pi)
@@ -42,20 +43,24 @@ def _candidates(segments: Segments) -> np.ndarray:
     index = np.concatenate([index, index[wraps]])
     keys = np.stack([np.floor(theta / ANGLE_BUCKET), np.floor(offset / OFFSET_BUCKET)], axis=1).astype(np.int64)
     flat = keys[:, 0] * (1 << 32) + keys[:, 1]
-    occupied, counts = np.unique(flat, return_counts=True)
+    source = np.ones(len(index), bool) if among is None else among[index]
+    occupied, counts = np.unique(flat[source], return_counts=True)
     crowded = np.zeros(len(index), bool)
     for da in (-1, 0, 1):
         for dc in (-1, 0, 1):
             neighbour = flat + da * (1 << 32) + dc
-            at = np.clip(np.searchsorted(occupied, neighbour), 0, len(occupied) - 1)
-            others = np.where(occupied[at] == neighbour, counts[at], 0) - (da == 0 and dc == 0)
-            crowded |= others > 0
+            at = np.clip(np.searchsorted(occupied, neighbour), 0, max(len(occupied) - 1, 0))
+            found = np.where(occupied[at] == neighbour, counts[at], 0) if len(occupied) else np.zeros(len(flat), int)
+            crowded |= found - (source & (da == 0) & (dc == 0)) > 0
     short = np.hypot(d[:, 0], d[:, 1]) < SHORT
-    return np.union1d(np.unique(index[crowded]), np.flatnonzero(short))
+    chosen = np.union1d(np.unique(index[crowded]), np.flatnonzero(short))
+    return chosen if among is None else np.union1d(chosen, np.flatnonzero(among))
 
 
-def overlapping_pairs(segments: Segments, tolerance: float = COLLINEAR_TOLERANCE):
+def overlapping_pairs(segments: Segments, tolerance: float = COLLINEAR_TOLERANCE, among: np.ndarray | None = None):
     """Pairs ``(earlier, later)`` of collinear segments that share a stretch of line.
+
+    With ``among`` (a boolean mask), only the pairs with at least one of those.
 
     Returns
     -------
@@ -64,11 +69,14 @@ def overlapping_pairs(segments: Segments, tolerance: float = COLLINEAR_TOLERANCE
     start, end : numpy.ndarray
         The shared stretch as parameters ``0 <= start < end <= 1`` along ``earlier``.
     """
-    chosen = _candidates(segments) if tolerance <= COLLINEAR_TOLERANCE else np.arange(len(segments))
+    if tolerance <= COLLINEAR_TOLERANCE:
+        chosen = _candidates(segments, among)
+    else:
+        chosen = np.arange(len(segments))
     lines = shapely.linestrings(np.stack([segments.p[chosen], segments.q[chosen]], axis=1))
     earlier, later = shapely.STRtree(lines).query(lines, predicate="dwithin", distance=tolerance)
     earlier, later = chosen[earlier], chosen[later]
-    forward = earlier < later
+    forward = earlier < later if among is None else (earlier < later) & (among[earlier] | among[later])
     earlier, later = earlier[forward], later[forward]
     d = segments.q - segments.p
     length = np.hypot(d[:, 0], d[:, 1])
@@ -85,11 +93,14 @@ def overlapping_pairs(segments: Segments, tolerance: float = COLLINEAR_TOLERANCE
     return earlier[shared], later[shared], start[shared], end[shared]
 
 
-def drop_covered_parts(segments: Segments, tolerance: float = COLLINEAR_TOLERANCE) -> Segments:
-    """``segments`` without the stretches that a later segment covers collinearly."""
+def drop_covered_parts(segments: Segments, tolerance: float = COLLINEAR_TOLERANCE, pairs=None) -> Segments:
+    """``segments`` without the stretches that a later segment covers collinearly.
+
+    ``pairs``: ``overlapping_pairs(segments, tolerance)`` when known already.
+    """
     if len(segments) < 2:
         return segments
-    earlier, _, start, end = overlapping_pairs(segments, tolerance)
+    earlier, _, start, end = overlapping_pairs(segments, tolerance) if pairs is None else pairs
     if len(earlier) == 0:
         return segments
     order = np.lexsort((start, earlier))

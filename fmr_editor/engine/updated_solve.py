@@ -45,6 +45,13 @@ MIN_CONDITION = 1e-10
 MAX_REPLACED = 600
 
 
+def _others(count: int, taken: np.ndarray) -> np.ndarray:
+    """``range(count)`` without ``taken``, in order."""
+    free = np.ones(count, bool)
+    free[taken] = False
+    return np.flatnonzero(free)
+
+
 def _rows(segments: Segments) -> np.ndarray:
     return np.column_stack([segments.p, segments.q, segments.on_border]).astype(np.float64)
 
@@ -161,8 +168,8 @@ class UpdatedSolver:
                  kept: np.ndarray, columns: dict[int, np.ndarray] | None = None) -> None:
         self.base, self.size, self.trivial, self.dense = base, len(segments), False, base.dense
         self.kept_base, self.kept = kept_base, kept
-        self.removed = np.setdiff1d(np.arange(base.size), kept_base)
-        self.added = np.setdiff1d(np.arange(len(segments)), kept)
+        self.removed = _others(base.size, kept_base)
+        self.added = _others(len(segments), kept)
         cells = lattice.cell_of(segments.midpoints)
         self.order = np.argsort(cells[:, 0] * lattice.cells_per_side + cells[:, 1], kind="stable")
         ordered, cell_start = sort_into_cells(segments, lattice)
@@ -263,7 +270,7 @@ def carried_unknowns(old: Segments, unknowns: np.ndarray, new: Segments) -> np.n
     out = np.zeros((len(new), unknowns.shape[1]))
     kept_old, kept = match_segments(old, new)
     out[kept] = unknowns[kept_old]
-    loose = np.setdiff1d(np.flatnonzero(~new.on_border), kept)
+    loose = _others(len(new), np.concatenate([kept, np.flatnonzero(new.on_border)]))
     sources = np.flatnonzero(~old.on_border)
     if len(loose) == 0 or len(sources) == 0:
         return out

@@ -1,0 +1,82 @@
+"""A document's curves as clipped segments, kept from one edit to the next.
+
+``segments.curve_segments`` flattens every curve, clips it to the canvas and
+lets later segments keep collinear overlaps (``overlaps``); that last step
+searches the whole set.  An edit changes a few curves, so ``CurveSegments``
+keeps each curve's flattened and clipped segments and the overlapping pairs
+it found last time: the pairs among untouched curves stay, and only pairs
+with a segment of a new or changed curve are searched for.  Its result
+equals ``curve_segments``'s (tested).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..model import DiffusionCurve, Document
+from .overlaps import drop_covered_parts, overlapping_pairs
+from .segments import Segments, clip_to_canvas, concatenate, empty_segments, flatten_curve, from_curve
+
+
+class CurveSegments:
+    """``curve_segments`` of one document after another, reusing what an edit left alone.
+
+    Parameters
+    ----------
+    tolerance, max_length : float
+        As for ``segments.curve_segments``.
+    """
+
+    def __init__(self, tolerance: float, max_length: float) -> None:
+        self.tolerance, self.max_length = tolerance, max_length
+        self._clipped: dict[tuple[DiffusionCurve, float, float], Segments] = {}
+        self._last: tuple | None = None  # (curves, canvas, segments per curve, pairs) of the last document
+
+    def _clip(self, curve: DiffusionCurve, width: float, height: float) -> Segments:
+        key = (curve, width, height)
+        segments = self._clipped.get(key)
+        if segments is None:
+            flat = flatten_curve(curve, self.tolerance, self.max_length)
+            segments = self._clipped[key] = clip_to_canvas(flat, width, height)
+        return segments
+
+    def forget(self, keep: tuple[DiffusionCurve, ...]) -> None:
+        """Drop the kept segments of curves in neither ``keep`` nor the last document."""
+        wanted = set(keep) | set(self._last[0] if self._last is not None else ())
+        self._clipped = {key: value for key, value in self._clipped.items() if key[0] in wanted}
+
+    def segments(self, document: Document) -> Segments:
+        """The document's curve segments, as ``segments.curve_segments(document, tolerance, max_length)``."""
+        canvas = (float(document.width), float(document.height))
+        pieces = [self._clip(curve, *canvas) for curve in document.curves]
+        counts = np.array([len(piece) for piece in pieces], np.int64)
+        clipped = concatenate([empty_segments(), *pieces])
+        clipped = from_curve(clipped, 0)
+        clipped.origin[:, 0] = np.repeat(np.arange(len(pieces), dtype=np.float64), counts)
+        pairs = self._pairs(document.curves, canvas, counts, clipped)
+        self._last = (document.curves, canvas, counts, pairs)
+        return drop_covered_parts(clipped, pairs=pairs)
+
+    def _pairs(self, curves: tuple, canvas: tuple, counts: np.ndarray, clipped: Segments):
+        """The overlapping pairs of ``clipped``: those among curves kept from the last document, plus new ones."""
+        last = self._last
+        if last is None or last[1] != canvas:
+            return overlapping_pairs(clipped)
+        last_curves, _, last_counts, last_pairs = last
+        position = {id(curve): i for i, curve in enumerate(last_curves)}
+        was = np.array([position.get(id(curve), -1) for curve in curves], np.int64)
+        kept = was[was >= 0]
+        if len(position) != len(last_curves) or np.any(np.diff(kept) <= 0):
+            return overlapping_pairs(clipped)  # a curve twice, or curves reordered: search everything
+        starts, last_starts = np.cumsum(counts) - counts, np.cumsum(last_counts) - last_counts
+        moved_to = np.full(int(last_counts.sum()), -1, np.int64)  # each old segment's index now, -1: gone
+        for i in np.flatnonzero(was >= 0):
+            j = was[i]
+            moved_to[last_starts[j]: last_starts[j] + counts[i]] = starts[i] + np.arange(counts[i])
+        earlier, later = moved_to[last_pairs[0]], moved_to[last_pairs[1]]
+        still = (earlier >= 0) & (later >= 0)
+        fresh = np.repeat(was < 0, counts)
+        found = overlapping_pairs(clipped, among=fresh) if fresh.any() else tuple(np.zeros(0, a.dtype)
+                                                                                for a in last_pairs)
+        return tuple(np.concatenate([kept_values, new_values]) for kept_values, new_values in
+                     zip((earlier[still], later[still], last_pairs[2][still], last_pairs[3][still]), found))
