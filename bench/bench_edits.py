@@ -146,13 +146,13 @@ def session(path: Path, repeat: int) -> None:
         for preview in moved:  # a drag: 10 previews, then the exact result of the last
             timed("drag preview (frame interval)", preview, exact=False)
         timed("exact image after release", moved[-1])
-        timed("anchor move, exact", edits.move_control_point(live.document, k, 3, tuple(anchor + (run + 1, 0.0))))
+        timed("anchor move, exact", edits.move_control_point(live.document, k, 3, tuple(anchor + (run + 1.5, 0.5))))
         moved[-1] = live.document
         timed("delete a curve", edits.remove_curves(live.document, [k]))
         deleted, before = live.document, moved[-1]
         timed("undo (kept state)", before)
         timed("redo (kept state)", deleted)
-        timed("history jump to the start (kept)", document)
+        timed("history jump to the start", document)
         timed("stop colour", edits.set_stop_color(live.document, k, "left", 0, COLOURS[run % len(COLOURS)]))
     final = live.document
     fresh = LiveRepresentation(final)

@@ -208,12 +208,14 @@ def test_an_edit_redraws_only_the_cells_it_changed(line):
     editor.wait_idle()
     editor.canvas.grab_image()
     renderer = editor.canvas.renderer
-    before = renderer.evaluations.copy()
+    before, frames = renderer.evaluations.copy(), []
+    editor.workspace.frame_ready.connect(frames.append)
     editor.click(100, 100)
     editor.wait_idle()
-    frame = editor.workspace.frame
-    assert frame.document is editor.document and frame.kind == "points"
-    assert 0 < frame.changed.sum() < frame.changed.size / 4
+    assert frames[-1].document is editor.document  # the dab's frame, and any of an equal document after it
+    changed = np.logical_or.reduce([frame.changed for frame in frames])
+    assert {frame.kind for frame in frames} <= {"points", "none"} and "points" in {frame.kind for frame in frames}
+    assert 0 < changed.sum() < changed.size / 4
     shown = editor.canvas.grab_image()
     since = renderer.evaluations - before  # however many paints the window made meanwhile
     assert since["cells"] >= 1 and since["full"] == 0 and since["shift"] == 0

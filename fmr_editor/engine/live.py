@@ -52,7 +52,8 @@ from .representation import (
     SOLVE_SEGMENTS_PER_CELL, Representation, Settings, choose_levels,
 )
 from .segments import Segments, boundary_segments, curve_colors
-from .updated_solve import UpdatedSolver, carried_unknowns, updated_solver
+from .system_solvers import SystemSolvers
+from .updated_solve import UpdatedSolver, carried_unknowns
 
 Progress = Callable[[str, float], None]
 
@@ -124,7 +125,7 @@ class LiveRepresentation:
         self.settings = settings
         self.approximate = False
         self._curve_cache = CurveSegments(settings.tolerance, settings.max_length)
-        self._columns: dict[int, np.ndarray] = {}  # the factorisation applied to unit vectors (updated_solve)
+        self._solvers = SystemSolvers(self._new_solver)
         self._kept = KeptStates(memory)
         if saved is None or not self._resume(document, saved):
             self._rebuild(document, progress)
@@ -133,22 +134,7 @@ class LiveRepresentation:
     @property
     def solver(self) -> BoundarySolver | UpdatedSolver:
         """The current geometry's solver: the factorisation, or an update of it; made when first needed."""
-        if self._solver is None:
-            self._solver = self._solver_for(self._boundary)
-        return self._solver
-
-    def _solver_for(self, boundary: Segments) -> BoundarySolver | UpdatedSolver:
-        """A solver for ``boundary``: through the kept factorisation when it is close enough, else a new one."""
-        base = self._base
-        if base is not None:
-            solver = updated_solver(base, self._base_boundary, boundary, base.operator.lattice, self._columns)
-            if solver is not None:
-                removed = set(solver.removed.tolist())
-                for r in [r for r in self._columns if r not in removed]:  # in place: the solver fills this dict
-                    del self._columns[r]
-                return solver
-        self._base, self._base_boundary, self._columns = self._new_solver(boundary), boundary, {}
-        return self._base
+        return self._solvers.current
 
     # -- building ----------------------------------------------------------------------------
     def _forget_curves(self, keep: tuple[DiffusionCurve, ...]) -> None:
@@ -185,10 +171,11 @@ class LiveRepresentation:
         self._discretise(document)
         lap("discretise", 0.1)
         boundary = self._boundary
-        self._solver = self._base = self._new_solver(boundary, lambda fraction: report("solve", 0.1 + 0.5 * fraction))
-        self._base_boundary, self._columns, self.approximate = boundary, {}, False
-        rhs = self._solver.right_hand_side(boundary.jump, boundary.mean)
-        self._unknowns = self._solver.solve(rhs, lambda fraction: report("solve", 0.6 + 0.1 * fraction))
+        solver = self._new_solver(boundary, lambda fraction: report("solve", 0.1 + 0.5 * fraction))
+        self._solvers.reset(solver, boundary)
+        self.approximate = False
+        rhs = solver.right_hand_side(boundary.jump, boundary.mean)
+        self._unknowns = solver.solve(rhs, lambda fraction: report("solve", 0.6 + 0.1 * fraction))
         lap("solve", 0.7)
         self._sort_solution()
         self._fine = self._fine_moments()
@@ -229,8 +216,8 @@ class LiveRepresentation:
             return False
         self._unknowns = np.empty_like(ordered.flux)
         self._unknowns[order] = saved.segments.unknowns()
-        self._solver = self._base = None
-        self._base_boundary = None
+        self._solvers.reset(None, None)
+        self._solvers.move_to(self._boundary)
         self._sort_solution()
         self._fine = self._fine_moments()
         self._local = np.array(saved.local, dtype=complex)
@@ -343,7 +330,7 @@ class LiveRepresentation:
         return Update(kind, changed, time.perf_counter() - start)
 
     def _refine(self, changed: np.ndarray) -> str:
-        self._unknowns = self._solve_geometry(self._boundary, self._unknowns)
+        self._unknowns = self._solvers.solve_geometry(self._unknowns)
         self.approximate = False
         self._propagate(changed, self.solver.accuracy())
         self._kept.keep(self._state())
@@ -359,44 +346,20 @@ class LiveRepresentation:
             same_geometry = len(new) == len(old) and all(
                 np.array_equal(getattr(new, name), getattr(old, name)) for name in ("p", "q", "on_border"))
         self._boundary, self._curves = new, curves
-        if same_geometry:
-            self._unknowns = self._unknowns + self._with_solver(lambda solver: solver.solve(
+        if same_geometry:  # the solver of this geometry serves (colours are not part of it)
+            self._unknowns = self._unknowns + self._solvers.run(lambda solver: solver.solve(
                 solver.right_hand_side(new.jump - old.jump, new.mean - old.mean), iterate=False))
-            accuracy = self.solver.accuracy(iterate=False)
+            self._propagate(changed, self.solver.accuracy(iterate=False))
+            return "colours"
+        self._solvers.move_to(new)
+        carried = carried_unknowns(old, self._unknowns, new)
+        if exact:
+            self._unknowns = self._solvers.solve_geometry(carried)
+            self._propagate(changed, self.solver.accuracy())
         else:
-            carried = carried_unknowns(old, self._unknowns, new)
-            if exact:
-                self._solver = None  # the property makes the solver for the new geometry
-                self._unknowns = self._solve_geometry(new, carried)
-                accuracy = self.solver.accuracy()
-            else:
-                self._solver, self._unknowns, self.approximate = None, carried, True
-                self._propagate(changed, PREVIEW_ACCURACY, local=True)
-                return "geometry"
-        self._propagate(changed, accuracy)
-        return "colours" if same_geometry else "geometry"
-
-    def _solve_geometry(self, boundary: Segments, initial: np.ndarray) -> np.ndarray:
-        """The unknowns of ``boundary``'s system (the current one): corrected from ``initial`` through an
-        update of the factorisation, or solved afresh."""
-        def solve(solver: BoundarySolver | UpdatedSolver) -> np.ndarray:
-            if isinstance(solver, UpdatedSolver):
-                return solver.correct(initial, boundary.jump, boundary.mean)
-            return solver.solve(solver.right_hand_side(boundary.jump, boundary.mean))
-
-        return self._with_solver(solve)
-
-    def _with_solver(self, work: Callable[[BoundarySolver | UpdatedSolver], np.ndarray]) -> np.ndarray:
-        """``work(self.solver)``; an update found singular gives way to a new factorisation, which handles that."""
-        try:
-            return work(self.solver)
-        except np.linalg.LinAlgError:
-            if not isinstance(self._solver, UpdatedSolver):
-                raise
-        boundary = self._boundary
-        self._solver = self._base = self._new_solver(boundary)
-        self._base_boundary, self._columns = boundary, {}
-        return work(self._solver)
+            self._unknowns, self.approximate = carried, True
+            self._propagate(changed, PREVIEW_ACCURACY, local=True)
+        return "geometry"
 
     def _propagate(self, changed: np.ndarray, accuracy: float, local: bool = False) -> None:
         """Carry the change of the fine multipoles of the new unknowns through the tree; mark what moved.
@@ -453,7 +416,8 @@ class LiveRepresentation:
         self._boundary, self._unknowns, self._segments = state.boundary, state.unknowns, state.segments
         self._cell_start, self._fine, self._local = state.cell_start, state.fine, state.local
         self._points = state.points.copy() if state.points is not None else None
-        self._solver, self.approximate = None, False
+        self._solvers.move_to(state.boundary)
+        self.approximate = False
         self._kept.keep(state)
 
 

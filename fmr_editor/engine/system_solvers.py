@@ -1,0 +1,84 @@
+"""The boundary system's solver for the current geometry, made through a kept factorisation.
+
+Factorising the system is the expensive part of a solve.  ``SystemSolvers``
+keeps one factorisation (the *base*) and answers each later geometry with an
+``updated_solve.UpdatedSolver`` of it, made only when first asked for; when
+the geometry has moved too far from the base (``updated_solver`` declines)
+or the update turns out singular, it factorises the current geometry and
+that becomes the base.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from .fast_solve import BoundarySolver
+from .segments import Segments
+from .updated_solve import UpdatedSolver, updated_solver
+
+Solver = BoundarySolver | UpdatedSolver
+Factorise = Callable[[Segments], BoundarySolver]
+
+
+class SystemSolvers:
+    """The current geometry's solver: the base factorisation or an update of it.
+
+    Parameters
+    ----------
+    factorise : callable
+        ``factorise(boundary) -> BoundarySolver`` for a geometry.
+    """
+
+    def __init__(self, factorise: Factorise) -> None:
+        self._factorise = factorise
+        self.reset(None, None)
+
+    def reset(self, base: BoundarySolver | None, boundary: Segments | None) -> None:
+        """Take ``base``, the factorisation of ``boundary``, as the current solver (None: none yet)."""
+        self._base, self._base_boundary, self._current, self._boundary = base, boundary, base, boundary
+        self._columns: dict[int, np.ndarray] = {}  # the base applied to unit vectors, by segment (updated_solve)
+
+    def move_to(self, boundary: Segments) -> None:
+        """Go over to the geometry ``boundary``; its solver is made when first asked for."""
+        self._boundary, self._current = boundary, None
+
+    @property
+    def current(self) -> Solver:
+        if self._current is None:
+            self._current = self._made_for(self._boundary)
+        return self._current
+
+    def _made_for(self, boundary: Segments) -> Solver:
+        base = self._base
+        if base is not None:
+            solver = updated_solver(base, self._base_boundary, boundary, base.operator.lattice, self._columns)
+            if solver is not None:
+                removed = set(solver.removed.tolist())
+                for r in [r for r in self._columns if r not in removed]:  # in place: the solver fills this dict
+                    del self._columns[r]
+                return solver
+        self.reset(self._factorise(boundary), boundary)
+        return self._base
+
+    def run(self, work: Callable[[Solver], np.ndarray]) -> np.ndarray:
+        """``work(current)``; an update found singular gives way to a new factorisation, which handles that."""
+        try:
+            return work(self.current)
+        except np.linalg.LinAlgError:
+            if not isinstance(self._current, UpdatedSolver):
+                raise
+        self.reset(self._factorise(self._boundary), self._boundary)
+        return work(self._current)
+
+    def solve_geometry(self, initial: np.ndarray) -> np.ndarray:
+        """The current geometry's unknowns: corrected from ``initial`` through an update, or solved afresh."""
+        boundary = self._boundary
+
+        def solve(solver: Solver) -> np.ndarray:
+            if isinstance(solver, UpdatedSolver):
+                return solver.correct(initial, boundary.jump, boundary.mean)
+            return solver.solve(solver.right_hand_side(boundary.jump, boundary.mean))
+
+        return self.run(solve)
