@@ -119,6 +119,19 @@ def dab(repeat: int) -> None:
           "not counted above.")
 
 
+#: Issue 11's targets for the session's rows.
+SESSION_TARGETS = {
+    "drag preview (frame interval)": "<= 50 ms on lady_bug",
+    "exact image after release": "<= 150 ms lady_bug, <= 1 s roses",
+    "anchor move, exact": "<= 150 ms lady_bug, <= 1 s roses",
+    "delete a curve": "<= 150 ms lady_bug, <= 1 s roses",
+    "undo (kept state)": "<= 50 ms",
+    "redo (kept state)": "<= 50 ms",
+    "history jump to the start": "<= 1 s on lady_bug",
+    "first dab (3 points)": "<= 20 ms, as later dabs",
+}
+
+
 def spread(times: list[float]) -> str:
     return f"{min(times) * 1e3:.0f} ({max(times) * 1e3:.0f})"
 
@@ -170,10 +183,10 @@ def session(path: Path, repeat: int) -> None:
     rows["first dab (3 points)"], rows["later dab (3 points)"] = first, later
     print(f"\n{path.stem}: {len(live.representation.segments.p):,} segments, built in {built:.1f} s; "
           f"final image vs a fresh build: {error:.4f}/255\n")
-    print("| edit | best (slowest) ms |")
-    print("| --- | ---: |")
+    print("| edit | best (slowest) ms | target |")
+    print("| --- | ---: | --- |")
     for name, times in rows.items():
-        print(f"| {name} | {spread(times)} |", flush=True)
+        print(f"| {name} | {spread(times)} | {SESSION_TARGETS.get(name, '')} |", flush=True)
 
 
 def main() -> None:

@@ -51,6 +51,8 @@ def test_dragging_an_anchor_shows_frames_and_ends_on_the_exact_image(editor, sha
     shown_during = canvas.frames_shown - frames
     editor.release(x + 12 * np.sin(EVENTS / 10), y + 0.3 * EVENTS)
     assert editor.history.index == start + 1 and editor.history.labels[-1].startswith("Move")
+    rows = editor.window.history_panel.list
+    assert rows.count() == start + 2 and rows.item(start + 1).text() == editor.history.labels[-1]  # listed at once
     assert previews > 0  # the frames were the approximate previews
     assert shown_during >= MIN_FRAMES, f"{shown_during} image frames in {EVENTS * INTERVAL_MS} ms"
     editor.wait_idle()
