@@ -27,6 +27,8 @@ one defect-correction step through an FMM product (``correct``).
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import scipy.linalg
 
@@ -132,7 +134,9 @@ def _factors(matrix: np.ndarray, scale: float | None = None) -> tuple[np.ndarray
     next to the blocks it came from.
     """
     norm = float(np.abs(matrix).sum(axis=0).max(initial=0.0))
-    lu, pivots = scipy.linalg.lu_factor(matrix, check_finite=False)
+    with warnings.catch_warnings():  # an exactly singular matrix is what the check below reports
+        warnings.simplefilter("ignore", scipy.linalg.LinAlgWarning)
+        lu, pivots = scipy.linalg.lu_factor(matrix, check_finite=False)
     condition, _ = scipy.linalg.lapack.dgecon(lu, norm, norm="1")
     relative = condition * norm / (norm if scale is None else max(scale, 1e-300))
     if not relative >= MIN_CONDITION:
