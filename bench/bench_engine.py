@@ -22,13 +22,14 @@ import numpy as np
 
 import fmr_editor
 from fmr_editor.engine import Settings, build, rasterise
-from fmr_editor.engine.bem import assemble
-from fmr_editor.engine.kernels import direct_sum, near_sum
-from fmr_editor.engine.lattice import Lattice, sort_into_cells
-from fmr_editor.engine.layers import direct_sum_reference
+from fmr_editor.engine.fmm.lattice import Lattice, sort_into_cells
+from fmr_editor.engine.geometry.discretise import boundary_segments, curve_segments
+from fmr_editor.engine.geometry.segments import Segments
+from fmr_editor.engine.kernels.potentials import direct_sum_reference
+from fmr_editor.engine.kernels.segment_sums import direct_sum, near_sum
 from fmr_editor.engine.raster import sample_coordinates
 from fmr_editor.engine.representation import choose_levels
-from fmr_editor.engine.segments import Segments, boundary_segments, curve_segments
+from fmr_editor.engine.solve.dense import assemble
 from fmr_editor.model import ColorStop, DiffusionCurve, Document
 
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "orzan_xml" / "berkbavas"

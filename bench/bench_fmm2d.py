@@ -35,10 +35,8 @@ from pathlib import Path
 
 import numba
 import numpy as np
-
 from bench_engine import machine
-
-from fmr_editor.engine.point_fmm import choose_levels, evaluate_points_direct, evaluate_points_fmm
+from point_fmm import choose_levels, evaluate_points_direct, evaluate_points_fmm
 
 VENV = Path(__file__).resolve().parent / ".venv-fmm2d"
 STAGES = ("sort", "p2m", "m2m", "downward", "evaluate")

@@ -38,9 +38,9 @@ from bench_engine import best_of, log, machine, warm_up  # noqa: E402
 from hilbert import PAPER_ITERATIONS, hilbert_document, hilbert_settings  # noqa: E402
 
 from fmr_editor.engine import Representation, rasterise  # noqa: E402
-from fmr_editor.engine.lattice import Lattice, downward_pass, sort_into_cells, upward_pass  # noqa: E402
+from fmr_editor.engine.fmm.lattice import Lattice, downward_pass, sort_into_cells, upward_pass  # noqa: E402
+from fmr_editor.engine.geometry.discretise import boundary_segments, curve_segments  # noqa: E402
 from fmr_editor.engine.representation import choose_levels  # noqa: E402
-from fmr_editor.engine.segments import boundary_segments, curve_segments  # noqa: E402
 
 #: The paper's numbers, keyed by segment count: (upward ms, downward ms, raster 1024x1024 ms).
 #: Not found: the paper's text (Table 1 and 2) could not be retrieved when this was written

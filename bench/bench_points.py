@@ -25,11 +25,11 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_engine import best_of, machine  # noqa: E402
 
-from fmr_editor.engine.gauss import GaussPoints, PointSettings, expansion_ratios  # noqa: E402
-from fmr_editor.engine.gauss_delta import add_points  # noqa: E402
-from fmr_editor.engine.gauss_near import evaluate_grid, near_points  # noqa: E402
-from fmr_editor.engine.gauss_tensor import point_polynomials  # noqa: E402
-from fmr_editor.engine.lattice import Lattice  # noqa: E402
+from fmr_editor.engine.fmm.lattice import Lattice  # noqa: E402
+from fmr_editor.engine.points.gauss import GaussPoints, PointSettings, expansion_ratios  # noqa: E402
+from fmr_editor.engine.points.increments import add_to_tensor  # noqa: E402
+from fmr_editor.engine.points.near import evaluate_grid, near_points  # noqa: E402
+from fmr_editor.engine.points.tensor import point_polynomials  # noqa: E402
 
 SIDE = 1024.0
 COUNTS = (10_000, 100_000, 1_000_000)
@@ -58,7 +58,7 @@ def main() -> None:
     start = time.perf_counter()
     few = points(rng, 50, 0.5, 200.0)
     evaluate_grid(point_polynomials(few, lattice, settings), near_points(few, lattice, settings), xs[:64], ys[:64])
-    add_points(point_polynomials(few, lattice, settings), few, lattice, settings)
+    add_to_tensor(point_polynomials(few, lattice, settings), few, lattice, settings)
     print(f"# Diffusion points\n\n{machine()}\n")
     print(f"Canvas {SIDE:.0f} px, {lattice.cells_per_side}^2 cells of {cell:g} px, order {settings.order}, "
           f"tolerance {settings.tolerance:g} a point; best of {args.repeat}; "
@@ -88,8 +88,8 @@ def main() -> None:
     for size in (1, 5, 20):
         dab = points(rng, size, 12.0, 48.0)
         dab = GaussPoints(dab.positions * 0.1 + 460, dab.radii, dab.weights)  # clustered like a brush
-        add, _ = best_of(args.repeat, lambda: add_points(tensor_100k, dab, lattice, settings))
-        remove, _ = best_of(args.repeat, lambda: add_points(tensor_100k, dab.negated(), lattice, settings))
+        add, _ = best_of(args.repeat, lambda: add_to_tensor(tensor_100k, dab, lattice, settings))
+        remove, _ = best_of(args.repeat, lambda: add_to_tensor(tensor_100k, dab.negated(), lattice, settings))
         print(f"| {size} | {add * 1e3:.2f} ms | {remove * 1e3:.2f} ms |")
 
     print("\nFor comparison, radii 0.5-200 px (log-uniform): the points below about a cell are near points.\n")

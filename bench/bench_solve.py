@@ -28,15 +28,16 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_engine import best_of, log, machine, warm_up  # noqa: E402
+from bench_engine import log, machine, warm_up  # noqa: E402
 
 import fmr_editor  # noqa: E402
-from fmr_editor.engine import build, fast_solve, rasterise  # noqa: E402
-from fmr_editor.engine.bem import solve_dense  # noqa: E402
-from fmr_editor.engine.lattice import Lattice, sort_into_cells  # noqa: E402
+from fmr_editor.engine import build, rasterise  # noqa: E402
+from fmr_editor.engine.fmm.lattice import Lattice, sort_into_cells  # noqa: E402
+from fmr_editor.engine.geometry.discretise import boundary_segments, curve_segments  # noqa: E402
 from fmr_editor.engine.representation import SOLVE_SEGMENTS_PER_CELL, choose_levels  # noqa: E402
-from fmr_editor.engine.segments import boundary_segments, curve_segments  # noqa: E402
-from fmr_editor.engine.skeleton import SkeletonFactorization  # noqa: E402
+from fmr_editor.engine.solve import solver as fast_solve  # noqa: E402
+from fmr_editor.engine.solve.dense import solve_dense  # noqa: E402
+from fmr_editor.engine.solve.skeleton import SkeletonFactorization  # noqa: E402
 
 ORZAN = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "orzan_xml"
 STAGES = ("discretise", "solve", "upward", "downward")

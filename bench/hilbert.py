@@ -201,9 +201,9 @@ def segment_counts(max_iteration: int = 9, size: int = 1024, engine: bool = Fals
             "vertex spacing px": (size - 2 * margin_of(size)) / ((1 << i) - 1),
         }
         if engine:
-            from fmr_editor.engine.lattice import Lattice
+            from fmr_editor.engine.fmm.lattice import Lattice
+            from fmr_editor.engine.geometry.discretise import boundary_segments, curve_segments
             from fmr_editor.engine.representation import choose_levels
-            from fmr_editor.engine.segments import boundary_segments, curve_segments
 
             document, settings = hilbert_document(i, size), hilbert_settings(size)
             curves = curve_segments(document, settings.tolerance, settings.max_length)

@@ -7,7 +7,7 @@ import pytest
 from shapes import scattered_document
 
 from fmr_editor.engine import LiveRepresentation, build
-from fmr_editor.engine.kernels import near_sum
+from fmr_editor.engine.kernels.segment_sums import near_sum
 from fmr_editor.model import DiffusionPoint, edits
 from fmr_editor.render import bounds, packing
 from fmr_editor.render.view import View
@@ -180,7 +180,7 @@ def test_near_bound_bounds_the_change_of_the_near_field():
 
 
 def test_single_layer_bound():
-    from fmr_editor.engine.layers import pair_integrals
+    from fmr_editor.engine.kernels.potentials import pair_integrals
 
     rng = np.random.default_rng(3)
     size = 8.0

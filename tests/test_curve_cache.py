@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from shapes import straight_chain, uniform_curve
 
-from fmr_editor.engine.curve_cache import CurveSegments
-from fmr_editor.engine.segments import curve_segments
+from fmr_editor.engine.geometry.curve_cache import CurveSegments
+from fmr_editor.engine.geometry.discretise import curve_segments
 from fmr_editor.io import load_document
 from fmr_editor.model import Document, edits
 

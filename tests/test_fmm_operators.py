@@ -9,16 +9,16 @@ import pytest
 from shapes import circle_points
 
 from fmr_editor.engine import Settings, build
-from fmr_editor.engine.expansions import (
+from fmr_editor.engine.fmm.expansions import (
     evaluate_local,
     evaluate_multipole,
     l2l_matrix,
     m2l_matrix,
     m2m_matrix,
-    multipole_moments,
+    multipole_moments_reference,
 )
-from fmr_editor.engine.lattice import interaction_offsets
-from fmr_editor.engine.layers import direct_sum_reference
+from fmr_editor.engine.fmm.lattice import interaction_offsets
+from fmr_editor.engine.kernels.potentials import direct_sum_reference
 from fmr_editor.model import ColorStop, DiffusionCurve, Document
 
 ORDER = 24
@@ -44,7 +44,7 @@ def direct(targets, p, q, flux, jump):
 
 
 def multipole_of(p, q, flux, jump, centre, size, order=ORDER):
-    return multipole_moments(p, q, flux, jump, np.broadcast_to(centre, p.shape), size, order).sum(axis=0)
+    return multipole_moments_reference(p, q, flux, jump, np.broadcast_to(centre, p.shape), size, order).sum(axis=0)
 
 
 def relative_error(got, expected):
@@ -165,9 +165,9 @@ def test_cell_polynomials_hold_the_far_field_of_the_lattice():
 
 
 def test_compiled_cell_moments_equal_the_summed_reference():
-    from fmr_editor.engine.lattice import Lattice, sort_into_cells
-    from fmr_editor.engine.moments import cell_moments
-    from fmr_editor.engine.segments import Segments
+    from fmr_editor.engine.fmm.lattice import Lattice, sort_into_cells
+    from fmr_editor.engine.fmm.moments import cell_moments
+    from fmr_editor.engine.geometry.segments import Segments
 
     rng = np.random.default_rng(7)
     lattice = Lattice(3, 40.0)
@@ -179,7 +179,7 @@ def test_compiled_cell_moments_equal_the_summed_reference():
     centres = lattice.cell_centres(np.stack([rows, columns], axis=1))
     got = cell_moments(start, centres, lattice.cell_size, seg.p, seg.q, seg.flux, seg.jump, ORDER)
     cells = lattice.cell_of(seg.midpoints)
-    per_segment = multipole_moments(seg.p, seg.q, seg.flux, seg.jump, lattice.cell_centres(cells), lattice.cell_size, ORDER)
+    per_segment = multipole_moments_reference(seg.p, seg.q, seg.flux, seg.jump, lattice.cell_centres(cells), lattice.cell_size, ORDER)
     expected = np.zeros_like(got)
     np.add.at(expected, cells[:, 0] * 8 + cells[:, 1], per_segment)
     np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-12)

@@ -34,10 +34,9 @@ import pytest
 from PIL import Image
 from shapes import circle_points, scattered_document, straight_chain
 
-import fmr_editor.engine.fast_solve as fast_solve
 from fmr_editor.engine import Settings, build, rasterise
-from fmr_editor.io import DocumentLoadError, FmrFile, load_document, load_fmr, save_fmr
-from fmr_editor.io import fmr_file
+from fmr_editor.engine.solve import solver as fast_solve
+from fmr_editor.io import DocumentLoadError, FmrFile, fmr_file, load_document, load_fmr, save_fmr
 from fmr_editor.io.document_json import document_from_data, document_to_data, dumps_document, loads_document
 from fmr_editor.io.png import to_rgb8
 from fmr_editor.model import BlurStop, ColorStop, DiffusionCurve, DiffusionPoint, Document

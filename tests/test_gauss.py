@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 from numpy.polynomial.hermite import hermval
 
-from fmr_editor.engine.gauss import (
+from fmr_editor.engine.fmm.lattice import Lattice
+from fmr_editor.engine.points.gauss import (
     RHO_GRID,
     GaussPoints,
     PointSettings,
@@ -21,10 +22,9 @@ from fmr_editor.engine.gauss import (
     shift_matrices,
     truncation_error,
 )
-from fmr_editor.engine.gauss_delta import add_points
-from fmr_editor.engine.gauss_near import evaluate_at, evaluate_grid, near_at, near_grid, near_points
-from fmr_editor.engine.gauss_tensor import point_polynomials, point_polynomials_reference
-from fmr_editor.engine.lattice import Lattice
+from fmr_editor.engine.points.increments import add_to_tensor
+from fmr_editor.engine.points.near import evaluate_at, evaluate_grid, near_at, near_grid, near_points
+from fmr_editor.engine.points.tensor import point_polynomials, point_polynomials_reference
 from fmr_editor.model.point import DiffusionPoint
 
 #: The accuracy target: half a level of an 8-bit channel.
@@ -140,7 +140,7 @@ def test_compiled_build_and_incremental_add_match_the_numpy_reference(order, tol
     scale = np.abs(reference).max()
     np.testing.assert_allclose(point_polynomials(points, lattice, settings), reference, rtol=0, atol=1e-13 * scale)
     added = np.zeros_like(reference)
-    add_points(added, points, lattice, settings)
+    add_to_tensor(added, points, lattice, settings)
     np.testing.assert_allclose(added, reference, rtol=0, atol=1e-13 * scale)
 
 
@@ -250,13 +250,13 @@ def test_adding_then_removing_points_restores_the_coefficients():
     tensor = point_polynomials(random_points(rng, 5000, 512.0, r_min=8.0), lattice, settings)
     before = tensor.copy()
     dab = random_points(rng, 20, 512.0, r_min=4.0, r_max=80.0, amplitude=3.0)
-    rectangles = add_points(tensor, dab, lattice, settings)
+    rectangles = add_to_tensor(tensor, dab, lattice, settings)
     changed = np.abs(tensor - before).max(axis=(2, 3, 4)) > 0
     mask = np.zeros_like(changed)
     for a, b, c, d in rectangles:
         mask[a:b, c:d] = True
     assert changed.any() and not (changed & ~mask).any()
-    add_points(tensor, dab.negated(), lattice, settings)
+    add_to_tensor(tensor, dab.negated(), lattice, settings)
     assert np.abs(tensor - before).max() <= 1e-12
 
 
@@ -266,7 +266,7 @@ def test_removing_a_point_of_a_batch_build():
     settings = PointSettings()
     points = random_points(rng, 400, 256.0, r_min=8.0)
     tensor = point_polynomials(points, lattice, settings)
-    add_points(tensor, points.take([7]).negated(), lattice, settings)
+    add_to_tensor(tensor, points.take([7]).negated(), lattice, settings)
     without = point_polynomials(points.take(np.arange(400) != 7), lattice, settings)
     np.testing.assert_allclose(tensor, without, rtol=0, atol=1e-12 * np.abs(without).max())
 

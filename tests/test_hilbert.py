@@ -74,7 +74,7 @@ def test_colours_vary_and_close_up():
 
 
 def test_each_piece_is_one_segment():
-    from fmr_editor.engine.segments import curve_segments
+    from fmr_editor.engine.geometry.discretise import curve_segments
 
     size = 128
     document = hilbert.hilbert_document(3, size)

@@ -4,12 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from shapes import scattered_document
 
 from fmr_editor.model import ColorStop, DiffusionPoint, Document, edits
 from fmr_editor.model.changes import ChangeSet
 from fmr_editor.model.history import History
-
-from shapes import scattered_document
 
 
 def dot(x: float, radius: float = 4.0) -> DiffusionPoint:

@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from fmr_editor.engine.bem import assemble, assemble_reference
-from fmr_editor.engine.fastmath import POLY_MATH
-from fmr_editor.engine.kernels import FAST_MATH, _layers, direct_sum, near_sum
-from fmr_editor.engine.lattice import Lattice, sort_into_cells
-from fmr_editor.engine.layers import direct_sum_reference, pair_integrals
-from fmr_editor.engine.segments import Segments
+from fmr_editor.engine.fmm.lattice import Lattice, sort_into_cells
+from fmr_editor.engine.geometry.segments import Segments
+from fmr_editor.engine.kernels.fastmath import FAST_MATH, POLY_MATH
+from fmr_editor.engine.kernels.potentials import direct_sum_reference, pair_integrals
+from fmr_editor.engine.kernels.segment_sums import direct_sum, near_sum, segment_potentials
+from fmr_editor.engine.solve.dense import assemble, assemble_reference
 
 
 def random_segments(rng: np.random.Generator, count: int, extent: float, length: float) -> Segments:
@@ -125,7 +125,7 @@ def _layers_loop_with(flags, error_model):
     def loop(targets, p, q, tangent, length, single, double):
         for i in range(targets.shape[0]):
             for j in range(p.shape[0]):
-                single[i, j], double[i, j] = _layers(targets[i, 0], targets[i, 1], p[j, 0], p[j, 1], q[j, 0], q[j, 1],
+                single[i, j], double[i, j] = segment_potentials(targets[i, 0], targets[i, 1], p[j, 0], p[j, 1], q[j, 0], q[j, 1],
                                                      tangent[j, 0], tangent[j, 1], length[j])
     return loop
 
@@ -133,11 +133,11 @@ def _layers_loop_with(flags, error_model):
 @pytest.mark.parametrize("flags, error_model", [(POLY_MATH, "numpy"), (FAST_MATH, "python")],
                          ids=["poly-math", "fast-math-python-errors"])
 def test_scalar_layers_match_the_reference_everywhere(flags, error_model):
-    """``_layers`` (inlined, so compiled with its caller's options) against ``pair_integrals``.
+    """``segment_potentials`` (inlined, so compiled with its caller's options) against ``pair_integrals``.
 
     Off the segment both agree; on a segment's line outside it and at its end
     points the double layer is 0 in both and the single layer is finite; on the
-    segment itself ``_layers`` gives 0 too (the reference: the principal value,
+    segment itself ``segment_potentials`` gives 0 too (the reference: the principal value,
     also 0).  Under numba's "python" error model nothing raises.
     """
     rng = np.random.default_rng(7)

@@ -7,15 +7,13 @@ import pytest
 from hypothesis import HealthCheck, settings
 from hypothesis import strategies as st
 from hypothesis.stateful import RuleBasedStateMachine, initialize, invariant, precondition, rule
+from shapes import circle_points
 
 from fmr_editor.engine import LiveRepresentation, Settings, build, rasterise
-from fmr_editor.engine.delta import delta_local
-from fmr_editor.engine.lattice import Lattice, coarser_multipoles, downward_pass
-from fmr_editor.model import ColorStop, DiffusionCurve, DiffusionPoint, Document
-from fmr_editor.model import edits
+from fmr_editor.engine.fmm.lattice import Lattice, coarser_multipoles, downward_pass
+from fmr_editor.engine.fmm.sparse_downward import delta_local
+from fmr_editor.model import ColorStop, DiffusionCurve, DiffusionPoint, Document, edits
 from fmr_editor.model.history import History
-
-from shapes import circle_points
 
 SIZE = 64
 PIXELS = 32
@@ -158,9 +156,10 @@ def test_delta_downward_pass_matches_the_full_pass():
 
 
 def test_resuming_a_saved_representation_solves_only_when_an_edit_needs_it(monkeypatch, tmp_path):
+    from shapes import scattered_document
+
     from fmr_editor.engine import live
     from fmr_editor.io import load_fmr, save_fmr
-    from shapes import scattered_document
 
     document = scattered_document(64, circles=3, seed=6)
     saved = load_fmr(save_fmr(tmp_path / "doc.fmr", document, build(document))).representation

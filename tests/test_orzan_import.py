@@ -9,8 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fmr_editor.io import DocumentLoadError, load_document, load_orzan, parse_orzan
-from fmr_editor.io import orzan
+from fmr_editor.io import DocumentLoadError, load_document, load_orzan, orzan, parse_orzan
 from fmr_editor.model import BlurStop
 
 SAMPLE = Path(__file__).resolve().parents[1] / "resources" / "samples" / "ribbon.xml"

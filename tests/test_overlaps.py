@@ -10,10 +10,10 @@ import shapely
 from shapes import straight_chain, uniform_curve
 
 from fmr_editor.engine import build, evaluate_points, rasterise
-from fmr_editor.engine.overlaps import drop_covered_parts, overlapping_pairs
-from fmr_editor.engine.segments import curve_segments
-from fmr_editor.model import Document
+from fmr_editor.engine.geometry.discretise import curve_segments
+from fmr_editor.engine.geometry.overlaps import drop_covered_parts, overlapping_pairs
 from fmr_editor.io import load_document
+from fmr_editor.model import Document
 
 PROBES = np.array([[20.0, 20.0], [50.0, 30.0], [80.0, 70.0], [40.0, 45.0], [60.0, 52.0]])
 
@@ -77,7 +77,7 @@ def test_flower_with_retraced_curves_solves_cleanly(shared_data):
 
 
 def test_a_singular_system_falls_back_to_the_least_squares_solution(monkeypatch):
-    from fmr_editor.engine import bem
+    from fmr_editor.engine.solve import dense as bem
 
     rng = np.random.default_rng(8)
     matrix = rng.normal(size=(6, 6))
@@ -92,8 +92,8 @@ def test_a_singular_system_falls_back_to_the_least_squares_solution(monkeypatch)
 def test_the_bucket_filter_finds_every_pair_a_full_search_finds(monkeypatch):
     """Collinear pieces in random directions (some just below pi: the wrap of the direction), tiny pieces,
     and noise: the same pairs with ``_candidates`` as with every segment handed to shapely."""
-    from fmr_editor.engine import overlaps
-    from fmr_editor.engine.segments import Segments
+    from fmr_editor.engine.geometry import overlaps
+    from fmr_editor.engine.geometry.segments import Segments
 
     rng = np.random.default_rng(3)
     lines = []

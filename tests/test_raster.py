@@ -10,12 +10,13 @@ import pytest
 from shapes import circle_points, straight_chain
 
 from fmr_editor.engine import Settings, build, raster, rasterise
-from fmr_editor.engine.grid_kernels import _atan2_poly, _log_poly, far_field_grid, near_field_grid
-from fmr_editor.engine.kernels import near_sum
-from fmr_editor.engine.lattice import Lattice, sort_into_cells
-from fmr_editor.engine.layers import direct_sum_reference
-from fmr_editor.engine.raster import far_field, sample_coordinates
-from fmr_editor.engine.segments import Segments
+from fmr_editor.engine.fmm.lattice import Lattice, sort_into_cells
+from fmr_editor.engine.geometry.segments import Segments
+from fmr_editor.engine.kernels.fastmath import atan2_poly, log_poly
+from fmr_editor.engine.kernels.grid import far_field_grid, near_field_grid
+from fmr_editor.engine.kernels.potentials import direct_sum_reference
+from fmr_editor.engine.kernels.segment_sums import near_sum
+from fmr_editor.engine.raster import far_field_reference, sample_coordinates
 from fmr_editor.model import ColorStop, DiffusionCurve, Document
 
 
@@ -122,14 +123,14 @@ def test_far_field_grid_equals_the_numpy_far_field():
                    (np.sort(rng.uniform(19.0, 45.0, 23)), np.sort(rng.uniform(3.0, 30.0, 17))),
                    (sample_coordinates(37, 64, 3), sample_coordinates(23, 40, 3))]:
         got = far_field_grid(poly, xs, ys, 8.0)
-        np.testing.assert_allclose(got, far_field(poly, xs, ys, 8.0), rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(got, far_field_reference(poly, xs, ys, 8.0), rtol=1e-12, atol=1e-12)
 
 
 @numba.njit
 def _logs(x):
     out = np.empty_like(x)
     for i in range(len(x)):
-        out[i] = _log_poly(x[i])
+        out[i] = log_poly(x[i])
     return out
 
 
@@ -137,7 +138,7 @@ def _logs(x):
 def _atan2s(y, x):
     out = np.empty_like(x)
     for i in range(len(x)):
-        out[i] = _atan2_poly(y[i], x[i])
+        out[i] = atan2_poly(y[i], x[i])
     return out
 
 
@@ -175,7 +176,7 @@ def old_rasterise(rep, width, height, samples):
     """The previous path: far field by numpy, near field by ``near_sum`` at every sample."""
     xs, ys = sample_coordinates(width, rep.width, samples), sample_coordinates(height, rep.height, samples)
     lattice, seg = rep.lattice, rep.segments
-    far = far_field(rep.polynomials(), xs, ys, lattice.cell_size)
+    far = far_field_reference(rep.polynomials(), xs, ys, lattice.cell_size)
     values = far + near_sum_on_grid(xs, ys, lattice, rep.cell_start, seg)
     return values.reshape(height, samples, width, samples, 3).mean(axis=(1, 3))
 

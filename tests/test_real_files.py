@@ -10,8 +10,9 @@ import pytest
 from PIL import Image
 
 from fmr_editor import load
-from fmr_editor.engine import Representation, build, fast_solve, rasterise
-from fmr_editor.engine.bem import solve_dense
+from fmr_editor.engine import Representation, build, rasterise
+from fmr_editor.engine.solve import solver as fast_solve
+from fmr_editor.engine.solve.dense import solve_dense
 
 #: File and output size; lady_bug at its full canvas, the others at half (direct sums are slow).
 FILES = [("lady_bug.xml", 512), ("zephyr.xml", 256), ("poivron.xml", 256)]

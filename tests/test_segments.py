@@ -1,4 +1,4 @@
-"""Discretisation into straight segments (``fmr_editor.engine.segments``).
+"""Discretisation into straight segments (``fmr_editor.engine.geometry``).
 
 Checks
 ------
@@ -26,8 +26,7 @@ import pytest
 import shapely
 from shapes import circle_points, straight_chain, uniform_curve
 
-from fmr_editor.engine.segments import (
-    Segments,
+from fmr_editor.engine.geometry.discretise import (
     boundary_segments,
     canvas_border,
     clip_to_canvas,
@@ -35,6 +34,7 @@ from fmr_editor.engine.segments import (
     cut_at_cells,
     flatten_curve,
 )
+from fmr_editor.engine.geometry.segments import Segments
 from fmr_editor.model import ColorStop, DiffusionCurve, Document
 
 SAMPLES_PER_PIECE = 2000

@@ -3,12 +3,11 @@
 from __future__ import annotations
 
 import numpy as np
+from shapes import scattered_document
 
 from fmr_editor.engine import build, rasterise
 from fmr_editor.model import DiffusionPoint, edits
 from fmr_editor.session import Session
-
-from shapes import scattered_document
 
 
 def cell_blocks(image: np.ndarray, cells: int) -> np.ndarray:

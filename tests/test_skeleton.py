@@ -8,11 +8,14 @@ import numpy as np
 import pytest
 from shapes import scattered_document
 
-from fmr_editor.engine import bem, skeleton
-from fmr_editor.engine.bem import SolveTooLargeError, assemble
-from fmr_editor.engine.lattice import Lattice
-from fmr_editor.engine.segments import boundary_segments, curve_segments
-from fmr_editor.engine.skeleton import CollocationEntries, SkeletonFactorization, interpolative
+from fmr_editor.engine.fmm.lattice import Lattice
+from fmr_editor.engine.geometry.discretise import boundary_segments, curve_segments
+from fmr_editor.engine.solve import dense as bem
+from fmr_editor.engine.solve import skeleton
+from fmr_editor.engine.solve.dense import SolveTooLargeError, assemble
+from fmr_editor.engine.solve.entries import CollocationEntries
+from fmr_editor.engine.solve.linalg import interpolative
+from fmr_editor.engine.solve.skeleton import SkeletonFactorization
 
 
 @pytest.fixture(scope="module")

@@ -6,8 +6,10 @@ import pytest
 from shapes import circle_points, uniform_curve
 
 from fmr_editor import cli
-from fmr_editor.engine import bem, build, fast_solve
-from fmr_editor.engine.bem import SolveTooLargeError
+from fmr_editor.engine import build
+from fmr_editor.engine.solve import dense as bem
+from fmr_editor.engine.solve import solver as fast_solve
+from fmr_editor.engine.solve.dense import SolveTooLargeError
 from fmr_editor.model import Document
 
 DOC = Document(64, 64, [uniform_curve(circle_points(32, 32, 20), 1.0, 0.0)])

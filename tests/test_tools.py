@@ -4,16 +4,24 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from shapes import straight_chain
 
 from fmr_editor.model import ColorStop, DiffusionCurve, DiffusionPoint, Document
 from fmr_editor.model.history import History
 from fmr_editor.tools import (
-    TOOLS, BrushTool, EyedropperTool, PenTool, PointerEvent, SelectTool, Selection, StopsTool,
-    ToolContext, create_tools, recolor_stops,
+    TOOLS,
+    BrushTool,
+    EyedropperTool,
+    PenTool,
+    PointerEvent,
+    Selection,
+    SelectTool,
+    StopsTool,
+    ToolContext,
+    create_tools,
+    recolor_stops,
 )
 from fmr_editor.tools.overlay import Circle, Markers, Polyline, Rectangle
-
-from shapes import straight_chain
 
 RED, GREEN, BLUE = (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)
 

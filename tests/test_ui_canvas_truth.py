@@ -14,7 +14,14 @@ import pytest
 from canvas_oracle import mismatches
 from hypothesis import HealthCheck, settings
 from hypothesis import strategies as st
-from hypothesis.stateful import RuleBasedStateMachine, initialize, invariant, precondition, rule, run_state_machine_as_test
+from hypothesis.stateful import (
+    RuleBasedStateMachine,
+    initialize,
+    invariant,
+    precondition,
+    rule,
+    run_state_machine_as_test,
+)
 from shapes import circle_points, scattered_document
 
 pytest.importorskip("pytestqt", reason="pytest-qt is in the [test] extra")

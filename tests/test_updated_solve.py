@@ -6,14 +6,19 @@ import numpy as np
 import pytest
 from shapes import scattered_document
 
-from fmr_editor.engine import fast_solve
-from fmr_editor.engine.bem import assemble
-from fmr_editor.engine.fast_solve import BoundarySolver
-from fmr_editor.engine.lattice import Lattice
+from fmr_editor.engine.fmm.lattice import Lattice
+from fmr_editor.engine.geometry.discretise import boundary_segments, curve_segments
 from fmr_editor.engine.representation import choose_levels
-from fmr_editor.engine.segments import boundary_segments, curve_segments
-from fmr_editor.engine.updated_solve import (
-    UpdatedSolver, carried_unknowns, match_segments, match_segments_reference, solve_reference, updated_solver,
+from fmr_editor.engine.solve import solver as fast_solve
+from fmr_editor.engine.solve.dense import assemble
+from fmr_editor.engine.solve.solver import BoundarySolver
+from fmr_editor.engine.solve.updated import (
+    UpdatedSolver,
+    carried_unknowns,
+    match_segments,
+    match_segments_reference,
+    solve_reference,
+    updated_solver,
 )
 from fmr_editor.model import edits
 

@@ -15,9 +15,9 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from ..model import Document
-from .lattice import Lattice
-from .point_field import LivePoints
-from .segments import Segments
+from .fmm.lattice import Lattice
+from .geometry.segments import Segments
+from .points.field import LivePoints
 
 
 @dataclass(frozen=True, eq=False)

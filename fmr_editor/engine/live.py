@@ -40,20 +40,25 @@ import numpy as np
 
 from ..model import DiffusionCurve, DiffusionPoint, Document
 from ..model.changes import ChangeSet
-from .delta import delta_local
-from .curve_cache import CurveSegments
-from .fast_solve import BoundarySolver
+from .fmm.lattice import (
+    Lattice,
+    changed_runs,
+    coarser_multipoles,
+    dilated,
+    downward_pass,
+    fine_multipoles,
+    sort_into_cells,
+)
+from .fmm.sparse_downward import delta_local
+from .geometry.curve_cache import CurveSegments
+from .geometry.discretise import boundary_segments, curve_colors
+from .geometry.segments import Segments
 from .kept_states import KeptStates, State
-from .lattice import (
-    Lattice, changed_runs, coarser_multipoles, dilated, downward_pass, fine_multipoles, sort_into_cells,
-)
-from .point_field import LivePoints, lattice_radius, point_levels, sorted_radii_after
-from .representation import (
-    SOLVE_SEGMENTS_PER_CELL, Representation, Settings, choose_levels,
-)
-from .segments import Segments, boundary_segments, curve_colors
-from .system_solvers import SystemSolvers
-from .updated_solve import UpdatedSolver, carried_unknowns
+from .points.field import LivePoints, lattice_radius, point_levels, sorted_radii_after
+from .representation import SOLVE_SEGMENTS_PER_CELL, Representation, Settings, choose_levels
+from .solve.solver import BoundarySolver
+from .solve.system_solvers import SystemSolvers
+from .solve.updated import UpdatedSolver, carried_unknowns
 
 Progress = Callable[[str, float], None]
 

@@ -21,10 +21,10 @@ from collections.abc import Callable
 
 import numpy as np
 
-from .gauss import gaussian_sum_reference
-from .gauss_near import near_at
-from .grid_kernels import far_field_grid, near_field_grid
-from .kernels import direct_sum, near_sum
+from .kernels.grid import far_field_grid, near_field_grid
+from .kernels.segment_sums import direct_sum, near_sum
+from .points.gauss import gaussian_sum_reference
+from .points.near import near_at
 from .representation import Representation
 
 #: Samples per band: bounds the memory of one step (some 50 bytes a sample).
@@ -63,7 +63,7 @@ def _grouped_powers(coords: np.ndarray, cell_size: float, cells: int, order: int
     return first, powers, valid
 
 
-def far_field(poly: np.ndarray, xs: np.ndarray, ys: np.ndarray, cell_size: float) -> np.ndarray:
+def far_field_reference(poly: np.ndarray, xs: np.ndarray, ys: np.ndarray, cell_size: float) -> np.ndarray:
     """Cell polynomials evaluated on the tensor grid ``ys x xs``, ``(len(ys), len(xs), 3)``.
 
     Plain numpy; ``rasterise`` uses the compiled ``grid_kernels.far_field_grid``.

@@ -13,10 +13,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .expansions import harmonic_to_polynomial
-from .lattice import Lattice
-from .point_field import PointField
-from .segments import Segments
+from .fmm.expansions import harmonic_to_polynomial
+from .fmm.lattice import Lattice
+from .geometry.segments import Segments
+from .points.field import PointField
 
 
 @dataclass(frozen=True)

@@ -24,11 +24,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..engine.gauss import GaussPoints
-from ..engine.lattice import Lattice
-from ..engine.point_field import PointField
+from ..engine.fmm.lattice import Lattice
+from ..engine.geometry.segments import Segments
+from ..engine.points.field import PointField
+from ..engine.points.gauss import GaussPoints
 from ..engine.representation import MAX_LEVELS, Representation, Settings
-from ..engine.segments import Segments
 from ..model import Document
 from .json_checks import SchemaError, as_object, check_version, finite, required, whole
 

@@ -25,7 +25,7 @@ from functools import lru_cache
 import numpy as np
 
 from ..engine import Representation
-from ..engine.expansions import harmonic_to_polynomial
+from ..engine.fmm.expansions import harmonic_to_polynomial
 
 TWO_PI = 2.0 * np.pi
 

@@ -13,9 +13,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..model import DiffusionCurve, Document
+from ...model import DiffusionCurve, Document
+from .discretise import clip_to_canvas, flatten_curve, from_curve
 from .overlaps import drop_covered_parts, overlapping_pairs
-from .segments import Segments, clip_to_canvas, concatenate, empty_segments, flatten_curve, from_curve
+from .segments import Segments, concatenate, empty_segments
 
 
 class CurveSegments:

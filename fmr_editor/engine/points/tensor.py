@@ -25,6 +25,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from ..fmm.lattice import Lattice
 from .gauss import (
     GaussPoints,
     PointSettings,
@@ -34,8 +35,7 @@ from .gauss import (
     scaled_hermite,
     shift_matrices,
 )
-from .gauss_kernels import _accumulate
-from .lattice import Lattice
+from .tensor_kernels import accumulate
 
 #: Points a source block should hold on average (measured: 48 beat 12, 24 and 96).
 BLOCK_POINTS = 48.0
@@ -76,7 +76,7 @@ def accumulate_grid(out: np.ndarray, points: GaussPoints, reach: np.ndarray, siz
     private = g <= PRIVATE_CELLS and threads > 1 and -(-blocks // stripe) < 2 * threads
     flat = out.reshape(1, g, g, -1, out.shape[-1])
     target = np.zeros((threads,) + flat.shape[1:]) if private else flat
-    _accumulate(target, x[index], y[index], points.radii[index], points.weights[index],
+    accumulate(target, x[index], y[index], points.radii[index], points.weights[index],
                 col0[order], col1[order], row0[order], row1[order], block_start, blocks, float(size),
                 stripe, 2 * around + block, private)
     if private:

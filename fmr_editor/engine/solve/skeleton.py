@@ -27,7 +27,7 @@ sketch kernels release the GIL, and so do BLAS and LAPACK.  The tall stacks
 are sketched by sparse sign matrices (``SparseSign``) before the pivoted QR.
 
 The factorisation costs far less than dense LU for large systems; its
-accuracy follows ``tolerance``.  ``fast_solve`` uses it to precondition
+accuracy follows ``tolerance``.  ``solver`` uses it to precondition
 GMRES (or to solve outright).
 """
 
@@ -41,13 +41,13 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 import scipy.linalg
-from scipy.linalg import lapack
 from threadpoolctl import threadpool_limits
 
-from . import bem
-from .fastmath import POLY_MATH
-from .kernels import FAST_MATH, _layers, _segment_table
-from .segments import Segments
+from ..geometry.segments import Segments
+from ..kernels.fastmath import FAST_MATH
+from . import dense
+from .entries import CollocationEntries
+from .linalg import SparseSign, dense_inverse, interpolative, sketch_rows
 
 #: Proxy circle radius over box width.
 PROXY_RADIUS = 1.5
@@ -57,209 +57,6 @@ PROXY_POINTS = 64
 #: boxes spend most of their time in Python, holding the GIL: on two threads the finest levels
 #: (about 35 unknowns a box) ran 1.4x slower, levels of 80 unknowns and more 1.3-1.6x faster.
 THREADED_BOX = 48
-
-
-@numba.njit(cache=True, inline="always", fastmath=POLY_MATH, error_model="numpy")
-def _entries_row(x, y, own, columns, table, border, row):
-    for b in range(table.shape[1]):  # contiguous rows, branch-free: vectorises
-        s, d = _layers(x, y, table[0, b], table[1, b], table[2, b], table[3, b], table[4, b], table[5, b], table[6, b])
-        d = 0.0 if columns[b] == own else d  # principal value on the segment itself
-        row[b] = -d if border[b] else s
-    if own >= 0:
-        for b in range(table.shape[1]):
-            if columns[b] == own and border[b]:
-                row[b] -= 0.5
-
-
-# Small blocks run serially: waking threads costs more than they save, and
-# stalls behind BLAS's spinning threads on a busy machine.  The serial kernel
-# releases the GIL, so threads compressing different boxes run it side by side.
-# (Two functions, not one compiled twice: numba's cache would confuse the two.)
-@numba.njit(cache=True, nogil=True, fastmath=POLY_MATH, error_model="numpy")
-def _entries_serial(targets, target_ids, columns, table, border, out):
-    for a in range(targets.shape[0]):
-        _entries_row(targets[a, 0], targets[a, 1], target_ids[a], columns, table, border, out[a])
-
-
-@numba.njit(parallel=True, cache=True, fastmath=POLY_MATH, error_model="numpy")
-def _entries_parallel(targets, target_ids, columns, table, border, out):
-    for a in numba.prange(targets.shape[0]):
-        _entries_row(targets[a, 0], targets[a, 1], target_ids[a], columns, table, border, out[a])
-
-
-#: Pairs from which a block is computed in parallel.
-PARALLEL_PAIRS = 200_000
-
-
-class CollocationEntries:
-    """Entries of the collocation matrix of ``segments`` on demand.
-
-    Row i evaluates the field of unit densities at midpoint i: column j is
-    ``S_ij`` on a curve segment, ``-D_ij`` on a border segment, with the
-    principal value and the border's ``-1/2`` on the diagonal (``bem``).
-    """
-
-    def __init__(self, segments: Segments) -> None:
-        self.table = _segment_table(segments.p, segments.q)
-        self.border = np.asarray(segments.on_border, np.bool_)
-        self.midpoints = segments.midpoints
-        self.length = self.table[6]
-
-    def block(self, rows: np.ndarray, columns: np.ndarray, parallel: bool = True) -> np.ndarray:
-        """``A[rows][:, columns]``, ``(len(rows), len(columns))``; see ``at`` for ``parallel``."""
-        return self.at(self.midpoints[rows], columns, rows, parallel)
-
-    def at(
-        self, points: np.ndarray, columns: np.ndarray, ids: np.ndarray | None = None, parallel: bool = True
-    ) -> np.ndarray:
-        """Field of unit densities on ``columns`` at ``points`` (not on those segments unless ``ids`` says so).
-
-        Large blocks are computed on numba's threads unless ``parallel`` is
-        false (for callers that run on threads of their own).
-        """
-        out = np.empty((len(points), len(columns)))
-        ids = np.full(len(points), -1, np.int64) if ids is None else ids
-        kernel = _entries_parallel if parallel and out.size >= PARALLEL_PAIRS else _entries_serial
-        table = np.ascontiguousarray(self.table[:, columns])  # fancy indexing may not give C order
-        kernel(np.ascontiguousarray(points), ids, columns, table, self.border[columns], out)
-        return out
-
-
-#: Nonzeros in each column of a ``SparseSign`` (Martinsson and Tropp recommend 8).
-SPARSE_SIGNS = 8
-#: Sketch rows beyond the columns (the largest rank possible): see ``sketch_rows``.
-SKETCH_OVERSAMPLING = 16
-
-
-@numba.njit(inline="always")
-def _hash(key):
-    """splitmix64's finaliser: 64 well-mixed bits of the ``uint64`` ``key``."""
-    key = (key ^ (key >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
-    key = (key ^ (key >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
-    return key ^ (key >> np.uint64(31))
-
-
-@numba.njit(cache=True, nogil=True, fastmath=FAST_MATH)
-def _apply_sparse_sign(matrix, transposed, first, rows, seed, out):
-    """``out += S[:, first:first + n] @ M`` for the ``SparseSign`` ``S`` of ``rows`` rows and ``seed``,
-    where ``M`` is ``matrix`` (n rows) or, if ``transposed``, its transpose (n columns)."""
-    blocks = min(SPARSE_SIGNS, rows)
-    starts = np.arange(blocks + 1) * rows // blocks
-    key = np.uint64(seed) * np.uint64(0x9E3779B97F4A7C15)
-    for i in range(matrix.shape[1] if transposed else matrix.shape[0]):
-        for k in range(blocks):
-            bits = _hash(key + np.uint64((first + i) * blocks + k))
-            size = np.uint64(starts[k + 1] - starts[k])
-            row = starts[k] + np.int64(((bits >> np.uint64(32)) * size) >> np.uint64(32))  # in [0, size)
-            sign = 1.0 if bits & np.uint64(1) else -1.0
-            if transposed:
-                for j in range(out.shape[1]):
-                    out[row, j] += sign * matrix[j, i]
-            else:
-                for j in range(out.shape[1]):
-                    out[row, j] += sign * matrix[i, j]
-
-
-class SparseSign:
-    """A random ``rows x columns`` sparse sign matrix, to sketch tall matrices with.
-
-    Its rows are cut into ``min(SPARSE_SIGNS, rows)`` blocks and each column
-    has one +-1 in each block, at a position and with a sign hashed from the
-    column, block and ``seed``.  It embeds a subspace about as well as a
-    Gaussian matrix of the same size (Martinsson and Tropp 2020, section 9.2)
-    but applies in ``SPARSE_SIGNS`` operations an entry instead of ``rows``;
-    applying it releases the GIL.  Only ``rows`` and ``seed`` matter: any
-    column count gives the leading columns of one matrix.
-    """
-
-    def __init__(self, rows: int, columns: int, seed: int = 0) -> None:
-        self.shape, self.seed = (rows, columns), seed
-
-    def __matmul__(self, matrix: np.ndarray) -> np.ndarray:
-        return self.stacked([matrix])
-
-    def stacked(self, blocks: list[np.ndarray]) -> np.ndarray:
-        """``self @ np.concatenate(blocks)`` without the copy; a block may be a transposed view."""
-        if sum(len(block) for block in blocks) != self.shape[1]:
-            raise ValueError(f"a {self.shape} sketch cannot multiply {[block.shape for block in blocks]}")
-        out = np.zeros((self.shape[0], blocks[0].shape[1]))
-        first = 0
-        for block in blocks:
-            transposed = block.T.flags.c_contiguous and not block.flags.c_contiguous and block.dtype == np.float64
-            data = block.T if transposed else np.ascontiguousarray(block, dtype=np.float64)
-            _apply_sparse_sign(data, transposed, first, self.shape[0], self.seed, out)
-            first += len(block)
-        return out
-
-
-# LAPACK is called directly below: on the many small boxes, scipy.linalg's checks and workspace
-# queries cost more than the factorisations (60 us against 22 us for a 46 x 30 pivoted QR).
-
-def _checked(info: int, routine: str) -> None:
-    if info > 0:
-        raise np.linalg.LinAlgError(f"{routine}: singular matrix")
-    if info < 0:
-        raise ValueError(f"{routine}: illegal argument {-info}")
-
-
-def _pivoted_qr(matrix: np.ndarray, tolerance: float) -> tuple[np.ndarray, np.ndarray, int]:
-    """R factor (upper triangle), column order and numerical rank (pivots above ``tolerance`` times the
-    largest, at least 1); ``matrix`` is overwritten when it is in Fortran order."""
-    columns = matrix.shape[1]
-    r_factor, order, _, _, info = lapack.dgeqp3(matrix, lwork=2 * columns + 64 * (columns + 1),
-                                                             overwrite_a=True)
-    _checked(info, "dgeqp3")
-    pivots = np.abs(np.diag(r_factor))
-    rank = int(np.count_nonzero(pivots > tolerance * pivots[0])) if len(pivots) and pivots[0] > 0 else 0
-    return r_factor, order - 1, max(rank, 1)
-
-
-def _inverse(matrix: np.ndarray) -> np.ndarray:
-    """``matrix^-1`` (overwriting ``matrix`` when it is in Fortran order)."""
-    lu, pivots, info = lapack.dgetrf(matrix, overwrite_a=True)
-    _checked(info, "dgetrf")
-    inverse, info = lapack.dgetri(lu, pivots, lwork=64 * max(1, len(matrix)), overwrite_lu=True)
-    _checked(info, "dgetri")
-    return inverse
-
-
-def sketch_rows(rows: int, columns: int) -> int:
-    """Rows of the sketch ``interpolative`` takes of a ``rows x columns`` matrix; 0 if it takes none.
-
-    A random sketch with a few more rows than the rank can be keeps the
-    column relations and turns a tall pivoted QR into one matrix product
-    (with a Gaussian, measured 2-3x faster; a sparse sign matrix is cheaper
-    still).  Twice as many rows as columns cost 15-25% more in all on fruits
-    and roses, for 10-30% smaller errors.
-    """
-    return min(2 * columns, columns + SKETCH_OVERSAMPLING) if rows > 4 * columns else 0
-
-
-def interpolative(
-    matrix: np.ndarray, tolerance: float, sketch: Callable[[int, int], np.ndarray | SparseSign] | None = None
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Column interpolative decomposition by pivoted QR.
-
-    ``sketch(rows, columns)``, when given, supplies random matrices
-    (Gaussian, or ``SparseSign``) for sketching a tall ``matrix`` first.
-
-    Returns
-    -------
-    skeleton, redundant : numpy.ndarray
-        Column positions; ``matrix[:, redundant] ~ matrix[:, skeleton] @ T``
-        to ``tolerance`` relative to the largest pivot.
-    T : numpy.ndarray
-        ``(len(skeleton), len(redundant))``.
-    """
-    rows, columns = matrix.shape
-    if sketch is not None and sketch_rows(rows, columns):
-        matrix = sketch(sketch_rows(rows, columns), rows) @ matrix
-    r_factor, order, rank = _pivoted_qr(matrix, tolerance)
-    T = np.zeros((rank, 0))
-    if rank < columns:
-        T, info = lapack.dtrtrs(r_factor[:rank, :rank], r_factor[:rank, rank:])
-        _checked(info, "dtrtrs")
-    return order[:rank], order[rank:], T
 
 
 @dataclass(frozen=True)
@@ -286,7 +83,7 @@ def eliminate(block: np.ndarray, skeleton: np.ndarray, redundant: np.ndarray, T:
     m_rs = a_rs - T.T @ a_ss
     m_sr = a_sr - a_ss @ T
     m_rr = a_rr - T.T @ a_sr - m_rs @ T
-    inverse = _inverse(m_rr)
+    inverse = dense_inverse(m_rr)
     upper = inverse @ m_rs
     return inverse, m_sr, upper, a_ss - m_sr @ upper
 
@@ -424,7 +221,7 @@ class SkeletonFactorization:
         self.tolerance = tolerance
         self.levels: list[LevelSteps] = []
         self.stored_bytes = 0
-        self.memory_limit = bem.MEMORY_SHARE * bem.available_memory()
+        self.memory_limit = dense.MEMORY_SHARE * dense.available_memory()
         self.workers = max(1, numba.get_num_threads() if workers is None else workers)
         mids = self.entries.midpoints
         self.origin = mids.min(axis=0) if len(mids) else np.zeros(2)
@@ -456,7 +253,7 @@ class SkeletonFactorization:
         """Count ``size`` more bytes kept; fail early, before the machine runs out."""
         self.stored_bytes += size
         if self.stored_bytes > self.memory_limit:
-            raise bem.SolveTooLargeError(
+            raise dense.SolveTooLargeError(
                 f"{self.size:,} boundary segments: the compressed factorisation needs more than "
                 f"{self.memory_limit / 1e9:.1f} GB, the share of memory available"
             )

@@ -14,9 +14,10 @@ from functools import lru_cache
 
 import numpy as np
 
+from ..geometry.segments import Segments
 from .expansions import l2l_matrix, m2l_matrix, m2m_matrix
 from .moments import cell_moments
-from .segments import Segments
+
 
 @lru_cache(maxsize=None)
 def interaction_offsets(px: int, py: int) -> tuple[tuple[int, int], ...]:
@@ -33,7 +34,7 @@ def interaction_offsets(px: int, py: int) -> tuple[tuple[int, int], ...]:
     )
 
 
-def _child_offset(px: int, py: int) -> complex:
+def child_offset(px: int, py: int) -> complex:
     """(child centre - parent centre) / parent size for the child at parity (px, py)."""
     return complex((px - 0.5) / 2, (py - 0.5) / 2)
 
@@ -169,7 +170,7 @@ def coarser_multipoles(fine: np.ndarray, order: int) -> list[np.ndarray | None]:
         parent = np.zeros((2 ** (level - 1),) * 2 + child.shape[2:], complex)
         for py in (0, 1):
             for px in (0, 1):
-                parent += _times(child[py::2, px::2], m2m_matrix(_child_offset(px, py), order))
+                parent += times(child[py::2, px::2], m2m_matrix(child_offset(px, py), order))
         multipoles[level - 1] = parent
     return multipoles
 
@@ -192,7 +193,7 @@ def downward_pass(multipoles: list[np.ndarray], lattice: Lattice, order: int) ->
             for px in (0, 1):
                 target = np.zeros((half, half) + multipoles[level].shape[2:], complex)
                 if local is not None:
-                    target += _times(local, l2l_matrix(_child_offset(px, py), order))
+                    target += times(local, l2l_matrix(child_offset(px, py), order))
                 rows = target.reshape(half, -1, order + 1)
                 for dx, dy in interaction_offsets(px, py):
                     row0, col0 = _PAD // 2 + (py + dy) // 2, _PAD // 2 + (px + dx) // 2
@@ -203,7 +204,7 @@ def downward_pass(multipoles: list[np.ndarray], lattice: Lattice, order: int) ->
     return local
 
 
-def _times(expansions: np.ndarray, matrix: np.ndarray) -> np.ndarray:
+def times(expansions: np.ndarray, matrix: np.ndarray) -> np.ndarray:
     """``expansions @ matrix`` over the last axis as one product (numpy loops over stacked small ones: 4x slower)."""
     return (expansions.reshape(-1, matrix.shape[0]) @ matrix).reshape(expansions.shape[:-1] + (matrix.shape[1],))
 

@@ -1,6 +1,6 @@
 """Compiled raster kernels: near and far field on a tensor grid of samples, cell by cell.
 
-The twins of ``kernels.near_sum`` (arbitrary points) and ``raster.far_field``
+The twins of ``kernels.near_sum`` (arbitrary points) and ``raster.far_field_reference``
 (numpy); the tests compare them.
 """
 
@@ -9,13 +9,13 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from .fastmath import POLY_MATH, _atan2_poly, _layers_from, _log_poly, _log_r2  # noqa: F401  (tests use them from here)
-from .kernels import segment_frames
+from .fastmath import POLY_MATH, log_r2, potentials_from
+from .segment_sums import segment_frames
 
 # --- Near field on a tensor grid of samples -------------------------------------------
 #
 # The inner loops run over a cell's samples and call ``fastmath``'s
-# branch-free, libm-free ``_layers_from``, so they vectorise.  They are
+# branch-free, libm-free ``potentials_from``, so they vectorise.  They are
 # compiled without reassociation (``POLY_MATH``) so the polynomials' error
 # bounds hold, and with ``error_model="numpy"`` (see ``fastmath``).
 
@@ -71,10 +71,10 @@ def _near_cell(cy, cx, xs, ys, x_start, y_start, n, cell_start, p, q, tangent, l
             current = 1 - current  # the previous segment's log at q is this one's log at p
         else:
             for i in range(count):
-                logs[current, i] = _log_r2(sx[i], sy[i], px, py)
+                logs[current, i] = log_r2(sx[i], sy[i], px, py)
         log_p, log_q = logs[current], logs[1 - current]
         for i in range(count):
-            s, d, log_q[i] = _layers_from(sx[i], sy[i], px, py, qx, qy, tx, ty, h, log_p[i])
+            s, d, log_q[i] = potentials_from(sx[i], sy[i], px, py, qx, qy, tx, ty, h, log_p[i])
             acc[0, i] += e0 * s - c0 * d
             acc[1, i] += e1 * s - c1 * d
             acc[2, i] += e2 * s - c2 * d
@@ -115,7 +115,7 @@ def grid_cell_runs(coords: np.ndarray, cell_size: float, cells_per_side: int) ->
     """Offsets ``(cells_per_side + 1,)`` of each fine cell's run in sorted coordinates along one axis.
 
     A coordinate's cell is ``floor(coord / cell_size)`` clamped to the lattice,
-    as in ``raster.far_field``: a sample on an edge between two cells belongs
+    as in ``raster.far_field_reference``: a sample on an edge between two cells belongs
     to the one with the larger index.
     """
     cells = np.clip(np.floor(coords / cell_size).astype(np.int64), 0, cells_per_side - 1)
@@ -223,7 +223,7 @@ def _far_grid(poly, xs, ys, x_start, y_start, cell_size, out):
 def far_field_grid(poly: np.ndarray, xs: np.ndarray, ys: np.ndarray, cell_size: float) -> np.ndarray:
     """Cell polynomials on the tensor grid ``ys x xs``, ``(len(ys), len(xs), 3)``.
 
-    Compiled twin of ``raster.far_field``.
+    Compiled twin of ``raster.far_field_reference``.
 
     Parameters
     ----------

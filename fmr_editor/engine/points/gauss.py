@@ -53,8 +53,8 @@ from functools import lru_cache
 
 import numpy as np
 
-from ..model.point import DiffusionPoint
-from .lattice import Lattice
+from ...model.point import DiffusionPoint
+from ..fmm.lattice import Lattice
 
 
 @dataclass(frozen=True)

@@ -15,12 +15,12 @@ from functools import cached_property
 
 import numpy as np
 
-from ..model import DiffusionPoint
+from ...model import DiffusionPoint
+from ..fmm.lattice import Lattice
 from .gauss import GaussPoints, PointSettings, changed_cells, cutoff_radii, expansion_ratios
-from .gauss_delta import add_points
-from .gauss_near import NearPoints, near_at, near_grid, near_points, polynomials_at
-from .gauss_tensor import point_polynomials
-from .lattice import Lattice
+from .increments import add_to_tensor
+from .near import NearPoints, near_at, near_grid, near_points, polynomials_at
+from .tensor import point_polynomials
 
 #: Points refine the lattice down to cells of this size (pixels) at most: points
 #: narrower than about 1.3 cells are summed exactly instead.
@@ -115,7 +115,7 @@ class LivePoints:
     """A document's points on a lattice, updated point by point.
 
     Adding and removing points changes the tensor in the cells they reach
-    (``gauss_delta.add_points``), in a copy: a tensor handed out by ``field``
+    (``gauss_delta.add_to_tensor``), in a copy: a tensor handed out by ``field``
     never changes afterwards.  Near points join the near lists in place;
     a removed one keeps its slot with zero weight (its terms are exact
     zeros) until dead slots outnumber live ones and the lists are compacted.
@@ -153,7 +153,7 @@ class LivePoints:
         delta = GaussPoints(delta.positions, delta.radii,
                             np.concatenate([-delta.weights[: len(removed)], delta.weights[len(removed):]]))
         tensor = self.tensor.copy()
-        rectangles = add_points(tensor, delta, self.lattice, self.settings)
+        rectangles = add_to_tensor(tensor, delta, self.lattice, self.settings)
         self.tensor = tensor
         near = expansion_ratios(delta, self.lattice, self.settings) == 0
         if near.any():

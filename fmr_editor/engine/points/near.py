@@ -20,9 +20,9 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from ..fmm.lattice import Lattice
+from ..kernels.grid import far_field_grid, grid_arrays, grid_cell_runs
 from .gauss import GaussPoints, PointSettings, cell_range, cutoff_radii, expansion_ratios
-from .grid_kernels import far_field_grid, grid_arrays, grid_cell_runs
-from .lattice import Lattice
 
 
 @dataclass(frozen=True, eq=False)

@@ -1,4 +1,4 @@
-"""The engine's FMM applied to point charges and dipoles (DESIGN section 4).
+"""The engine's FMM applied to point charges and dipoles (DESIGN section 4), for ``bench_fmm2d``.
 
 Computes, at every target x (a complex number z),
 
@@ -16,13 +16,15 @@ densities on a short segment (length h, normal n0 as a complex number) map
 as ``c = E h / 2pi`` and ``d = -C h n0 / 2pi``.
 
 The far field goes through the engine's own passes: point-to-multipole
-here (the point limit of ``expansions.multipole_moments``), the M2M loop of
+here (the point limit of ``expansions.multipole_moments_reference``), the M2M loop of
 ``lattice.upward_pass`` and ``lattice.downward_pass`` unchanged, run on one
 channel rather than the three colour channels (the passes are generic in
 the channel count; three cost 2.5-2.9x as much, measured: 1.40 s against
 0.57 s for the downward pass of 65,536 cells at order 18).  Near field (the 3x3
 block of each target's cell) and the evaluation of the fine-level locals are
-compiled kernels.  ``evaluate_points_direct`` is the plain reference.
+compiled kernels (the engine's ``far_field_at`` evaluates the locals).
+``evaluate_points_direct`` is the plain reference.  Not part of the editor:
+``bench_fmm2d.py`` and ``tests/test_point_fmm.py`` use it.
 """
 
 from __future__ import annotations
@@ -35,8 +37,10 @@ import numpy as np
 from numba import types
 from numba.extending import intrinsic
 
-from .kernels import FAST_MATH
-from .lattice import Lattice, coarser_multipoles, downward_pass
+from fmr_editor.engine.fmm.lattice import Lattice, coarser_multipoles, downward_pass
+from fmr_editor.engine.kernels.fastmath import FAST_MATH
+from fmr_editor.engine.kernels.segment_sums import cells_of, counting_sort
+from fmr_editor.engine.solve.solver import far_field_at
 
 #: Time of one term-pair of the lattice passes (one cell, (order + 1)^2) against one near-field
 #: source-target pair; measured here (2 cores, order 16: 0.38 s for the passes of 65,536 cells,
@@ -188,33 +192,6 @@ def _bounds(points, extra):
 
 
 @numba.njit(parallel=True, cache=True, error_model="numpy")
-def _cell_keys(points, lo_x, lo_y, cell_size, cells):
-    """Fine cell ``row * cells + column`` of every point (clamped to the lattice)."""
-    keys = np.empty(points.shape[0], np.int64)
-    for i in numba.prange(points.shape[0]):
-        col = min(max(int((points[i, 0] - lo_x) / cell_size), 0), cells - 1)
-        row = min(max(int((points[i, 1] - lo_y) / cell_size), 0), cells - 1)
-        keys[i] = row * cells + col
-    return keys
-
-
-@numba.njit(cache=True, error_model="numpy")
-def _counting_sort(keys, count):
-    """Stable counting sort of ``keys`` in ``[0, count)``: permutation and CSR offsets ``(count + 1,)``."""
-    start = np.zeros(count + 1, np.int64)
-    for i in range(keys.shape[0]):
-        start[keys[i] + 1] += 1
-    for c in range(count):
-        start[c + 1] += start[c]
-    fill = start[:-1].copy()
-    perm = np.empty(keys.shape[0], np.int64)
-    for i in range(keys.shape[0]):
-        perm[fill[keys[i]]] = i
-        fill[keys[i]] += 1
-    return perm, start
-
-
-@numba.njit(parallel=True, cache=True, error_model="numpy")
 def _gather_points(perm, points, lo_x, lo_y):
     """Sorted x and y, shifted to the lattice origin, contiguous."""
     x, y = np.empty(perm.shape[0]), np.empty(perm.shape[0])
@@ -236,7 +213,7 @@ def _gather_strengths(perm, charge, dipole):
 def _sort_points(points: np.ndarray, lo_x: float, lo_y: float, lattice: Lattice):
     """Permutation sorting ``points`` by fine cell, CSR offsets of the cells, sorted shifted x and y."""
     cells = lattice.cells_per_side
-    perm, start = _counting_sort(_cell_keys(points, lo_x, lo_y, lattice.cell_size, cells), cells * cells)
+    perm, start = counting_sort(cells_of(points - [lo_x, lo_y], cells, lattice.cell_size), cells * cells)
     x, y = _gather_points(perm, points, lo_x, lo_y)
     return perm, start, x, y
 
@@ -245,7 +222,7 @@ def _sort_points(points: np.ndarray, lo_x: float, lo_y: float, lattice: Lattice)
 def _p2m(sx, sy, charge, dip_x, dip_y, cell_start, cells_per_side, cell_size, order, out):
     """Scaled multipoles of every fine cell from its sorted point sources; ``out (cells, P + 1)``.
 
-    The point limit of ``expansions.multipole_moments``: about the cell centre
+    The point limit of ``expansions.multipole_moments_reference``: about the cell centre
     zc, with zeta = (y - zc) / r, ``A_0 = sum c`` and
     ``A_k = sum [-(c / k) zeta^k - (d / r) zeta^(k-1)]``.
     """
@@ -289,35 +266,25 @@ def _near_run(x, y, sx, sy, charge, dip_x, dip_y, lo, hi, tiny2):
 
 
 @numba.njit(parallel=True, cache=True, fastmath=FAST_MATH, error_model="numpy")
-def _evaluate(tx, ty, target_start, sx, sy, charge, dip_x, dip_y, source_start, local, cells_per_side, cell_size,
-              tiny2, out):
-    """Far field (Horner on the fine locals) plus near field at targets sorted by cell.
+def _near_field(tx, ty, target_start, sx, sy, charge, dip_x, dip_y, source_start, cells_per_side, tiny2, out):
+    """Add the near field to ``out`` at targets sorted by cell.
 
     The sources of the three cells of one row of a 3x3 block are one
     contiguous run (cells are numbered row by row).
     """
     n = cells_per_side
-    terms = local.shape[1]
     for cell in numba.prange(n * n):
-        if target_start[cell] == target_start[cell + 1]:
-            continue
         row, col = cell // n, cell % n
-        cx, cy = (col + 0.5) * cell_size, (row + 0.5) * cell_size
         c0, c1 = max(col - 1, 0), min(col + 1, n - 1)
         r0, r1 = max(row - 1, 0), min(row + 1, n - 1)
         for i in range(target_start[cell], target_start[cell + 1]):
-            x, y = tx[i], ty[i]
-            w = complex((x - cx) / cell_size, (y - cy) / cell_size)
-            value = local[cell, terms - 1]
-            for k in range(terms - 2, -1, -1):
-                value = value * w + local[cell, k]
-            total = value.real
+            total = 0.0
             for r in range(r0, r1 + 1):
                 total += _near_run(
-                    x, y, sx, sy, charge, dip_x, dip_y,
+                    tx[i], ty[i], sx, sy, charge, dip_x, dip_y,
                     source_start[r * n + c0], source_start[r * n + c1 + 1], tiny2,
                 )
-            out[i] = total
+            out[i] += total
 
 
 def evaluate_points_fmm(
@@ -376,7 +343,7 @@ def evaluate_points_fmm(
     clock("p2m")
     multipoles = coarser_multipoles(fine.reshape(cells, cells, 1, order + 1), order)
     clock("m2m")
-    local = downward_pass(multipoles, lattice, order).reshape(cells * cells, order + 1)
+    local = downward_pass(multipoles, lattice, order)
     clock("downward")
 
     if same:
@@ -385,9 +352,11 @@ def evaluate_points_fmm(
         target_perm, target_start, tx, ty = _sort_points(targets, lo_x, lo_y, lattice)
         clock("sort")
     tiny2 = (side * 2.0**-52) ** 2
-    sorted_out = np.empty(len(tx))
-    _evaluate(tx, ty, target_start, sx, sy, charge, dip_x, dip_y, source_start,
-              np.ascontiguousarray(local), cells, lattice.cell_size, tiny2, sorted_out)
+    flat = np.repeat(np.arange(cells * cells), np.diff(target_start))
+    # the engine's locals carry 1/2pi (DESIGN section 4); these sums do not
+    sorted_out = 2 * np.pi * far_field_at(local, lattice, np.stack(np.divmod(flat, cells), axis=1),
+                                          np.stack([tx, ty], axis=1))[:, 0]
+    _near_field(tx, ty, target_start, sx, sy, charge, dip_x, dip_y, source_start, cells, tiny2, sorted_out)
     clock("evaluate")
     out = np.empty(len(targets))
     out[target_perm] = sorted_out

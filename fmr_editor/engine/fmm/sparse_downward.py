@@ -17,7 +17,7 @@ import numba
 import numpy as np
 
 from .expansions import l2l_matrix, m2l_matrix, m2m_matrix
-from .lattice import Lattice, _child_offset, _times, coarser_multipoles, downward_pass, interaction_offsets
+from .lattice import Lattice, child_offset, coarser_multipoles, downward_pass, interaction_offsets, times
 
 #: Share of fine cells changed above which the whole-level passes are faster (measured at L = 6, 7).
 SPARSE_SOURCES = 0.25
@@ -65,7 +65,7 @@ def _sparse_parents(child: np.ndarray, rows: np.ndarray, columns: np.ndarray, or
     pr, pc = np.unique(np.stack([rows // 2, columns // 2]), axis=1)
     for py in (0, 1):
         for px in (0, 1):
-            parent[pr, pc] += _times(child[2 * pr + py, 2 * pc + px], m2m_matrix(_child_offset(px, py), order))
+            parent[pr, pc] += times(child[2 * pr + py, 2 * pc + px], m2m_matrix(child_offset(px, py), order))
     return parent, pr, pc
 
 
@@ -100,7 +100,7 @@ def delta_local(delta_fine: np.ndarray, lattice: Lattice, order: int) -> np.ndar
         if local is not None:
             for py in (0, 1):
                 for px in (0, 1):
-                    level_local[py::2, px::2] = _times(local, l2l_matrix(_child_offset(px, py), order))
+                    level_local[py::2, px::2] = times(local, l2l_matrix(child_offset(px, py), order))
         if len(rows):
             matrices = _m2l_matrices(order, float(np.log(lattice.level_size(level))))
             _sparse_m2l(rows, columns, np.ascontiguousarray(sources[rows, columns]), offsets, masks, matrices,

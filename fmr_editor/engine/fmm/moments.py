@@ -1,4 +1,4 @@
-"""Compiled per-cell multipole moments (P2M); ``expansions.multipole_moments`` is the reference."""
+"""Compiled per-cell multipole moments (P2M); ``expansions.multipole_moments_reference`` is the reference."""
 
 from __future__ import annotations
 

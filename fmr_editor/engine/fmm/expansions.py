@@ -23,7 +23,7 @@ import numpy as np
 from scipy.special import comb
 
 
-def multipole_moments(
+def multipole_moments_reference(
     p: np.ndarray, q: np.ndarray, flux: np.ndarray, jump: np.ndarray, centre: np.ndarray, size: float, order: int
 ) -> np.ndarray:
     """Scaled multipole moments of each segment about its ``centre`` (P2M).

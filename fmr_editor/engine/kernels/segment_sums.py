@@ -6,10 +6,10 @@ target-segment pairs per second here, these loops tens of times that
 
 Every kernel is built the same way: a target's values against a run of
 segments go into a small scratch array in a loop that LLVM vectorises (the
-branch-free ``_layers``, with ``fastmath.POLY_MATH`` and
+branch-free ``segment_potentials``, with ``fastmath.POLY_MATH`` and
 ``error_model="numpy"``: see ``fastmath``), and a second vectorised loop
 (``_weighted_sums``, compiled with reassociation) sums them.  Segments come
-as a ``(7, n)`` table of rows (``_segment_table``) so the loops read
+as a ``(7, n)`` table of rows (``segment_table``) so the loops read
 contiguous memory; the near-field kernels copy a cell's 3x3 block of
 segments into one such table, padded to a multiple of ``_PAD`` with
 weightless copies so the vector loop has no scalar remainder, once for all
@@ -24,11 +24,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from .fastmath import _TWO_PI, POLY_MATH, _layers_from, _log_r2  # noqa: F401  (_TWO_PI: importable from here too)
+from .fastmath import FAST_MATH, POLY_MATH, log_r2, potentials_from
 
-#: Fast-math flags without "no NaNs / no infinities", so guards keep working; with reassociation,
-#: so reductions vectorise.  Not for code calling ``fastmath``'s polynomials (see ``POLY_MATH``).
-FAST_MATH = {"nsz", "arcp", "contract", "afn", "reassoc"}
 #: The near-field blocks are padded to a multiple of this many segments (a vector loop's step).
 _PAD = 8
 #: Segments per scratch tile of the dense kernels.
@@ -36,21 +33,21 @@ _TILE = 512
 
 
 @numba.njit(cache=True, inline="always", fastmath=POLY_MATH, error_model="numpy")
-def _layers(x: float, y: float, px: float, py: float, qx: float, qy: float, tx: float, ty: float, h: float):
+def segment_potentials(x: float, y: float, px: float, py: float, qx: float, qy: float, tx: float, ty: float, h: float):
     """Single and double layer of one segment at (x, y); see ``layers``.
 
     Returns ``(S, D)``.  ``D`` is 0 on the segment's line outside it and at
     its end points; inside the segment the rounded cross product picks a side
     (+-1/2) unless it is exactly 0, so callers wanting the principal value
     there select 0 themselves, as the kernels below do for a segment's own
-    midpoint.  This is ``fastmath._layers_from`` given ``log|p - x|^2``:
+    midpoint.  This is ``fastmath.potentials_from`` given ``log|p - x|^2``:
     branch-free and without libm calls, so a loop calling it vectorises when
     compiled with ``fastmath=POLY_MATH, error_model="numpy"`` (it is inlined
     and takes its caller's options; see ``fastmath``).  Within about 2 ulp of
     libm in any caller; bit for bit equal to the kernels' values only in a
     caller compiled with those options.
     """
-    single, double, _ = _layers_from(x, y, px, py, qx, qy, tx, ty, h, _log_r2(x, y, px, py))
+    single, double, _ = potentials_from(x, y, px, py, qx, qy, tx, ty, h, log_r2(x, y, px, py))
     return single, double
 
 
@@ -89,8 +86,8 @@ def segment_frames(p: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray
     return d / h[:, None], h
 
 
-def _segment_table(p: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """``(7, n)`` rows p_x, p_y, q_x, q_y, t_x, t_y, h: what ``_layers`` takes, one contiguous row each."""
+def segment_table(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """``(7, n)`` rows p_x, p_y, q_x, q_y, t_x, t_y, h: what ``segment_potentials`` takes, one contiguous row each."""
     tangent, length = segment_frames(p, q)
     table = np.empty((7, len(p)))
     table[0:2], table[2:4], table[4:6], table[6] = p.T, q.T, tangent.T, length
@@ -115,7 +112,7 @@ def _direct_sum(targets, table, weights, out):
             for lo in range(0, n, _TILE):
                 hi = min(n, lo + _TILE)
                 for j in range(lo, hi):
-                    single[j - lo], double[j - lo] = _layers(
+                    single[j - lo], double[j - lo] = segment_potentials(
                         x, y, table[0, j], table[1, j], table[2, j], table[3, j], table[4, j], table[5, j], table[6, j]
                     )
                 dr, dg, db = _weighted_sums(single, double, weights, lo, hi, lo)
@@ -132,7 +129,7 @@ def direct_sum(targets: np.ndarray, p: np.ndarray, q: np.ndarray, flux: np.ndarr
     gets one side's value there, not the principal value).
     """
     out = np.empty((len(targets), 3))
-    _direct_sum(np.ascontiguousarray(targets, dtype=np.float64), _segment_table(p, q), _weights(flux, jump), out)
+    _direct_sum(np.ascontiguousarray(targets, dtype=np.float64), segment_table(p, q), _weights(flux, jump), out)
     return out
 
 
@@ -185,26 +182,27 @@ def _padded(count):
 
 
 @numba.njit(cache=True)
-def _order_by_cell(cell, cell_count):
-    """Indices sorting ``cell`` (values below ``cell_count``): a stable counting sort."""
+def counting_sort(cell, cell_count):
+    """Stable counting sort of ``cell`` (values below ``cell_count``): the order and CSR offsets ``(cell_count + 1,)``."""
     start = np.zeros(cell_count + 1, np.int64)
     for c in cell:
         start[c + 1] += 1
     for c in range(cell_count):
         start[c + 1] += start[c]
+    fill = start[:-1].copy()
     order = np.empty(len(cell), np.int64)
     for i in range(len(cell)):
-        order[start[cell[i]]] = i
-        start[cell[i]] += 1
-    return order
+        order[fill[cell[i]]] = i
+        fill[cell[i]] += 1
+    return order, start
 
 
-@numba.njit(cache=True)
-def _cells_of(targets, cells_per_side, cell_size):
+@numba.njit(parallel=True, cache=True)
+def cells_of(targets, cells_per_side, cell_size):
     """Each target's fine cell ``row * cells_per_side + column``, clamped to the lattice."""
     n = cells_per_side
     cell = np.empty(targets.shape[0], np.int64)
-    for i in range(targets.shape[0]):
+    for i in numba.prange(targets.shape[0]):
         cx = min(max(int(targets[i, 0] / cell_size), 0), n - 1)
         cy = min(max(int(targets[i, 1] / cell_size), 0), n - 1)
         cell[i] = cy * n + cx
@@ -237,7 +235,7 @@ def _near_sum(targets, cell, order, own, cells_per_side, cell_start, table, weig
                         seg_weights[c, k] = 0.0
             x, y, own_i = targets[i, 0], targets[i, 1], own[i]
             for k in range(padded):
-                s, d = _layers(x, y, seg[0, k], seg[1, k], seg[2, k], seg[3, k], seg[4, k], seg[5, k], seg[6, k])
+                s, d = segment_potentials(x, y, seg[0, k], seg[1, k], seg[2, k], seg[3, k], seg[4, k], seg[5, k], seg[6, k])
                 single[k] = s
                 double[k] = 0.0 if seg_index[k] == own_i else d
             out[i, 0], out[i, 1], out[i, 2] = _weighted_sums(single, double, seg_weights, 0, padded, 0)
@@ -279,10 +277,10 @@ def near_sum(
     targets = np.ascontiguousarray(targets, dtype=np.float64)
     out = np.empty((len(targets), 3))
     own = np.full(len(targets), -1, np.int64) if own is None else np.asarray(own, np.int64)
-    cell = _cells_of(targets, int(cells_per_side), float(cell_size))
-    order = _order_by_cell(cell, int(cells_per_side) ** 2)
+    cell = cells_of(targets, int(cells_per_side), float(cell_size))
+    order, _ = counting_sort(cell, int(cells_per_side) ** 2)
     _near_sum(targets, cell, order, own, int(cells_per_side), np.asarray(cell_start, np.int64),
-              _segment_table(p, q), _weights(flux, jump), out)
+              segment_table(p, q), _weights(flux, jump), out)
     return out
 
 
@@ -299,7 +297,7 @@ def _collocation(mids, table, on_border, curve_jump, matrix, rhs):
             for lo in range(0, n, _TILE):
                 hi = min(n, lo + _TILE)
                 for j in range(lo, hi):
-                    s, d = _layers(
+                    s, d = segment_potentials(
                         x, y, table[0, j], table[1, j], table[2, j], table[3, j], table[4, j], table[5, j], table[6, j]
                     )
                     d = 0.0 if j == i else d  # principal value on the segment itself
@@ -324,5 +322,5 @@ def collocation_system(
     border = np.asarray(on_border, np.bool_)
     rhs = np.where(border[:, None], 0.0, mean)
     curve_jump = np.ascontiguousarray(np.where(border[:, None], 0.0, jump).T, dtype=np.float64)
-    _collocation(0.5 * (p + q), _segment_table(p, q), border, curve_jump, matrix, rhs)
+    _collocation(0.5 * (p + q), segment_table(p, q), border, curve_jump, matrix, rhs)
     return matrix, rhs

@@ -1,8 +1,8 @@
 """Vectorisable scalar math shared by the compiled kernels: ``log``, ``atan2`` and one segment's layers.
 
 ``math.log`` and ``math.atan2`` compile to scalar libm calls, which keep LLVM
-from vectorising a loop (numba has no SVML here).  ``_log_poly`` and
-``_atan2_poly`` are the classic fdlibm logarithm and Cephes arctangent in
+from vectorising a loop (numba has no SVML here).  ``log_poly`` and
+``atan2_poly`` are the classic fdlibm logarithm and Cephes arctangent in
 plain arithmetic, so a loop calling them vectorises; measured against libm
 they are within 1 ulp (log) and 2 ulp (atan2), the same rounding envelope as
 numpy's own (``layers.pair_integrals``).
@@ -29,12 +29,15 @@ import math
 import numba
 import numpy as np
 
-_TWO_PI = 2.0 * math.pi
-_INV_TWO_PI = 1.0 / _TWO_PI
-_INV_FOUR_PI = 0.5 / _TWO_PI
+TWO_PI = 2.0 * math.pi
+INV_TWO_PI = 1.0 / TWO_PI
+INV_FOUR_PI = 0.5 / TWO_PI
 
 #: Fast-math flags for loops calling the functions below: contraction only (no reassociation).
 POLY_MATH = {"nsz", "contract"}
+#: Fast-math flags for every other compiled loop: without "no NaNs / no infinities", so guards keep
+#: working; with reassociation, so reductions vectorise.  Not for code calling the polynomials below.
+FAST_MATH = {"nsz", "arcp", "contract", "afn", "reassoc"}
 
 _LN2_HI = 6.93147180369123816490e-01
 _LN2_LO = 1.90821492927058770002e-10
@@ -48,7 +51,7 @@ _LG7 = 1.479819860511658591e-01
 
 
 @numba.njit(cache=True, inline="always", fastmath=POLY_MATH, error_model="numpy")
-def _log_poly(x):
+def log_poly(x):
     """``log(x)`` for finite normal ``x > 0`` without a libm call (fdlibm ``__ieee754_log``).
 
     ``x = 2^k m`` with ``m`` in ``[sqrt(2)/2, sqrt(2))``; ``log m`` from
@@ -83,10 +86,10 @@ _PI_2_LO = 6.123233995736765886130e-17
 
 
 @numba.njit(cache=True, inline="always", fastmath=POLY_MATH, error_model="numpy")
-def _atan2_poly(y, x):
+def atan2_poly(y, x):
     """``atan2(y, x)`` without a libm call (Cephes ``atan`` on ``min/max`` of ``|x|, |y|``).
 
-    NaN when ``x == y == 0``; ``_layers_from`` never passes that.
+    NaN when ``x == y == 0``; ``potentials_from`` never passes that.
     """
     ax, ay = abs(x), abs(y)
     lo, hi = min(ax, ay), max(ax, ay)
@@ -108,14 +111,14 @@ def _atan2_poly(y, x):
 
 
 @numba.njit(cache=True, inline="always", fastmath=POLY_MATH, error_model="numpy")
-def _log_r2(x, y, px, py):
+def log_r2(x, y, px, py):
     """``log |p - x|^2``, guarded at 1e-300 (a target on an end point)."""
     vx, vy = px - x, py - y
-    return _log_poly(max(vx * vx + vy * vy, 1e-300))
+    return log_poly(max(vx * vx + vy * vy, 1e-300))
 
 
 @numba.njit(cache=True, inline="always", fastmath=POLY_MATH, error_model="numpy")
-def _layers_from(x, y, px, py, qx, qy, tx, ty, h, log_p):
+def potentials_from(x, y, px, py, qx, qy, tx, ty, h, log_p):
     """Single and double layer of one segment at (x, y) given ``log|p - x|^2``; also ``log|q - x|^2``.
 
     The closed form of ``layers.pair_integrals`` (DESIGN section 3).  The two
@@ -139,7 +142,7 @@ def _layers_from(x, y, px, py, qx, qy, tx, ty, h, log_p):
     dot = v0x * v1x + v0y * v1y
     # atan2(0, 1) = 0 where the angle is taken as 0: never atan2(0, 0)
     subtends = cross != 0.0 or dot > 0.0
-    angle = _atan2_poly(cross if subtends else 0.0, dot if subtends else 1.0)
-    log_q = _log_poly(max(v1x * v1x + v1y * v1y, 1e-300))
-    single = ((h - a) * log_q + a * log_p - 2.0 * h + 2.0 * b_abs * abs(angle)) * _INV_FOUR_PI
-    return single, angle * _INV_TWO_PI, log_q
+    angle = atan2_poly(cross if subtends else 0.0, dot if subtends else 1.0)
+    log_q = log_poly(max(v1x * v1x + v1y * v1y, 1e-300))
+    single = ((h - a) * log_q + a * log_p - 2.0 * h + 2.0 * b_abs * abs(angle)) * INV_FOUR_PI
+    return single, angle * INV_TWO_PI, log_q

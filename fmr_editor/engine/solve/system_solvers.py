@@ -14,9 +14,9 @@ from collections.abc import Callable
 
 import numpy as np
 
-from .fast_solve import BoundarySolver
-from .segments import Segments
-from .updated_solve import UpdatedSolver, updated_solver
+from ..geometry.segments import Segments
+from .solver import BoundarySolver
+from .updated import UpdatedSolver, updated_solver
 
 Solver = BoundarySolver | UpdatedSolver
 Factorise = Callable[[Segments], BoundarySolver]

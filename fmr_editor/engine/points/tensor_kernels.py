@@ -1,4 +1,4 @@
-"""Compiled kernels of the diffusion-point build (``gauss_tensor``): Hermite columns and blocked products."""
+"""Compiled kernels of the diffusion-point build (``tensor``): Hermite columns and blocked products."""
 
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ import math
 import numba
 import numpy as np
 
-#: Fast-math flags without "no NaNs / no infinities".
-FAST_MATH = {"nsz", "arcp", "contract", "afn", "reassoc"}
+from ..kernels.fastmath import FAST_MATH
+
 #: Points of one source block handled together (bounds the per-thread buffers).
 CHUNK = 128
 #: Below this many points a chunk is added point by point (measured: 8 beat 2, 16 and 32).
@@ -16,7 +16,7 @@ FEW = 8
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH, inline="always")
-def _hermite_column(s, rho, inv, u, column):
+def hermite_column(s, rho, inv, u, column):
     """``u[n, column] = h_n(s) rho^n / n!`` (``gauss.scaled_hermite``)."""
     order = inv.shape[0] - 1
     a, b = 2.0 * s * rho, 2.0 * rho * rho
@@ -97,14 +97,14 @@ def _scatter_chunk(k0, k1, x, y, r, w, col0, col1, row0, row1, size, inv, ax, by
         rho = size / r[p]
         for col in range(col0[p], col1[p] + 1):
             slot = ax[col - xa]
-            _hermite_column((x[p] - (col + 0.5) * size) / r[p], rho, inv, slot, k)
+            hermite_column((x[p] - (col + 0.5) * size) / r[p], rho, inv, slot, k)
             for i in range(width):
                 u = slot[i, k]
                 slot[i, k] = u * w[p, 0]
                 slot[width + i, k] = u * w[p, 1]
                 slot[2 * width + i, k] = u * w[p, 2]
         for row in range(row0[p], row1[p] + 1):
-            _hermite_column((y[p] - (row + 0.5) * size) / r[p], rho, inv, by[row - ya], k)
+            hermite_column((y[p] - (row + 0.5) * size) / r[p], rho, inv, by[row - ya], k)
     if count < FEW:
         # too few points for the blocked product: one rank-one update per point and cell
         for k in range(count):
@@ -139,7 +139,7 @@ def _scatter_block(block, x, y, r, w, col0, col1, row0, row1, block_start, size,
 
 
 @numba.njit(parallel=True, cache=True, fastmath=FAST_MATH)
-def _accumulate(out, x, y, r, w, col0, col1, row0, row1, block_start, blocks, size, stripe, span, private):
+def accumulate(out, x, y, r, w, col0, col1, row0, row1, block_start, blocks, size, stripe, span, private):
     """Points sorted by source block into ``out (copies, g, g, 3 (P+1), P+1)``.
 
     With one copy, threads take stripes of ``stripe`` block rows, first the

@@ -28,11 +28,11 @@ import scipy.linalg
 import scipy.sparse
 import scipy.sparse.linalg
 
-from .bem import assemble, check_dense_fits
-from .kernels import near_sum
-from .delta import delta_local
-from .lattice import Lattice, dilated, fine_multipoles, sort_into_cells
-from .segments import Segments
+from ..fmm.lattice import Lattice, dilated, fine_multipoles, sort_into_cells
+from ..fmm.sparse_downward import delta_local
+from ..geometry.segments import Segments
+from ..kernels.segment_sums import near_sum
+from .dense import assemble, check_dense_fits
 from .skeleton import SkeletonFactorization
 
 #: Unknowns up to which the dense solve is faster (``bench/bench_solve.py``).
@@ -53,7 +53,7 @@ def compression_tolerance(count: int) -> float:
     return 1e-6 if count <= 30_000 else 1e-5
 
 
-def far_field_at(local: np.ndarray, lattice: Lattice, cells: np.ndarray, points: np.ndarray) -> np.ndarray:
+def far_field_at_reference(local: np.ndarray, lattice: Lattice, cells: np.ndarray, points: np.ndarray) -> np.ndarray:
     """The fine-level local expansions, all terms, at ``points`` in ``cells``; ``(m, 3)`` (numpy reference)."""
     w = (points / lattice.cell_size - (cells[:, ::-1] + 0.5)) @ np.array([1.0, 1.0j])
     coeffs = local[cells[:, 0], cells[:, 1]]  # (m, 3, P + 1)
@@ -76,8 +76,8 @@ def _far_field(local, cells, points, cell_size, out):
             out[i, channel] = value.real / (2 * np.pi)
 
 
-def far_field_fast(local: np.ndarray, lattice: Lattice, cells: np.ndarray, points: np.ndarray) -> np.ndarray:
-    """Compiled twin of ``far_field_at``."""
+def far_field_at(local: np.ndarray, lattice: Lattice, cells: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Compiled twin of ``far_field_at_reference``."""
     out = np.empty((len(points), local.shape[2]))
     _far_field(local, np.ascontiguousarray(cells), np.ascontiguousarray(points, dtype=np.float64),
                float(lattice.cell_size), out)
@@ -125,7 +125,7 @@ class CollocationOperator:
         local = delta_local(fine, lattice, order)
         sources = np.any(fine != 0, axis=(2, 3))
         rows = np.flatnonzero(dilated(sources)[self.cells[:, 0], self.cells[:, 1]])
-        out = far_field_fast(local, lattice, self.cells, seg.midpoints)
+        out = far_field_at(local, lattice, self.cells, seg.midpoints)
         out[rows] += near_sum(
             seg.midpoints[rows], lattice.cells_per_side, lattice.cell_size, self.cell_start, seg.p, seg.q,
             np.ascontiguousarray(flux), np.ascontiguousarray(jump), own=rows,

@@ -19,9 +19,10 @@ import math
 import numba
 import numpy as np
 
+from ..fmm.lattice import Lattice
+from ..kernels.fastmath import FAST_MATH
 from .gauss import GaussPoints, PointSettings, changed_cells, cutoff_radii, expansion_ratios
-from .gauss_kernels import FAST_MATH, _hermite_column
-from .lattice import Lattice
+from .tensor_kernels import hermite_column
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
@@ -43,7 +44,7 @@ def _fine_factors(coord, r, reach, ratio, cell_size, n, binom, inv, out, start):
     for f in range(fine0, fine1):
         cell, b = f // ratio, f % ratio
         if f == fine0 or b == 0:
-            _hermite_column((coord - (cell + 0.5) * size) / r, size / r, inv, u, 0)
+            hermite_column((coord - (cell + 0.5) * size) / r, size / r, inv, u, 0)
         d = (b + 0.5) / ratio - 0.5
         scale = 1.0
         for q in range(width):
@@ -129,7 +130,7 @@ def _binomials(width):
     return binom
 
 
-def add_points(tensor: np.ndarray, points: GaussPoints, lattice: Lattice,
+def add_to_tensor(tensor: np.ndarray, points: GaussPoints, lattice: Lattice,
                settings: PointSettings = PointSettings()) -> np.ndarray:
     """Add the polynomial points among ``points`` to ``tensor`` in place; remove with ``points.negated()``.
 

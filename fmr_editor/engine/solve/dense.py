@@ -22,9 +22,9 @@ import warnings
 import numpy as np
 import scipy.linalg
 
-from .kernels import collocation_system
-from .layers import pair_integrals
-from .segments import Segments
+from ..geometry.segments import Segments
+from ..kernels.potentials import pair_integrals
+from ..kernels.segment_sums import collocation_system
 
 #: Share of the available memory a solve may keep.
 MEMORY_SHARE = 0.8

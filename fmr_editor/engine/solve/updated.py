@@ -32,11 +32,11 @@ import warnings
 import numpy as np
 import scipy.linalg
 
-from .bem import assemble
-from .fast_solve import BoundarySolver, CollocationOperator
-from .lattice import Lattice, sort_into_cells
-from .segments import Segments
-from .skeleton import CollocationEntries
+from ..fmm.lattice import Lattice, sort_into_cells
+from ..geometry.segments import Segments
+from .dense import assemble
+from .entries import CollocationEntries
+from .solver import BoundarySolver, CollocationOperator
 
 #: Reciprocal condition number below which a small factor of the update counts as singular: the new
 #: system is then (nearly) singular itself and is left to a fresh factorisation, which handles that.

@@ -1,0 +1,7 @@
+"""The fast multipole machinery: expansions, the lattice of cells and the passes over it.
+
+``expansions`` holds P2M, M2M, M2L and L2L (DESIGN section 4) and
+``moments`` the compiled P2M; ``lattice`` the cells, the upward and
+downward passes; ``sparse_downward`` the downward pass of a change that
+touches few cells.
+"""

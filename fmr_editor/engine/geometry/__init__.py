@@ -1,0 +1,7 @@
+"""Geometry: curves and the canvas border as straight segments with their boundary data.
+
+``segments`` holds the ``Segments`` container, ``discretise`` turns a
+document into segments (flatten, clip, border, cut at cells), ``overlaps``
+resolves collinear overlaps and ``curve_cache`` keeps each curve's segments
+from one edit to the next.  Nothing here knows about solving or expansions.
+"""
