@@ -22,8 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .engine import LiveRepresentation, Representation, Settings, Update, rasterise
-from .io import load_document, load_fmr, save_fmr
+from .engine import LiveRepresentation, Progress, Representation, Settings, Update, rasterise
+from .io import open_live, save_fmr
 from .io.png import save_png
 from .model import Document
 from .model.history import History
@@ -54,10 +54,13 @@ class Session:
     """
 
     def __init__(self, document: Document, settings: Settings = Settings(),
-                 progress: Callable[[str, float], None] | None = None, saved: Representation | None = None) -> None:
-        self.history = History(document)
+                 progress: Progress | None = None, saved: Representation | None = None) -> None:
+        self._adopt(LiveRepresentation(document, settings, progress, saved), progress)
+
+    def _adopt(self, live: LiveRepresentation, progress: Progress | None) -> None:
+        self.history = History(live.document)
         self._progress = progress
-        self.live = LiveRepresentation(document, settings, progress, saved)
+        self.live = live
         self.last_update: Update | None = None
         self.history.subscribe(self._follow)
 
@@ -67,10 +70,14 @@ class Session:
 
         A ``.fmr`` file's saved representation is taken as it is (no solve).
         """
-        if Path(path).suffix.lower() == ".fmr":
-            saved = load_fmr(path)
-            return cls(saved.document, saved.settings or settings, saved=saved.representation)
-        return cls(load_document(path), settings)
+        return cls.resume(open_live(path, settings))
+
+    @classmethod
+    def resume(cls, live: LiveRepresentation) -> Session:
+        """A session on ``live``'s document, taking ``live`` as it is."""
+        session = cls.__new__(cls)
+        session._adopt(live, None)
+        return session
 
     def _follow(self, before: Document, after: Document) -> None:
         self.last_update = self.live.update(after, self._progress)

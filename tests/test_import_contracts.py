@@ -1,7 +1,8 @@
 """The architecture contracts in pyproject.toml ([tool.importlinter]) hold, and would catch a breach.
 
-Layers: ui -> tools | io | render -> engine -> model; only ui imports PySide6, only render imports
-OpenGL, and model, engine, io and tools reach neither.
+Layers: ui -> tools | io | render -> engine -> model; inside the engine geometry -> kernels -> fmm ->
+solve | points -> representation -> live | raster, and outside it only its public API; only ui
+imports PySide6, only render imports OpenGL, and model, engine, io and tools reach neither.
 """
 
 from __future__ import annotations
@@ -21,6 +22,8 @@ PYPROJECT = REPO / "pyproject.toml"
 ROOT = "fmr_editor"
 FAKE_ROOT = "fakeeditor"
 SUBPACKAGES = ("model", "engine", "io", "tools", "render", "ui")
+ENGINE_PACKAGES = ("geometry", "kernels", "fmm", "solve", "points")
+ENGINE_MODULES = ("representation", "live", "raster", "kept_states", "threads")
 
 pytest.importorskip("importlinter", reason="import-linter is in the [test] extra")
 
@@ -82,12 +85,22 @@ def write_fake_project(tmp_path: Path, module: str, source: str) -> Path:
         (package / sub).mkdir(parents=True)
         (package / sub / "__init__.py").write_text('"""Stub."""\n')
     (package / "__init__.py").write_text('"""Stub."""\n')
+    for sub in ENGINE_PACKAGES:
+        (package / "engine" / sub).mkdir()
+        (package / "engine" / sub / "__init__.py").write_text('"""Stub."""\n')
+    for name in ENGINE_MODULES:
+        (package / "engine" / f"{name}.py").write_text('"""Stub."""\n')
+    (package / "session.py").write_text(f"import {FAKE_ROOT}.engine\n")  # the public API: allowed
+    (package / "cli.py").write_text('"""Stub."""\n')
     # Allowed uses, so that the allowed paths are exercised too.
     (package / "ui" / "window.py").write_text(
         f"from PySide6 import QtWidgets\nfrom {FAKE_ROOT} import render\n"
     )
     (package / "render" / "gl.py").write_text(f"import OpenGL.GL\nfrom {FAKE_ROOT} import engine\n")
     (package / "engine" / "core.py").write_text(f"import numpy\nfrom {FAKE_ROOT} import model\n")
+    (package / "engine" / "live.py").write_text(f"from {FAKE_ROOT}.engine import kept_states, representation\n")
+    (package / "engine" / "solve" / "dense.py").write_text(
+        f"from {FAKE_ROOT}.engine.fmm import lattice\nfrom {FAKE_ROOT}.engine.geometry import segments\n")
     offender = package.joinpath(*module.split(".")).with_suffix(".py")
     offender.write_text(source.replace(ROOT, FAKE_ROOT))
     return config_file
@@ -116,6 +129,13 @@ def test_fake_project_without_violation_passes(tmp_path: Path) -> None:
         ("io.export", "from fmr_editor.ui import window\n", ["Layers:"]),
         ("engine.solve", "from fmr_editor import io\n", ["Layers:"]),
         ("render.upload", "import fmr_editor.io\n", ["Layers:"]),
+        # Inside the engine, a lower sub-package reaching up; two siblings that must stay independent.
+        ("engine.kernels.sums", "import fmr_editor.engine.fmm.lattice\n", ["Engine layers"]),
+        ("engine.points.near", "from fmr_editor.engine.solve import dense\n", ["Engine layers"]),
+        ("engine.geometry.cut", "from fmr_editor.engine import representation\n", ["Engine layers"]),
+        # Outside the engine, past its public API.
+        ("io.entries", "from fmr_editor.engine.fmm import lattice\n", ["Outside the engine"]),
+        ("render.packing", "from fmr_editor.engine.representation import Settings\n", ["Outside the engine"]),
     ],
 )
 def test_contracts_catch_violation(

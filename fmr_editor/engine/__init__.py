@@ -1,17 +1,29 @@
-"""The FMR engine: discretisation, boundary solve, FMM passes, rasterising.
+"""The FMR engine: a document in, its fast multipole representation and pixels out.
 
-Synchronous and free of Qt and OpenGL.  Every fast path has a plain
-reference beside it (``layers`` for ``kernels``, the direct sum for the FMR).
+Synchronous and free of Qt and OpenGL.  The sub-packages build on each
+other from the bottom up (an import-linter contract keeps that order)::
+
+    geometry -> kernels -> fmm -> solve | points -> representation -> live | raster
+
+``docs/architecture.md`` draws the data flow.  What the rest of the program
+uses is exported here; everything else is the engine's own.  Every fast path
+has a plain reference beside it (``*_reference``), which the tests compare.
 """
 
 from .threads import limit_blas
 
 limit_blas()  # before any work: see threads.py for why one BLAS thread is faster here
 
-from .live import LiveRepresentation, Update, build  # noqa: E402
+from .fmm.expansions import local_polynomials  # noqa: E402
+from .fmm.lattice import Lattice  # noqa: E402
+from .geometry.segments import Segments  # noqa: E402
+from .live import LiveRepresentation, Progress, Update, build  # noqa: E402
+from .points.field import PointField  # noqa: E402
+from .points.gauss import GaussPoints  # noqa: E402
 from .raster import evaluate_points, output_size, rasterise  # noqa: E402
-from .representation import Representation, Settings  # noqa: E402
+from .representation import MAX_LEVELS, Representation, Settings  # noqa: E402
 
 __all__ = [
-    "LiveRepresentation", "Representation", "Settings", "Update", "build", "evaluate_points", "output_size", "rasterise",
+    "MAX_LEVELS", "GaussPoints", "Lattice", "LiveRepresentation", "PointField", "Progress", "Representation",
+    "Segments", "Settings", "Update", "build", "evaluate_points", "local_polynomials", "output_size", "rasterise",
 ]

@@ -42,6 +42,7 @@ from ..model import DiffusionCurve, DiffusionPoint, Document
 from ..model.changes import ChangeSet
 from .fmm.lattice import (
     Lattice,
+    cell_order,
     changed_runs,
     coarser_multipoles,
     dilated,
@@ -211,8 +212,7 @@ class LiveRepresentation:
         self._discretise(document)
         if saved.lattice != self.lattice or len(saved.segments) != len(self._boundary):
             return False
-        cells = self.lattice.cell_of(self._boundary.midpoints)
-        order = np.argsort(cells[:, 0] * self.lattice.cells_per_side + cells[:, 1], kind="stable")
+        order, _ = cell_order(self._boundary, self.lattice)
         ordered = self._boundary.take(order)
         curve = ~ordered.on_border
         if not (all(np.array_equal(getattr(ordered, name), getattr(saved.segments, name))

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .fmm.expansions import harmonic_to_polynomial
+from .fmm.expansions import local_polynomials
 from .fmm.lattice import Lattice
 from .geometry.segments import Segments
 from .points.field import PointField
@@ -114,12 +114,7 @@ class Representation:
         order = self.order if order is None else order
         if not 0 <= order < self.local.shape[-1]:
             raise ValueError(f"order must be between 0 and {self.local.shape[-1] - 1}")
-        # Re(L M) = Re L Re M - Im L Im M, as one real matrix product
-        mapping = harmonic_to_polynomial(order).reshape(order + 1, -1)
-        real_mapping = np.concatenate([mapping.real, -mapping.imag]) / (2 * np.pi)
-        local = self.local[..., : order + 1]
-        coeffs = np.concatenate([local.real, local.imag], axis=-1) @ real_mapping
-        coeffs = coeffs.reshape(local.shape[:-1] + (order + 1, order + 1))
+        coeffs = local_polynomials(self.local, order)
         if self.points is not None:
             coeffs += self.points.polynomials(order)
         return coeffs

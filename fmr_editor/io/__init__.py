@@ -5,12 +5,15 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+from ..engine import LiveRepresentation, Progress, Settings
 from ..model import Document
 from .errors import DocumentLoadError
 from .fmr_file import FmrFile, load_fmr, save_fmr
 from .orzan import load_orzan, parse_orzan
 
-__all__ = ["DocumentLoadError", "FmrFile", "load_document", "load_fmr", "load_orzan", "parse_orzan", "save_fmr"]
+__all__ = [
+    "DocumentLoadError", "FmrFile", "load_document", "load_fmr", "load_orzan", "open_live", "parse_orzan", "save_fmr",
+]
 
 
 def load_document(path: str | os.PathLike) -> Document:
@@ -40,3 +43,23 @@ def load_document(path: str | os.PathLike) -> Document:
         return load_orzan(path)
     name = Path(path).name or os.fspath(path)
     raise DocumentLoadError(name, f"unsupported file type {suffix or '(no suffix)'!r}; supported: .fmr, .xml")
+
+
+def open_live(path: str | os.PathLike, settings: Settings | None = None,
+              progress: Progress | None = None) -> LiveRepresentation:
+    """The document in ``path`` with its live representation, ready to edit.
+
+    A ``.fmr`` file's saved representation is taken as it is (no solve), with
+    the settings it was built with; anything else is built with ``settings``
+    (default ``Settings()``).
+
+    Raises
+    ------
+    DocumentLoadError
+        When the file cannot be read.
+    """
+    settings = settings or Settings()
+    if Path(path).suffix.lower() == ".fmr":
+        saved = load_fmr(path)
+        return LiveRepresentation(saved.document, saved.settings or settings, progress, saved.representation)
+    return LiveRepresentation(load_document(path), settings, progress)

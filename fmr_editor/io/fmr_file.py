@@ -31,8 +31,7 @@ from typing import BinaryIO
 import numpy as np
 from PIL import Image
 
-from ..engine.raster import rasterise
-from ..engine.representation import Representation, Settings
+from ..engine import Representation, Settings, rasterise
 from ..model import Document
 from .atomic import write_atomically
 from .document_json import dumps_document, loads_document

@@ -24,11 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..engine.fmm.lattice import Lattice
-from ..engine.geometry.segments import Segments
-from ..engine.points.field import PointField
-from ..engine.points.gauss import GaussPoints
-from ..engine.representation import MAX_LEVELS, Representation, Settings
+from ..engine import MAX_LEVELS, GaussPoints, Lattice, PointField, Representation, Segments, Settings
 from ..model import Document
 from .json_checks import SchemaError, as_object, check_version, finite, required, whole
 
@@ -57,7 +53,7 @@ class RepresentationError(ValueError):
 
 
 @dataclass(frozen=True)
-class Layout:
+class ArrayLayout:
     """What ``representation.json`` says the arrays are.
 
     Attributes
@@ -110,7 +106,7 @@ def describe(rep: Representation, document: Document, settings: Settings | None 
     manifest : dict
         The JSON-ready content of ``representation.json``.
     arrays : dict of numpy.ndarray
-        Little-endian, C-ordered arrays by name (see ``Layout.arrays``).
+        Little-endian, C-ordered arrays by name (see ``ArrayLayout.arrays``).
 
     Raises
     ------
@@ -126,7 +122,7 @@ def describe(rep: Representation, document: Document, settings: Settings | None 
     propagation_order = rep.local.shape[-1] - 1
     if settings is not None:
         _check_settings(settings, rep.lattice.levels, rep.order, propagation_order)
-    layout = Layout(
+    layout = ArrayLayout(
         rep.lattice.levels, float(rep.lattice.side), rep.order, propagation_order, len(rep.segments), settings
     )
     arrays = {name: getattr(rep.segments, name) for name in SEGMENT_FIELDS}
@@ -181,7 +177,7 @@ def _check_settings(settings: Settings, levels: int, order: int, propagation_ord
 # --- opening -------------------------------------------------------------------------------------
 
 
-def parse_manifest(data: object, document: Document) -> Layout:
+def parse_manifest(data: object, document: Document) -> ArrayLayout:
     """The layout ``representation.json`` describes, checked against ``document``'s canvas.
 
     Raises
@@ -207,7 +203,7 @@ def parse_manifest(data: object, document: Document) -> Layout:
     most = MAX_SEGMENTS_PER_PIXEL * document.width * document.height + MIN_SEGMENT_ALLOWANCE
     segment_count = whole(required(root, "segment_count", ""), "segment_count", 0, most)
     settings = _settings(root.get("settings"), levels, order, propagation_order)
-    layout = Layout(levels, side, order, propagation_order, segment_count, settings)
+    layout = ArrayLayout(levels, side, order, propagation_order, segment_count, settings)
     for name, (dtype, shape) in layout.arrays().items():
         if np.dtype(dtype).itemsize * math.prod(shape) > MAX_ARRAY_BYTES:
             raise SchemaError(f"{entry_name(name)} would be larger than {MAX_ARRAY_BYTES >> 30} GiB")
@@ -245,7 +241,7 @@ def _settings(value: object, levels: int, order: int, propagation_order: int) ->
     return settings
 
 
-def assemble(layout: Layout, arrays: dict[str, np.ndarray], document: Document) -> Representation:
+def assemble(layout: ArrayLayout, arrays: dict[str, np.ndarray], document: Document) -> Representation:
     """The representation from checked-shape ``arrays``, after checking their content.
 
     The document's diffusion points are rebuilt on the lattice (no solve).

@@ -76,7 +76,7 @@ def shader_source(name: str, defines: dict[str, object] | None = None) -> str:
 
 
 @dataclass(frozen=True)
-class Layout:
+class ShaderLayout:
     """What the shader program and the buffers' shapes depend on."""
 
     cells: int
@@ -87,7 +87,7 @@ class Layout:
     height: int
 
     @classmethod
-    def of(cls, rep: Representation) -> Layout:
+    def of(cls, rep: Representation) -> ShaderLayout:
         return cls(rep.lattice.cells_per_side, rep.lattice.cell_size, rep.order, packing.uses_harmonic(rep),
                    rep.width, rep.height)
 
@@ -143,7 +143,7 @@ class CanvasRenderer:
         self._programs: dict[tuple[int, bool], Program] = {}
         self._rep: Representation | None = None
         self._segment_table: packing.SegmentTable | None = None
-        self._layout: Layout | None = None
+        self._layout: ShaderLayout | None = None
         self._dirty: np.ndarray | None = None  # cells to evaluate again at the next draw
         self._mirror = np.zeros((0, 0), np.float32)  # the coefficients as uploaded, a row per cell
         self._unseen = np.zeros((0, 0))  # bound on each cell's change missing from the cached image
@@ -159,7 +159,7 @@ class CanvasRenderer:
 
     def upload(self, rep: Representation) -> None:
         """Upload all of ``rep``; the next ``draw`` evaluates the whole window."""
-        self._layout = Layout.of(rep)
+        self._layout = ShaderLayout.of(rep)
         n = self._layout.cells
         self._mirror = packing.cell_coefficients(rep).reshape(n * n, -1)
         self._buffers["u_coeffs"].set_data(self._mirror)
@@ -186,7 +186,7 @@ class CanvasRenderer:
         changed : numpy.ndarray
             ``(2^L, 2^L)`` bool, as ``engine.Update.changed``.
         """
-        if self._rep is None or Layout.of(rep) != self._layout:
+        if self._rep is None or ShaderLayout.of(rep) != self._layout:
             self.upload(rep)
             return
         changed = np.asarray(changed, bool)

@@ -20,12 +20,10 @@ Layouts (``shaders/canvas.frag`` reads them):
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
 
 import numpy as np
 
-from ..engine import Representation
-from ..engine.fmm.expansions import harmonic_to_polynomial
+from ..engine import Representation, local_polynomials
 
 TWO_PI = 2.0 * np.pi
 
@@ -33,15 +31,6 @@ TWO_PI = 2.0 * np.pi
 def texels(order: int, harmonic: bool) -> int:
     """RGBA texels per cell of the coefficient table: one per term (rgb)."""
     return 2 * (order + 1) if harmonic else (order + 1) ** 2
-
-
-@lru_cache(maxsize=8)
-def _real_mapping(order: int) -> np.ndarray:
-    """``(2 (P + 1), (P + 1)^2)`` real map from (Re L, Im L) to tensor coefficients (``Representation.polynomials``)."""
-    mapping = harmonic_to_polynomial(order).reshape(order + 1, -1)
-    real = np.concatenate([mapping.real, -mapping.imag]) / TWO_PI
-    real.flags.writeable = False
-    return real
 
 
 def _padded(values: np.ndarray) -> np.ndarray:
@@ -74,7 +63,7 @@ def cell_coefficients(rep: Representation, cells: np.ndarray | None = None, harm
         out[:, :, 0, :3] = local.real.transpose(0, 2, 1) / TWO_PI
         out[:, 1:, 1, :3] = local.imag[:, :, 1:].transpose(0, 2, 1) / TWO_PI  # Im K_0 never shows (u = Re ...)
         return out.reshape(-1, 4)
-    tensor = np.concatenate([local.real, local.imag], axis=-1) @ _real_mapping(order)  # (m, channel, ij)
+    tensor = local_polynomials(local, order).reshape(len(local), 3, -1)  # (m, channel, ij)
     if rep.points is not None:
         tensor += rep.points.polynomials(order).reshape(n * n, 3, -1)[chosen]
     return _padded(tensor.transpose(0, 2, 1))  # (m, ij, channel)
@@ -122,7 +111,6 @@ def block_lists(cell_start: np.ndarray, cells_per_side: int) -> tuple[np.ndarray
     """
     n = cells_per_side
     cell_start = np.asarray(cell_start, np.int64)
-    counts = np.diff(cell_start).reshape(n, n)
     rows, columns = np.divmod(np.arange(n * n), n)
     # one run per (cell, block row): the row's up to 3 cells are contiguous in cell order
     run_start = np.empty((n * n, 3), np.int64)

@@ -13,7 +13,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..model import Document
-from ..model.curve import Color
 from .context import Selection, ToolContext
 
 ROLES = ("selected", "hover", "preview", "handle", "rubber-band", "brush")

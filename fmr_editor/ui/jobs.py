@@ -11,7 +11,7 @@ from collections.abc import Callable
 
 from PySide6.QtCore import QThread, Signal
 
-Progress = Callable[[str, float], None]
+from ..engine import Progress
 
 
 class Job(QThread):

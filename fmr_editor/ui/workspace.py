@@ -16,14 +16,12 @@ from pathlib import Path
 import numpy as np
 from PySide6.QtCore import QObject, Signal
 
-from ..engine import LiveRepresentation, Settings, evaluate_points
-from ..io import load_document, load_fmr
+from ..engine import LiveRepresentation, Progress, Settings, evaluate_points
+from ..io import open_live
 from ..model import ColorStop, DiffusionCurve, Document
 from ..model.history import History
 from ..tools import ToolContext, ToolOptions, create_tools
 from .engine_thread import EngineThread, Frame
-
-Progress = Callable[[str, float], None]
 
 #: Canvas size of a new document, pixels.
 DEFAULT_SIZE = (512, 512)
@@ -70,12 +68,7 @@ def open_file(path: str | os.PathLike, progress: Progress | None = None) -> Open
         When the file cannot be read.
     """
     path = Path(path).absolute()
-    if path.suffix.lower() == ".fmr":
-        saved = load_fmr(path)
-        live = LiveRepresentation(saved.document, saved.settings or Settings(), progress, saved.representation)
-    else:
-        live = LiveRepresentation(load_document(path), Settings(), progress)
-    return _opened(live, path)
+    return _opened(open_live(path, progress=progress), path)
 
 
 def background_curve(width: float, height: float, color=BACKGROUND) -> DiffusionCurve:

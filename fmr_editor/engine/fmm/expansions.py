@@ -148,3 +148,24 @@ def harmonic_to_polynomial(order: int) -> np.ndarray:
             m[l, l - j, j] = comb(l, j, exact=True) * 1j**j
     m.flags.writeable = False
     return m
+
+
+@lru_cache(maxsize=16)
+def real_polynomial_map(order: int) -> np.ndarray:
+    """``(2 (P + 1), (P + 1)^2)`` real map from ``(Re L, Im L)`` to the tensor coefficients ``c_ij`` of u.
+
+    ``u = (1/2pi) Re sum_l L_l w^l = sum_ij c_ij xi^i eta^j`` with
+    ``c = [Re L, Im L] @ map`` (``Re(L M) = Re L Re M - Im L Im M``, as one
+    real matrix product; ``harmonic_to_polynomial`` gives M).
+    """
+    mapping = harmonic_to_polynomial(order).reshape(order + 1, -1)
+    real = np.concatenate([mapping.real, -mapping.imag]) / (2 * np.pi)
+    real.flags.writeable = False
+    return real
+
+
+def local_polynomials(local: np.ndarray, order: int) -> np.ndarray:
+    """Tensor coefficients ``(..., P + 1, P + 1)`` of u from local expansions ``(..., >= P + 1)`` (degree P)."""
+    local = local[..., : order + 1]
+    coeffs = np.concatenate([local.real, local.imag], axis=-1) @ real_polynomial_map(order)
+    return coeffs.reshape(local.shape[:-1] + (order + 1, order + 1))

@@ -86,22 +86,27 @@ def dilated(cells: np.ndarray) -> np.ndarray:
     return out
 
 
-def sort_into_cells(segments: Segments, lattice: Lattice) -> tuple[Segments, np.ndarray]:
-    """Segments sorted by fine cell, and the CSR offsets of each cell's run.
+def cell_order(segments: Segments, lattice: Lattice) -> tuple[np.ndarray, np.ndarray]:
+    """The order sorting ``segments`` by fine cell (stable) and the CSR offsets of each cell's run.
 
     Returns
     -------
-    segments : Segments
-        Reordered so that cell ``c = row * 2^L + column`` holds
+    order : numpy.ndarray
+        ``segments.take(order)`` lists cell ``c = row * 2^L + column`` at
         ``cell_start[c]:cell_start[c + 1]``.
     cell_start : numpy.ndarray
         ``(4^L + 1,)`` int64.
     """
     cells = lattice.cell_of(segments.midpoints)
     flat = cells[:, 0] * lattice.cells_per_side + cells[:, 1]
-    order = np.argsort(flat, kind="stable")
     counts = np.bincount(flat, minlength=lattice.cells_per_side**2)
-    return segments.take(order), np.concatenate([[0], np.cumsum(counts)])
+    return np.argsort(flat, kind="stable"), np.concatenate([[0], np.cumsum(counts)])
+
+
+def sort_into_cells(segments: Segments, lattice: Lattice) -> tuple[Segments, np.ndarray]:
+    """Segments sorted by fine cell and the CSR offsets of each cell's run (``cell_order``)."""
+    order, cell_start = cell_order(segments, lattice)
+    return segments.take(order), cell_start
 
 
 def fine_multipoles(segments: Segments, cell_start: np.ndarray, lattice: Lattice, order: int,

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import os
 import warnings
+from collections.abc import Callable
 
 import numpy as np
 import scipy.linalg
@@ -85,23 +86,31 @@ def assemble(segments: Segments) -> tuple[np.ndarray, np.ndarray]:
     return collocation_system(segments.p, segments.q, segments.on_border, segments.jump, segments.mean)
 
 
-def _solve_or_least_squares(segments: Segments) -> np.ndarray:
-    """LU solve in place; where curves nearly coincide the system is nearly singular, then least squares.
+def trivial(segments: Segments) -> bool:
+    """True when ``segments`` hold no curve: the reflecting canvas alone holds black, and its system is singular."""
+    return not np.any(~segments.on_border)
 
-    The least-squares solution (rank-revealing QR) shares the density of
+
+def dense_factors(matrix: np.ndarray, again: Callable[[], np.ndarray]) -> tuple[Callable[[np.ndarray], np.ndarray], bool]:
+    """A solver for ``matrix``: its LU factors, or least squares where it is nearly singular (then True).
+
+    Where curves nearly coincide the system is nearly singular; the
+    least-squares solution (rank-revealing QR) then shares the density of
     coinciding segments between them instead of blowing it up.  The LU
-    overwrites the matrix (one n x n array at a time), so that rare path
-    assembles it again.
+    overwrites ``matrix`` (one n x n array at a time), so that rare path
+    asks ``again()`` for it.
     """
-    matrix, rhs = assemble(segments)
-    with warnings.catch_warnings():
-        warnings.simplefilter("error", scipy.linalg.LinAlgWarning)
-        try:
-            return scipy.linalg.solve(matrix, rhs, overwrite_a=True, check_finite=False)
-        except (scipy.linalg.LinAlgWarning, np.linalg.LinAlgError):
-            pass
-    matrix, rhs = assemble(segments)
-    return scipy.linalg.lstsq(matrix, rhs, cond=1e-12, lapack_driver="gelsy", overwrite_a=True, check_finite=False)[0]
+    norm = float(np.abs(matrix).sum(axis=0).max(initial=0.0))
+    with warnings.catch_warnings():  # an exactly singular matrix is what the condition below reports
+        warnings.simplefilter("ignore", scipy.linalg.LinAlgWarning)
+        lu, pivots = scipy.linalg.lu_factor(matrix, overwrite_a=True, check_finite=False)
+    condition, _ = scipy.linalg.lapack.dgecon(lu, norm, norm="1")
+    if condition >= np.finfo(float).eps:
+        return (lambda rhs: scipy.linalg.lu_solve((lu, pivots), rhs, check_finite=False)), False
+    lu = None  # free the factors before the matrix is made again
+    matrix = again()
+    return (lambda rhs: scipy.linalg.lstsq(matrix, rhs, cond=1e-12, lapack_driver="gelsy",
+                                           check_finite=False)[0]), True
 
 
 def solve_dense(segments: Segments) -> Segments:
@@ -113,6 +122,8 @@ def solve_dense(segments: Segments) -> Segments:
         Before allocating anything, when the system does not fit (``check_dense_fits``).
     """
     check_dense_fits(len(segments))
-    if not np.any(~segments.on_border):
-        return segments  # no curves: the reflecting canvas alone holds black (its system is singular)
-    return segments.with_unknowns(_solve_or_least_squares(segments))
+    if trivial(segments):
+        return segments
+    matrix, rhs = assemble(segments)
+    solve, _ = dense_factors(matrix, lambda: assemble(segments)[0])
+    return segments.with_unknowns(solve(rhs))

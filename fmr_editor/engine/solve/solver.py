@@ -28,11 +28,11 @@ import scipy.linalg
 import scipy.sparse
 import scipy.sparse.linalg
 
-from ..fmm.lattice import Lattice, dilated, fine_multipoles, sort_into_cells
+from ..fmm.lattice import Lattice, cell_order, dilated, fine_multipoles
 from ..fmm.sparse_downward import delta_local
 from ..geometry.segments import Segments
 from ..kernels.segment_sums import near_sum
-from .dense import assemble, check_dense_fits
+from .dense import assemble, check_dense_fits, dense_factors, trivial
 from .skeleton import SkeletonFactorization
 
 #: Unknowns up to which the dense solve is faster (``bench/bench_solve.py``).
@@ -274,19 +274,18 @@ class BoundarySolver:
 
     def __init__(self, segments: Segments, lattice: Lattice, progress: Callable[[float], None] | None = None) -> None:
         self.size = len(segments)
-        self.trivial = not np.any(~segments.on_border)  # the reflecting canvas alone holds black (singular)
-        cells = lattice.cell_of(segments.midpoints)
-        self.order = np.argsort(cells[:, 0] * lattice.cells_per_side + cells[:, 1], kind="stable")
-        ordered, cell_start = sort_into_cells(segments, lattice)
+        self.trivial = trivial(segments)
+        self.order, cell_start = cell_order(segments, lattice)
+        ordered = segments.take(self.order)
         self.operator = CollocationOperator(ordered, cell_start, lattice, order=20)
         self.dense = self.size <= DENSE_CROSSOVER
         self.factors = None
-        self.least_squares = False  # True where the dense matrix is nearly singular (see _dense_factors)
+        self.least_squares = False  # True where the dense matrix is nearly singular (see dense_factors)
         if self.trivial:
             return
         if self.dense:
             check_dense_fits(self.size)
-            self.factors, self.least_squares = _dense_factors(assemble(ordered)[0])
+            self.factors, self.least_squares = dense_factors(assemble(ordered)[0], lambda: assemble(ordered)[0])
         else:
             self.factors = SkeletonFactorization(ordered, compression_tolerance(self.size), progress=progress)
 
@@ -329,22 +328,6 @@ def _unsorted(values: np.ndarray, order: np.ndarray) -> np.ndarray:
     out = np.empty_like(values)
     out[order] = values
     return out
-
-
-def _dense_factors(matrix: np.ndarray) -> tuple[Callable[[np.ndarray], np.ndarray], bool]:
-    """A solver for ``matrix``: its LU factors, or least squares where it is nearly singular (then True).
-
-    Where curves nearly coincide the system is nearly singular; the
-    least-squares solution (rank-revealing QR) then shares the density of
-    coinciding segments between them instead of blowing it up.
-    """
-    norm = float(np.abs(matrix).sum(axis=0).max())
-    lu, pivots = scipy.linalg.lu_factor(matrix, check_finite=False)
-    condition, _ = scipy.linalg.lapack.dgecon(lu, norm, norm="1")
-    if condition >= np.finfo(float).eps:
-        return (lambda rhs: scipy.linalg.lu_solve((lu, pivots), rhs, check_finite=False)), False
-    return (lambda rhs: scipy.linalg.lstsq(matrix, rhs, cond=1e-12, lapack_driver="gelsy",
-                                           check_finite=False)[0]), True
 
 
 def solve_boundary(

@@ -32,9 +32,9 @@ import warnings
 import numpy as np
 import scipy.linalg
 
-from ..fmm.lattice import Lattice, sort_into_cells
+from ..fmm.lattice import Lattice, cell_order
 from ..geometry.segments import Segments
-from .dense import assemble
+from .dense import assemble, trivial
 from .entries import CollocationEntries
 from .solver import BoundarySolver, CollocationOperator
 
@@ -117,7 +117,7 @@ def updated_solver(base: BoundarySolver, base_segments: Segments, segments: Segm
     ``segments`` hold none (theirs is), or when more than ``max_replaced``
     segments differ from ``base_segments``.
     """
-    if base.trivial or base.least_squares or not np.any(~segments.on_border):
+    if base.trivial or base.least_squares or trivial(segments):
         return None
     kept_base, kept = match_segments(base_segments, segments)
     if base.size - len(kept) + len(segments) - len(kept) > max_replaced:
@@ -174,9 +174,8 @@ class UpdatedSolver:
         self.kept_base, self.kept = kept_base, kept
         self.removed = _others(base.size, kept_base)
         self.added = _others(len(segments), kept)
-        cells = lattice.cell_of(segments.midpoints)
-        self.order = np.argsort(cells[:, 0] * lattice.cells_per_side + cells[:, 1], kind="stable")
-        ordered, cell_start = sort_into_cells(segments, lattice)
+        self.order, cell_start = cell_order(segments, lattice)
+        ordered = segments.take(self.order)
         self.operator = CollocationOperator(ordered, cell_start, lattice, order=base.operator.order)
         self._columns = columns if columns is not None else {}
         entries = CollocationEntries(segments)
