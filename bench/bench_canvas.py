@@ -251,7 +251,7 @@ def main() -> None:
         timings, reported, evaluated = [], 0, 0
         for _ in range(args.repeat):
             old = live.document.curves[curve].left[0].color
-            changed = edits.set_stop_color(live.document, curve, "left", 0, tuple(1 - np.asarray(old)))
+            changed = edits.set_stop_color(live.document, live.document.curves[curve].id, "left", 0, tuple(1 - np.asarray(old)))
             start = time.perf_counter()
             update = live.update(changed)
             engine = time.perf_counter()

@@ -75,12 +75,12 @@ def curve_edits(path: Path, repeat: int, rebuilds: int, move: bool) -> None:
     document = load_document(path)
     live = LiveRepresentation(document)
     k = edited_curve(document)
-    colours = [edits.set_stop_color(document, k, "left", 0, COLOURS[i % len(COLOURS)]) for i in range(repeat)]
+    colours = [edits.set_stop_color(document, document.curves[k].id, "left", 0, COLOURS[i % len(COLOURS)]) for i in range(repeat)]
     target = "<= 30 ms, >= 10x" if path.stem == "lady_bug" else ">= 10x"
     row(f"{path.stem}: stop colour (curve {k})", live, colours, rebuilds, target)
     if move:
         point = document.curves[k].control_points[1]
-        moves = [edits.move_control_point(live.document, k, 1, tuple(point + (i % 2))) for i in range(1, repeat + 1)]
+        moves = [edits.move_control_point(live.document, live.document.curves[k].id, 1, tuple(point + (i % 2))) for i in range(1, repeat + 1)]
         row(f"{path.stem}: control point (curve {k})", live, moves, rebuilds, "<= 60 ms")
 
 
@@ -154,19 +154,19 @@ def session(path: Path, repeat: int) -> None:
 
     for run in range(repeat):
         base = live.document
-        moved = [edits.move_control_point(base, k, 3, tuple(anchor + 0.5 * (i + 1) * np.array([1.0, run % 3 - 1])))
+        moved = [edits.move_control_point(base, base.curves[k].id, 3, tuple(anchor + 0.5 * (i + 1) * np.array([1.0, run % 3 - 1])))
                  for i in range(10)]
         for preview in moved:  # a drag: 10 previews, then the exact result of the last
             timed("drag preview (frame interval)", preview, exact=False)
         timed("exact image after release", moved[-1])
-        timed("anchor move, exact", edits.move_control_point(live.document, k, 3, tuple(anchor + (run + 1.5, 0.5))))
+        timed("anchor move, exact", edits.move_control_point(live.document, live.document.curves[k].id, 3, tuple(anchor + (run + 1.5, 0.5))))
         moved[-1] = live.document
-        timed("delete a curve", edits.remove_curves(live.document, [k]))
+        timed("delete a curve", edits.remove_curves(live.document, [live.document.curves[k].id]))
         deleted, before = live.document, moved[-1]
         timed("undo (kept state)", before)
         timed("redo (kept state)", deleted)
         timed("history jump to the start", document)
-        timed("stop colour", edits.set_stop_color(live.document, k, "left", 0, COLOURS[run % len(COLOURS)]))
+        timed("stop colour", edits.set_stop_color(live.document, live.document.curves[k].id, "left", 0, COLOURS[run % len(COLOURS)]))
     final = live.document
     fresh = LiveRepresentation(final)
     error = pixel_error(live, fresh.representation)
@@ -203,7 +203,7 @@ def main() -> None:
             session(args.data / f"{name}.xml", args.repeat)
         return
     warm = LiveRepresentation(load_document(args.data / "lady_bug.xml"))  # numba cache loads
-    warm.update(edits.set_stop_color(warm.document, edited_curve(warm.document), "left", 0, (1, 1, 1)))
+    warm.update(edits.set_stop_color(warm.document, warm.document.curves[edited_curve(warm.document)].id, "left", 0, (1, 1, 1)))
     print(f"# Edits\n\n{machine()}\n\nBest of {args.repeat} updates and of {args.rebuilds} rebuilds (fruits: 2, "
           "points: 1).\n")
     print("| edit | update | time | rebuild | speed-up | pixels (1/255) | target |")

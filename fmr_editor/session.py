@@ -3,7 +3,7 @@
 >>> from fmr_editor.session import Session
 >>> from fmr_editor.model import edits
 >>> session = Session.open("lady_bug.xml")                       # doctest: +SKIP
->>> session.apply(lambda d: edits.set_stop_color(d, 3, "left", 0, (1, 0, 0)),
+>>> session.apply(lambda d: edits.set_stop_color(d, d.curves[3].id, "left", 0, (1, 0, 0)),
 ...               "Change Stop Colour")                           # doctest: +SKIP
 >>> session.undo(); session.redo()                                # doctest: +SKIP
 >>> session.save_png("red.png", width=512)                        # doctest: +SKIP

@@ -145,7 +145,7 @@ def test_near_bound_bounds_the_change_of_the_near_field():
     live = LiveRepresentation(doc)
     before = live.representation
     stops = doc.curves[1].left
-    live.update(edits.set_stop_color(doc, 1, "left", 0, tuple(1 - np.asarray(stops[0].color))))
+    live.update(edits.set_stop_color(doc, doc.curves[1].id, "left", 0, tuple(1 - np.asarray(stops[0].color))))
     after = live.representation
     bound = bounds.near_bound(before, after)
     assert bound is not None and bound.max() > 0
@@ -157,7 +157,7 @@ def test_near_bound_bounds_the_change_of_the_near_field():
     new = near_sum(targets, *args, after.segments.p, after.segments.q, after.segments.flux, after.segments.jump)
     cells = lattice.cell_of(targets)
     assert (np.abs(new - old).max(axis=1) <= bound[cells[:, 0], cells[:, 1]] + 1e-12).all()
-    moved = live.update(edits.move_control_point(live.document, 1, 0, (10.0, 10.0)))
+    moved = live.update(edits.move_control_point(live.document, live.document.curves[1].id, 0, (10.0, 10.0)))
     assert moved.kind == "geometry"
     final = live.representation
     bound = bounds.near_bound(after, final)  # inf beside the moved curve, a true bound elsewhere

@@ -35,12 +35,12 @@ def test_edits_give_the_segments_of_a_fresh_discretisation():
     cache = CurveSegments(0.05, 2.0)
     assert_same(cache, document)
     steps = [
-        lambda d: edits.move_control_point(d, 1, 3, (75.0, 50.0)),  # slides along the shared line
-        lambda d: edits.move_control_point(d, 1, 3, (75.0, 60.0)),  # leaves it
+        lambda d: edits.move_control_point(d, d.curves[1].id, 3, (75.0, 50.0)),  # slides along the shared line
+        lambda d: edits.move_control_point(d, d.curves[1].id, 3, (75.0, 60.0)),  # leaves it
         lambda d: edits.add_curve(d, uniform_curve(straight_chain([(5, 50), (40, 50)]), 0.0, 1.0)),  # on top, last
-        lambda d: edits.remove_curves(d, [0]),  # what it covered comes back
-        lambda d: edits.translate(d, (0.0, -10.0), curves=[1]),
-        lambda d: edits.remove_curves(d, [len(d.curves) - 1]),
+        lambda d: edits.remove_curves(d, [d.curves[0].id]),  # what it covered comes back
+        lambda d: edits.translate(d, (0.0, -10.0), curves=[d.curves[1].id]),
+        lambda d: edits.remove_curves(d, [d.curves[len(d.curves) - 1].id]),
     ]
     for step in steps:
         document = step(document)
@@ -59,7 +59,7 @@ def test_a_real_file_with_retraced_curves(shared_data):
     for _ in range(4):
         k = int(rng.integers(len(document.curves)))
         points = document.curves[k].control_points
-        document = edits.move_control_point(document, k, 0, tuple(points[0] + rng.normal(0, 3, 2)))
+        document = edits.move_control_point(document, document.curves[k].id, 0, tuple(points[0] + rng.normal(0, 3, 2)))
         assert_same(cache, document)
-    document = edits.remove_curves(document, [int(rng.integers(len(document.curves)))])
+    document = edits.remove_curves(document, [document.curves[int(rng.integers(len(document.curves)))].id])
     assert_same(cache, document)

@@ -118,7 +118,7 @@ def test_change_sets_match_items_by_value():
     doc = scattered_document(64, circles=3, seed=1)
     points = (dot(1), dot(2), dot(2), dot(3))
     before = doc.with_points(points)
-    after = edits.set_stop_color(before, 1, "left", 0, (0.1, 0.2, 0.3))
+    after = edits.set_stop_color(before, before.curves[1].id, "left", 0, (0.1, 0.2, 0.3))
     after = after.with_points((dot(3), dot(2), dot(4)))  # reordered, one dot(2) and dot(1) gone, dot(4) new
     changes = ChangeSet.between(before, after)
     assert changes.curves_changed and changes.removed_curves == (1,) and changes.added_curves == (1,)
@@ -134,36 +134,38 @@ def test_change_sets_match_items_by_value():
 
 def test_edits_change_only_what_they_name():
     doc = scattered_document(64, circles=2, seed=3)
-    moved = edits.move_control_point(doc, 0, 2, (5.0, 6.0))
+    moved = edits.move_control_point(doc, doc.curves[0].id, 2, (5.0, 6.0))
     assert np.array_equal(moved.curves[0].control_points[2], (5.0, 6.0))
     assert moved.curves[1] is doc.curves[1] and moved.curves[0].left == doc.curves[0].left
-    recoloured = edits.set_stop_color(doc, 0, "right", 1, (1.0, 0.0, 0.0))
+    recoloured = edits.set_stop_color(doc, doc.curves[0].id, "right", 1, (1.0, 0.0, 0.0))
     assert recoloured.curves[0].right[1] == ColorStop(doc.curves[0].right[1].position, (1.0, 0.0, 0.0))
     assert recoloured.curves[0].left == doc.curves[0].left
     with pytest.raises(ValueError):
-        edits.set_stop_color(doc, 0, "up", 0, (0, 0, 0))
-    fewer = edits.remove_stop(edits.add_stop(doc, 0, "left", ColorStop(0.5, (0, 0, 0))), 0, "left", 0)
+        edits.set_stop_color(doc, doc.curves[0].id, "up", 0, (0, 0, 0))
+    fewer = edits.remove_stop(edits.add_stop(doc, doc.curves[0].id, "left", ColorStop(0.5, (0, 0, 0))), doc.curves[0].id, "left", 0)
     assert len(fewer.curves[0].left) == len(doc.curves[0].left)
 
 
 def test_translate_moves_only_the_named_items():
     doc = scattered_document(64, circles=2, seed=3).with_points([dot(1), dot(2)])
-    moved = edits.translate(doc, (2.0, -1.0), curves=[0], control_points=[(1, 3), (0, 1)], points=[1])
+    ids = [curve.id for curve in doc.curves]
+    moved = edits.translate(doc, (2.0, -1.0), curves=[ids[0]], control_points=[(ids[1], 3), (ids[0], 1)],
+                            points=[doc.points[1].id])
     np.testing.assert_allclose(moved.curves[0].control_points, doc.curves[0].control_points + (2, -1))
     delta = moved.curves[1].control_points - doc.curves[1].control_points
     assert np.array_equal(np.flatnonzero(delta.any(axis=1)), [3]) and np.allclose(delta[3], (2, -1))
     assert moved.points == (dot(1), DiffusionPoint((4.0, 9.0), 4.0, (1.0, 0.5, 0.0)))
     assert moved.curves[2] is doc.curves[2] and moved.curves[0].left == doc.curves[0].left
-    assert edits.translate(doc, (0, 0), curves=[0]) is doc
-    assert edits.translate(doc, (1, 1), curves=[0]).points is doc.points  # points untouched: same tuple
+    assert edits.translate(doc, (0, 0), curves=[ids[0]]) is doc
+    assert edits.translate(doc, (1, 1), curves=[ids[0]]).points is doc.points  # points untouched: same tuple
 
 
 def test_move_stop_resorts_the_stops():
     doc = scattered_document(64, circles=1, seed=3)  # left stops at 0, 2, 4
-    moved = edits.move_stop(doc, 0, "left", 0, 3.0)
+    moved = edits.move_stop(doc, doc.curves[0].id, "left", 0, 3.0)
     left = moved.curves[0].left
     assert [s.position for s in left] == [2.0, 3.0, 4.0] and left[1].color == doc.curves[0].left[0].color
-    assert edits.move_stop(doc, 0, "left", 1, 99.0).curves[0].left[2].position == 4.0  # clamped to k
+    assert edits.move_stop(doc, doc.curves[0].id, "left", 1, 99.0).curves[0].left[2].position == 4.0  # clamped to k
     assert moved.curves[0].right == doc.curves[0].right
 
 
@@ -180,10 +182,10 @@ def _same_stops_on(old, new, mapping):
 
 def test_insert_anchor_keeps_the_shape_and_the_stops_places():
     doc = scattered_document(64, circles=1, seed=4)  # a 4-piece circle, stops at 0, 2, 4
-    doc = edits.add_stop(edits.add_stop(doc, 0, "left", ColorStop(1.1, (1, 0, 0))), 0, "right",
+    doc = edits.add_stop(edits.add_stop(doc, doc.curves[0].id, "left", ColorStop(1.1, (1, 0, 0))), doc.curves[0].id, "right",
                          ColorStop(1.5, (0, 1, 0)))
     old = doc.curves[0]
-    new = edits.insert_anchor(doc, 0, 1.25).curves[0]
+    new = edits.insert_anchor(doc, doc.curves[0].id, 1.25).curves[0]
     assert new.piece_count == 5
 
     def split(s):
@@ -193,24 +195,24 @@ def test_insert_anchor_keeps_the_shape_and_the_stops_places():
     s = np.linspace(0, 4, 33)
     np.testing.assert_allclose(new.point_at(split(s)), old.point_at(s), atol=1e-12)
     _same_stops_on(old, new, lambda x: float(split(np.array(x))))
-    assert edits.insert_anchor(doc, 0, 2.0) is doc and edits.insert_anchor(doc, 0, 4.0) is doc
+    assert edits.insert_anchor(doc, doc.curves[0].id, 2.0) is doc and edits.insert_anchor(doc, doc.curves[0].id, 4.0) is doc
 
 
 def test_remove_anchors_joins_inner_pieces_and_cuts_end_pieces():
     doc = scattered_document(64, circles=1, seed=4)  # stops at 0, 2, 4
     old = doc.curves[0]
     points = old.control_points
-    joined = edits.remove_anchors(doc, 0, [6]).curves[0]  # anchor 2 of 0..4: pieces 1 and 2 join
+    joined = edits.remove_anchors(doc, doc.curves[0].id, [6]).curves[0]  # anchor 2 of 0..4: pieces 1 and 2 join
     np.testing.assert_allclose(joined.control_points, np.delete(points, [5, 6, 7], axis=0))
     assert [s.position for s in joined.left] == [0.0, 1.5, 3.0]
     assert [s.color for s in joined.left] == [s.color for s in old.left]
-    cut = edits.remove_anchors(doc, 0, [0, 12]).curves[0]  # both end pieces go
+    cut = edits.remove_anchors(doc, doc.curves[0].id, [0, 12]).curves[0]  # both end pieces go
     np.testing.assert_allclose(cut.control_points, points[3:-3])
     s = np.linspace(1, 3, 9)
     for side in ("left_colors_at", "right_colors_at"):  # colours along what remains are unchanged
         np.testing.assert_allclose(getattr(cut, side)(s - 1), getattr(old, side)(s), atol=1e-12)
     assert [s.position for s in cut.left] == [0.0, 1.0, 2.0]  # cut ends keep the colour there
     with pytest.raises(ValueError):
-        edits.remove_anchors(doc, 0, [4])  # a handle
+        edits.remove_anchors(doc, doc.curves[0].id, [4])  # a handle
     with pytest.raises(ValueError):
-        edits.remove_anchors(doc, 0, [0, 3, 6, 9])  # one anchor would remain
+        edits.remove_anchors(doc, doc.curves[0].id, [0, 3, 6, 9])  # one anchor would remain

@@ -27,7 +27,7 @@ colors = st.tuples(*[st.floats(0.0, 1.0)] * 3)
 def assert_same_as_rebuild(live: LiveRepresentation, document: Document) -> None:
     """The live FMR equals a rebuild on its lattice, which is the curves' lattice or the points' as first built."""
     incremental = live.representation
-    curve_levels = build(edits.remove_points(document, range(len(document.points)))).lattice.levels
+    curve_levels = build(edits.remove_points(document, document.point_ids())).lattice.levels
     assert incremental.lattice.levels in (curve_levels, live._point_levels) \
         and incremental.lattice.levels >= curve_levels
     fresh = build(document, Settings(levels=incremental.lattice.levels))
@@ -74,7 +74,7 @@ class Editing(RuleBasedStateMachine):
     @rule(data=st.data())
     def delete_curve(self, data):
         index = data.draw(st.integers(0, len(self.history.document.curves) - 1))
-        self.history.apply(edits.remove_curves(self.history.document, [index]), "Delete Curve")
+        self.history.apply(edits.remove_curves(self.history.document, [self.history.document.curves[index].id]), "Delete Curve")
 
     @precondition(lambda self: self.history.document.curves)
     @rule(data=st.data(), x=coordinates, y=coordinates)
@@ -82,7 +82,7 @@ class Editing(RuleBasedStateMachine):
         document = self.history.document
         curve = data.draw(st.integers(0, len(document.curves) - 1))
         point = data.draw(st.integers(0, len(document.curves[curve].control_points) - 2))  # closed circles: not the end
-        self.history.apply(edits.move_control_point(document, curve, point, (x, y)), "Move Control Point")
+        self.history.apply(edits.move_control_point(document, document.curves[curve].id, point, (x, y)), "Move Control Point")
 
     @precondition(lambda self: self.history.document.curves)
     @rule(data=st.data(), path=st.lists(st.tuples(coordinates, coordinates), min_size=1, max_size=3))
@@ -92,7 +92,7 @@ class Editing(RuleBasedStateMachine):
         point = data.draw(st.integers(0, len(document.curves[curve].control_points) - 2))
         self.history.begin("Move Control Point")
         for x, y in path:
-            self.history.preview(edits.move_control_point(document, curve, point, (x, y)))
+            self.history.preview(edits.move_control_point(document, document.curves[curve].id, point, (x, y)))
         self.history.commit()
         self.live.update(self.history.document)
         assert not self.live.approximate
@@ -104,7 +104,7 @@ class Editing(RuleBasedStateMachine):
         curve = data.draw(st.integers(0, len(document.curves) - 1))
         side = data.draw(st.sampled_from(["left", "right"]))
         stop = data.draw(st.integers(0, len(getattr(document.curves[curve], side)) - 1))
-        self.history.apply(edits.set_stop_color(document, curve, side, stop, color), "Change Stop Colour")
+        self.history.apply(edits.set_stop_color(document, document.curves[curve].id, side, stop, color), "Change Stop Colour")
 
     @rule(dab=st.lists(points, min_size=1, max_size=4))
     def add_points(self, dab):
@@ -114,7 +114,7 @@ class Editing(RuleBasedStateMachine):
     @rule(data=st.data())
     def delete_point(self, data):
         index = data.draw(st.integers(0, len(self.history.document.points) - 1))
-        self.history.apply(edits.remove_points(self.history.document, [index]), "Delete Point")
+        self.history.apply(edits.remove_points(self.history.document, [self.history.document.points[index].id]), "Delete Point")
 
     @precondition(lambda self: self.history.document.points)
     @rule(data=st.data(), x=coordinates, y=coordinates)
@@ -123,7 +123,7 @@ class Editing(RuleBasedStateMachine):
         index = data.draw(st.integers(0, len(document.points) - 1))
         old = document.points[index]
         moved = DiffusionPoint((x, y), old.radius, old.color, old.amplitude)
-        self.history.apply(edits.add_points(edits.remove_points(document, [index]), [moved]), "Move Point")
+        self.history.apply(edits.add_points(edits.remove_points(document, [document.points[index].id]), [moved]), "Move Point")
 
     @rule()
     def undo(self):
@@ -169,7 +169,7 @@ def test_resuming_a_saved_representation_solves_only_when_an_edit_needs_it(monke
     resumed = LiveRepresentation(document, saved=saved)
     assert solvers == [] and resumed.timings.keys() == {"resume"}
     np.testing.assert_array_equal(rasterise(resumed.representation, 32, 32, 1), rasterise(saved, 32, 32, 1))
-    edited = edits.set_stop_color(document, 2, "left", 0, (0.0, 1.0, 0.0))
+    edited = edits.set_stop_color(document, document.curves[2].id, "left", 0, (0.0, 1.0, 0.0))
     assert resumed.update(edited).kind == "colours" and solvers == [1]
     assert_same_as_rebuild(resumed, edited)
     other = scattered_document(64, circles=3, seed=7)
@@ -184,9 +184,9 @@ def test_undo_and_redo_of_geometry_edits_return_the_exact_earlier_representation
     live = LiveRepresentation(document)
     history.subscribe(lambda before, after: live.update(after))
     states = [live.representation]
-    history.apply(edits.move_control_point(history.document, 1, 0, (30.0, 40.0)), "Move")
+    history.apply(edits.move_control_point(history.document, history.document.curves[1].id, 0, (30.0, 40.0)), "Move")
     states.append(live.representation)
-    history.apply(edits.remove_curves(history.document, [2]), "Delete")
+    history.apply(edits.remove_curves(history.document, [history.document.curves[2].id]), "Delete")
     states.append(live.representation)
     for step in (1, 0, 1, 2, 0, 2):
         history.jump(step)
@@ -205,7 +205,7 @@ def test_kept_states_stay_within_their_memory():
     budget = 3 * LiveRepresentation(document)._state().nbytes  # about three states
     live = LiveRepresentation(document, memory=budget)
     for x in range(10):
-        live.update(edits.move_control_point(live.document, 1, 0, (30.0 + x, 40.0)))
+        live.update(edits.move_control_point(live.document, live.document.curves[1].id, 0, (30.0 + x, 40.0)))
     assert 1 <= len(live._kept) <= 3
 
 

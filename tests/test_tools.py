@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from selections import by_index
 from shapes import straight_chain
 
 from fmr_editor.model import ColorStop, DiffusionCurve, DiffusionPoint, Document
@@ -14,7 +15,6 @@ from fmr_editor.tools import (
     EyedropperTool,
     PenTool,
     PointerEvent,
-    Selection,
     SelectTool,
     StopsTool,
     ToolContext,
@@ -86,7 +86,7 @@ def test_pen_clicks_make_corners_and_drags_make_mirrored_smooth_handles():
     points = curve.control_points
     np.testing.assert_allclose(points[5] + points[7], 2 * points[6])  # mirrored about the anchor
     assert curve.left == (ColorStop(0.0, RED),) and curve.right == (ColorStop(0.0, BLUE),)
-    assert context.selection == Selection.of(curves=[0])
+    assert context.selection == by_index(context.document, curves=[0])
     assert not pen.busy and pen.overlay() == []
 
 
@@ -184,7 +184,7 @@ def test_a_click_beside_a_curve_adds_a_stop_on_that_side(ends, left_click, right
     curve = context.document.curves[0]
     assert len(curve.left) == 1 and curve.right[0].position == pytest.approx(1.5, abs=1e-9)
     assert context.history.labels == ("", "Add Stop", "Add Stop")
-    assert context.selection == Selection.of(stops=[(0, "right", 0)])
+    assert context.selection == by_index(context.document, stops=[(0, "right", 0)])
 
 
 def test_a_click_far_from_curves_adds_nothing(line_doc):
@@ -203,7 +203,7 @@ def test_dragging_a_stop_moves_it_along_the_curve_as_one_step(line_doc):
     curve = context.document.curves[0]
     assert curve.left[0].position == pytest.approx(1.5, abs=1e-9) and curve.left[0].color == RED
     assert curve.right == line_doc.curves[0].right
-    assert context.selection == Selection.of(stops=[(0, "left", 0)])
+    assert context.selection == by_index(context.document, stops=[(0, "left", 0)])
     context.history.undo()
     assert context.document == line_doc
 
@@ -215,7 +215,7 @@ def test_a_moved_stop_stays_selected_when_it_passes_another():
     drag(tool, [(35, 42), (70, 42)])  # past the green stop at s = 1
     left = context.document.curves[0].left
     assert [s.color for s in left] == [GREEN, RED]
-    assert context.selection == Selection.of(stops=[(0, "left", 1)])
+    assert context.selection == by_index(context.document, stops=[(0, "left", 1)])
 
 
 def test_adding_a_stop_by_dragging_is_one_step_and_a_plain_click_is_a_step(line_doc):
@@ -247,7 +247,7 @@ def test_delete_removes_the_selected_stops_as_one_step(line_doc):
     tool = StopsTool(context)
     click(tool, 35, 42)  # left stop
     click(tool, 50, 58, "shift")  # right stop's marker at (50, 58): added to the selection
-    assert context.selection == Selection.of(stops=[(0, "left", 0), (0, "right", 0)])
+    assert context.selection == by_index(context.document, stops=[(0, "left", 0), (0, "right", 0)])
     assert tool.key("Delete")
     assert context.history.labels == ("", "Delete Stops")
     curve = context.document.curves[0]
@@ -257,7 +257,7 @@ def test_delete_removes_the_selected_stops_as_one_step(line_doc):
 
 def test_recolouring_the_selected_stops_merges_a_slider_drag(line_doc):
     context = make_context(line_doc)
-    context.selection = Selection.of(stops=[(0, "left", 0), (0, "right", 0)])
+    context.selection = by_index(context.document, stops=[(0, "left", 0), (0, "right", 0)])
     for level in (0.2, 0.4, 0.6):
         assert recolor_stops(context, (level, level, level), merge_key="slider")
     curve = context.document.curves[0]
@@ -270,7 +270,7 @@ def test_moving_an_anchor_brings_its_handles_and_undo_redo_round_trips(line_doc)
     context = make_context(line_doc)
     tool = SelectTool(context)
     click(tool, 30, 51)  # select the curve: its nodes are shown
-    assert context.selection == Selection.of(curves=[0]) and context.history.index == 0
+    assert context.selection == by_index(context.document, curves=[0]) and context.history.index == 0
     drag(tool, [(50, 50), (50, 55), (52, 60)])  # the middle anchor, control point 3
     assert context.history.labels == ("", "Move Anchor")
     moved = context.document
@@ -297,7 +297,7 @@ def test_dragging_a_handle_of_a_smooth_anchor_turns_the_other_and_alt_breaks_it(
     control = [(10, 50), (20, 50), (40, 40), (50, 40), (60, 40), (80, 50), (90, 50)]  # smooth at 3
     document = Document(100, 100, (DiffusionCurve(control),))
     context = make_context(document)
-    context.selection = Selection.of(curves=[0])
+    context.selection = by_index(context.document, curves=[0])
     tool = SelectTool(context)
     drag(tool, [(60, 40), (60, 50)])  # handle 4 down by 10
     points = context.document.curves[0].control_points
@@ -317,7 +317,7 @@ def test_a_click_without_movement_records_nothing(line_doc):
     tool.move(event(50.5, 50.5))  # under the drag threshold
     tool.release(event(50.5, 50.5))
     assert context.history.index == 0 and context.document is line_doc
-    assert context.selection == Selection.of(control_points=[(0, 3)])
+    assert context.selection == by_index(context.document, control_points=[(0, 3)])
 
 
 def test_a_drag_back_to_its_start_records_nothing(line_doc):
@@ -331,13 +331,13 @@ def test_rubber_band_selects_exactly_the_points_inside():
     context = make_context(points_doc())
     tool = SelectTool(context)
     drag(tool, [(5, 5), (20, 20), (50, 40)])  # holds (10, 10), (30, 30), (45, 20)
-    assert context.selection == Selection.of(points=[0, 1, 2])
+    assert context.selection == by_index(context.document, points=[0, 1, 2])
     overlay = tool.overlay()
     assert not any(isinstance(p, Rectangle) for p in overlay)
     drag(tool, [(85, 10), (95, 20)], "shift")
-    assert context.selection == Selection.of(points=[0, 1, 2, 4])
+    assert context.selection == by_index(context.document, points=[0, 1, 2, 4])
     drag(tool, [(60, 60), (80, 80)])
-    assert context.selection == Selection.of(points=[3])
+    assert context.selection == by_index(context.document, points=[3])
     click(tool, 50, 90)  # empty canvas
     assert context.selection.empty and context.history.index == 0
 
@@ -350,10 +350,10 @@ def test_rubber_band_takes_whole_curves_and_nodes_of_shown_curves(line_doc):
     tool.move(event(40, 95))
     assert any(isinstance(p, Rectangle) for p in tool.overlay())
     tool.release(event(40, 95))
-    assert context.selection == Selection.of(curves=[1])
-    context.selection = Selection.of(curves=[0])
+    assert context.selection == by_index(context.document, curves=[1])
+    context.selection = by_index(context.document, curves=[0])
     drag(tool, [(45, 40), (85, 60)])  # around anchors 3 and 6 (and handles 4, 5) of the shown curve
-    assert context.selection == Selection.of(control_points=[(0, 3), (0, 4), (0, 5), (0, 6)])
+    assert context.selection == by_index(context.document, control_points=[(0, 3), (0, 4), (0, 5), (0, 6)])
 
 
 def test_delete_removes_the_selection_as_one_step():
@@ -363,7 +363,7 @@ def test_delete_removes_the_selection_as_one_step():
     click(tool, 30, 50)  # curve 0
     click(tool, 10, 10, "shift")  # point 0
     click(tool, 70, 70, "shift")  # point 3
-    assert context.selection == Selection.of(curves=[0], points=[0, 3])
+    assert context.selection == by_index(context.document, curves=[0], points=[0, 3])
     assert tool.key("Delete")
     assert context.history.labels == ("", "Delete")
     after = context.document
@@ -376,7 +376,7 @@ def test_delete_removes_the_selection_as_one_step():
 
 def test_deleting_an_inner_anchor_joins_its_pieces(line_doc):
     context = make_context(line_doc)
-    context.selection = Selection.of(control_points=[(0, 3)])
+    context.selection = by_index(context.document, control_points=[(0, 3)])
     assert SelectTool(context).key("BackSpace")
     assert context.history.labels == ("", "Delete Anchor")
     curve = context.document.curves[0]
@@ -394,7 +394,7 @@ def test_double_click_on_a_curve_adds_an_anchor_without_changing_its_shape():
     curve = context.document.curves[0]
     assert curve.piece_count == 3
     np.testing.assert_allclose(curve.control_points[6], (70, 50))
-    assert context.selection == Selection.of(control_points=[(0, 6)])
+    assert context.selection == by_index(context.document, control_points=[(0, 6)])
     s = np.linspace(0, 2, 17)
     split = np.select([s <= 1, s <= 1.5], [s, 1 + (s - 1) / 0.5], 2 + (s - 1.5) / 0.5)
     np.testing.assert_allclose(curve.point_at(split), document.curves[0].point_at(s), atol=1e-12)
@@ -426,15 +426,15 @@ def test_hit_tolerance_is_in_screen_pixels(line_doc):
     click(tool, 30, 53)  # 3 document pixels = 12 screen pixels away: a miss
     assert context.selection.empty
     click(tool, 30, 51)  # 4 screen pixels: a hit
-    assert context.selection == Selection.of(curves=[0])
+    assert context.selection == by_index(context.document, curves=[0])
 
 
 def test_selection_drops_indices_an_undo_takes_away():
     context = make_context(points_doc())
     click(BrushTool(context), 50, 50)  # a sixth point
-    context.selection = Selection.of(points=[5, 0])
+    context.selection = by_index(context.document, points=[5, 0])
     context.history.undo()
-    assert context.selection == Selection.of(points=[0])
+    assert context.selection == by_index(context.document, points=[0])
 
 
 # -- brush ----------------------------------------------------------------------------------------
@@ -571,7 +571,7 @@ def test_the_ends_of_a_closed_curve_move_together():
     for x, y in [(10, 10), (60, 10), (60, 60), (10, 10)]:
         click(pen, x, y)
     before = context.document.curves[0].control_points
-    context.selection = Selection.of(control_points=[(0, 0)])
+    context.selection = by_index(context.document, control_points=[(0, 0)])
     drag(SelectTool(context), [(10, 10), (20, 5)])
     points = context.document.curves[0].control_points
     np.testing.assert_allclose(points[[0, -1]], [(20, 5), (20, 5)])
@@ -617,18 +617,18 @@ def test_escape_puts_the_selection_back_with_the_document():
     tool = StopsTool(context)
     click(tool, 35, 42)  # select the red stop
     drag(tool, [(35, 42), (70, 42)], release=False)  # past the green one: the selection follows it
-    assert context.selection == Selection.of(stops=[(0, "left", 1)])
+    assert context.selection == by_index(context.document, stops=[(0, "left", 1)])
     tool.key("Escape")
-    assert context.selection == Selection.of(stops=[(0, "left", 0)]) and context.document is document
+    assert context.selection == by_index(context.document, stops=[(0, "left", 0)]) and context.document is document
     drag(tool, [(65, 56), (70, 56)], release=False)  # a new stop on the right side
-    assert context.selection == Selection.of(stops=[(0, "right", 0)])
+    assert context.selection == by_index(context.document, stops=[(0, "right", 0)])
     tool.key("Escape")
-    assert context.selection == Selection.of(stops=[(0, "left", 0)]) and context.document is document
+    assert context.selection == by_index(context.document, stops=[(0, "left", 0)]) and context.document is document
 
 
 def test_the_stops_tool_deletes_only_stops(line_doc):
     context = make_context(line_doc)
-    context.selection = Selection.of(curves=[0], stops=[(0, "right", 0)])
+    context.selection = by_index(context.document, curves=[0], stops=[(0, "right", 0)])
     assert StopsTool(context).key("Delete")
     assert context.document.curves[0].right == () and len(context.document.curves) == 1
     assert context.history.labels == ("", "Delete Stop")

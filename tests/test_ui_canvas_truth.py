@@ -78,7 +78,7 @@ class CanvasTruth(RuleBasedStateMachine):
         curve = data.draw(st.integers(0, len(document.curves) - 1))
         side = data.draw(st.sampled_from(["left", "right"]))
         if getattr(document.curves[curve], side):
-            self.editor.history.apply(edits.set_stop_color(document, curve, side, 0, color), "Change Stop Colour")
+            self.editor.history.apply(edits.set_stop_color(document, document.curves[curve].id, side, 0, color), "Change Stop Colour")
 
     @precondition(lambda self: self.document.curves)
     @rule(data=st.data(), moves=st.lists(st.tuples(st.floats(-12, 12), st.floats(-12, 12)), min_size=1, max_size=4))
@@ -90,7 +90,7 @@ class CanvasTruth(RuleBasedStateMachine):
         start = document.curves[curve].control_points[anchor]
         history.begin("Move Anchor")
         for dx, dy in moves:
-            history.preview(edits.move_control_point(document, curve, anchor, tuple(start + (dx, dy))))
+            history.preview(edits.move_control_point(document, document.curves[curve].id, anchor, tuple(start + (dx, dy))))
             self.editor.qtbot.wait(1)  # let the window show what the engine sends meanwhile
         history.commit()
 
@@ -111,7 +111,7 @@ class CanvasTruth(RuleBasedStateMachine):
     @rule(data=st.data())
     def delete_a_curve(self, data):
         index = data.draw(st.integers(0, len(self.document.curves) - 1))
-        self.editor.history.apply(edits.remove_curves(self.document, [index]), "Delete Curve")
+        self.editor.history.apply(edits.remove_curves(self.document, [self.document.curves[index].id]), "Delete Curve")
 
     @rule()
     def undo(self):

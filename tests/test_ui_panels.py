@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from selections import by_index
 from shapes import straight_chain
 
 pytest.importorskip("pytestqt", reason="pytest-qt is in the [test] extra")
@@ -31,7 +32,7 @@ def two_stops(editor, tmp_path):
     path = tmp_path / "stops.fmr"
     save_fmr(path, Document(128, 128, (curve,)))
     editor.open(path)
-    editor.context.selection = Selection.of(curves=[0])
+    editor.context.selection = by_index(editor.document, curves=[0])
     editor.window.stops_panel.refresh()
     return editor
 
@@ -42,7 +43,7 @@ def handle(bar, s: float) -> QPoint:
 
 def test_stops_panel_shows_the_selected_curve(two_stops):
     panel = two_stops.window.stops_panel
-    assert panel.curve == 0
+    assert panel.curve == two_stops.document.curves[0].id
     assert panel.bars["left"].stops == (ColorStop(0.0, RED), ColorStop(2.0, GREEN))
     assert panel.bars["right"].stops == (ColorStop(0.0, BLUE),)
     two_stops.context.selection = Selection()
@@ -62,7 +63,7 @@ def test_dragging_a_handle_moves_the_stop_as_one_step(two_stops, qtbot):
     assert editor.history.index == start + 1 and editor.history.labels[-1] == "Move Stop"
     s = bar.s_of(target.x())
     assert editor.document.curves[0].left == (ColorStop(0.0, RED), ColorStop(s, GREEN))
-    assert editor.context.selection.stops == {(0, "left", 1)}
+    assert editor.context.selection.stops == by_index(editor.document, stops=[(0, "left", 1)]).stops
     # dragged past the other stop, it is sorted before it and stays selected
     qtbot.mousePress(bar, Qt.MouseButton.LeftButton, pos=target)
     qtbot.mouseMove(bar, QPoint(target.x() - 10, HANDLE_Y))
@@ -70,7 +71,7 @@ def test_dragging_a_handle_moves_the_stop_as_one_step(two_stops, qtbot):
     qtbot.mouseRelease(bar, Qt.MouseButton.LeftButton, pos=QPoint(0, HANDLE_Y))
     assert editor.history.index == start + 2
     assert editor.document.curves[0].left == (ColorStop(0.0, RED), ColorStop(0.0, GREEN))
-    assert editor.context.selection.stops == {(0, "left", 1)}
+    assert editor.context.selection.stops == by_index(editor.document, stops=[(0, "left", 1)]).stops
     editor.wait_idle()
 
 
@@ -113,7 +114,7 @@ def test_adding_and_removing_stops_on_the_bar(two_stops, qtbot):
     s = bar.s_of(round(bar.x_of(1.0)))
     assert len(left) == 3 and left[1].position == pytest.approx(s)
     np.testing.assert_allclose(left[1].color, np.array(RED) * (1 - s / 2) + np.array(GREEN) * s / 2, atol=1e-12)
-    assert editor.context.selection.stops == {(0, "left", 1)}
+    assert editor.context.selection.stops == by_index(editor.document, stops=[(0, "left", 1)]).stops
     bar.setFocus()
     qtbot.keyClick(bar, Qt.Key.Key_Delete)  # the bar's, before the menu's Delete
     assert editor.history.labels[-1] == "Delete Stop" and editor.history.index == start + 2

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from selections import by_index
 from shapes import straight_chain
 
 pytest.importorskip("pytestqt", reason="pytest-qt is in the [test] extra")
@@ -71,7 +72,7 @@ def test_pen_draws_a_curve_as_one_step(line):
     options = editor.window.options
     assert curve.left == (ColorStop(0.0, options.color),)
     assert curve.right == (ColorStop(0.0, options.secondary_color),)
-    assert editor.context.selection.curves == {1}
+    assert editor.context.selection.curves == by_index(editor.document, curves=[1]).curves
     editor.wait_idle()
 
 
@@ -142,7 +143,7 @@ def test_moving_a_control_point_is_one_step_and_undo_redo_restore_it(line):
     editor.key(Qt.Key.Key_V)
     start, before = editor.history.index, editor.document
     editor.click(64, 64)  # selects the curve: no step
-    assert editor.context.selection.curves == {0} and editor.history.index == start
+    assert editor.context.selection.curves == by_index(editor.document, curves=[0]).curves and editor.history.index == start
     editor.drag([(16, 64), (24, 90)])  # its first anchor, shown now
     one_step(editor, start, "Move Anchor")
     (x0, y0), (x1, y1) = editor.doc(16, 64), editor.doc(24, 90)

@@ -39,7 +39,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..model import DiffusionCurve, DiffusionPoint, Document
-from ..model.changes import ChangeSet
+from ..model.changes import ChangeSet, recoloured_curves
 from .fmm.lattice import (
     Lattice,
     cell_order,
@@ -301,7 +301,7 @@ class LiveRepresentation:
             return Update(kind, changed, time.perf_counter() - start, not self.approximate)
         removed = [before.points[i] for i in changes.removed_points]
         added = [document.points[i] for i in changes.added_points]
-        recoloured = _recoloured(before, document, changes) if changes.curves_changed else None
+        recoloured = recoloured_curves(before, document, changes) if changes.curves_changed else None
         if recoloured is not None:
             curves = _with_colors(self._curves, document, recoloured)
         else:
@@ -451,28 +451,12 @@ def _point_cells(a: LivePoints | None, b: LivePoints | None) -> np.ndarray | boo
     return cells
 
 
-def _recoloured(before: Document, after: Document, changes: ChangeSet) -> tuple[int, ...] | None:
-    """Indices of the curves whose stops changed colour and nothing else, or None for any other change."""
-    replaced = changes.added_curves
-    if len(before.curves) != len(after.curves) or changes.removed_curves != replaced:
-        return None
-    for index in replaced:
-        old, new = before.curves[index], after.curves[index]
-        if not (np.array_equal(old.control_points, new.control_points)
-                and [s.position for s in old.left] == [s.position for s in new.left]
-                and [s.position for s in old.right] == [s.position for s in new.right]):
-            return None
-    chosen = set(replaced)
-    unchanged = tuple(before.curves[i] if i in chosen else curve for i, curve in enumerate(after.curves))
-    return replaced if unchanged == before.curves else None
-
-
 def _with_colors(segments: Segments, document: Document, curves: tuple[int, ...]) -> Segments:
-    """``segments`` with the colours of those from ``curves`` taken afresh from ``document``."""
+    """``segments`` with the colours of those from the curves ``curves`` (ids) taken afresh from ``document``."""
     jump, mean = segments.jump.copy(), segments.mean.copy()
-    for index in curves:
-        mine = segments.origin[:, 0] == index
-        jump[mine], mean[mine] = curve_colors(segments.take(mine), document.curves[index])
+    for curve_id in curves:
+        mine = segments.origin[:, 0] == curve_id
+        jump[mine], mean[mine] = curve_colors(segments.take(mine), document.curve(curve_id))
     return replace(segments, jump=jump, mean=mean)
 
 

@@ -11,6 +11,8 @@ from __future__ import annotations
 from collections import Counter
 from dataclasses import dataclass
 
+import numpy as np
+
 from .document import Document
 
 
@@ -71,3 +73,24 @@ class ChangeSet:
     def empty(self) -> bool:
         """True when the two documents are equal."""
         return not (self.canvas_changed or self.curves_changed or self.removed_points or self.added_points)
+
+
+def recoloured_curves(before: Document, after: Document, changes: ChangeSet) -> tuple[int, ...] | None:
+    """Ids of the curves whose stops changed colour and nothing else, or None for any other change.
+
+    The engine keeps the boundary system's factorisation for such an edit
+    (its geometry is the same).  A recoloured curve keeps its id and its
+    place; every other curve is the same.
+    """
+    replaced = changes.added_curves
+    if len(before.curves) != len(after.curves) or changes.removed_curves != replaced:
+        return None
+    for index in replaced:
+        old, new = before.curves[index], after.curves[index]
+        if not (old.id == new.id and np.array_equal(old.control_points, new.control_points)
+                and [s.position for s in old.left] == [s.position for s in new.left]
+                and [s.position for s in old.right] == [s.position for s in new.right]):
+            return None
+    chosen = set(replaced)
+    unchanged = tuple(before.curves[i] if i in chosen else curve for i, curve in enumerate(after.curves))
+    return tuple(after.curves[i].id for i in replaced) if unchanged == before.curves else None

@@ -16,6 +16,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .identity import checked_id
+
 Color = tuple[float, float, float]
 
 
@@ -82,12 +84,16 @@ class DiffusionCurve:
         Colour stops on each side; sorted and clamped to ``[0, k]`` on creation.
     blur : tuple of BlurStop
         Blur stops (kept for round trips; rendering ignores them for now).
+    id : int, optional
+        The curve's stable id (``identity``); a new one when omitted.  Not
+        part of the curve's value (equality and hash).
     """
 
     control_points: np.ndarray
     left: tuple[ColorStop, ...] = ()
     right: tuple[ColorStop, ...] = ()
     blur: tuple[BlurStop, ...] = field(default=())
+    id: int | None = None
 
     def __post_init__(self) -> None:
         points = np.array(self.control_points, dtype=np.float64, copy=True)
@@ -103,6 +109,7 @@ class DiffusionCurve:
         object.__setattr__(self, "left", _normalised_stops(self.left, k))
         object.__setattr__(self, "right", _normalised_stops(self.right, k))
         object.__setattr__(self, "blur", _normalised_stops(self.blur, k))
+        object.__setattr__(self, "id", checked_id(self.id))
 
     @property
     def piece_count(self) -> int:

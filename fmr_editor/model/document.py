@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import numbers
 from dataclasses import dataclass, replace
+from functools import cached_property
 from itertools import repeat
 
 from .curve import DiffusionCurve
@@ -28,6 +29,7 @@ class Document:
     Notes
     -----
     Every change produces a new ``Document`` (``with_curves``, ``with_points``).
+    Items are addressed by their stable ids (``curve``, ``curve_index``).
     """
 
     width: int
@@ -55,3 +57,32 @@ class Document:
     def with_points(self, points) -> "Document":
         """A copy of this document holding ``points`` instead."""
         return replace(self, points=tuple(points))
+
+    @cached_property
+    def _curve_positions(self) -> dict[int, int]:
+        return {curve.id: index for index, curve in enumerate(self.curves)}
+
+    def curve_index(self, curve_id: int) -> int:
+        """Position in ``curves`` of the curve with id ``curve_id``.
+
+        Raises
+        ------
+        KeyError
+            When no curve of this document has that id.
+        """
+        try:
+            return self._curve_positions[curve_id]
+        except KeyError:
+            raise KeyError(f"no curve with id {curve_id} in this document") from None
+
+    def curve(self, curve_id: int) -> DiffusionCurve:
+        """The curve with id ``curve_id`` (``KeyError`` when there is none)."""
+        return self.curves[self.curve_index(curve_id)]
+
+    def has_curve(self, curve_id: int) -> bool:
+        """True when a curve of this document has id ``curve_id``."""
+        return curve_id in self._curve_positions
+
+    def point_ids(self) -> frozenset[int]:
+        """The ids of the document's points."""
+        return frozenset(point.id for point in self.points)

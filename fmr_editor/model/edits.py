@@ -1,8 +1,10 @@
 """Edits: functions from a document to the edited document.
 
 Each returns a new ``Document`` and leaves its argument alone; tools and
-scripts compose them and hand the result to a ``History``.  Indices count
-from 0; ``side`` is ``"left"`` or ``"right"``.
+scripts compose them and hand the result to a ``History``.  Curves and
+points are named by their stable ids (``curve.id``, ``point.id``), which
+survive edits of other items; control points and stops by their index on
+their curve (from 0); ``side`` is ``"left"`` or ``"right"``.
 """
 
 from __future__ import annotations
@@ -25,10 +27,10 @@ def _side(side: str) -> str:
     return side
 
 
-def replace_curve(document: Document, index: int, curve: DiffusionCurve) -> Document:
-    """``document`` with curve ``index`` replaced by ``curve``."""
+def replace_curve(document: Document, curve_id: int, curve: DiffusionCurve) -> Document:
+    """``document`` with the curve ``curve_id`` replaced by ``curve``."""
     curves = list(document.curves)
-    curves[index] = curve
+    curves[document.curve_index(curve_id)] = curve
     return document.with_curves(curves)
 
 
@@ -37,15 +39,15 @@ def add_curve(document: Document, curve: DiffusionCurve) -> Document:
     return document.with_curves(document.curves + (curve,))
 
 
-def remove_curves(document: Document, indices: Iterable[int]) -> Document:
-    """``document`` without the curves at ``indices``."""
-    drop = set(indices)
-    return document.with_curves(c for i, c in enumerate(document.curves) if i not in drop)
+def remove_curves(document: Document, curve_ids: Iterable[int]) -> Document:
+    """``document`` without the curves ``curve_ids``."""
+    drop = set(curve_ids)
+    return document.with_curves(c for c in document.curves if c.id not in drop)
 
 
 def move_control_point(document: Document, curve: int, point: int, position: tuple[float, float]) -> Document:
-    """``document`` with control point ``point`` of curve ``curve`` at ``position``."""
-    old = document.curves[curve]
+    """``document`` with control point ``point`` of the curve ``curve`` (an id) at ``position``."""
+    old = document.curve(curve)
     points = np.array(old.control_points)
     points[point] = position
     return replace_curve(document, curve, replace(old, control_points=points))
@@ -53,7 +55,7 @@ def move_control_point(document: Document, curve: int, point: int, position: tup
 
 def set_stop_color(document: Document, curve: int, side: str, stop: int, color: Color) -> Document:
     """``document`` with stop ``stop`` on ``side`` of curve ``curve`` coloured ``color``."""
-    old = document.curves[curve]
+    old = document.curve(curve)
     stops = list(getattr(old, _side(side)))
     stops[stop] = ColorStop(stops[stop].position, tuple(color))
     return replace_curve(document, curve, replace(old, **{side: tuple(stops)}))
@@ -61,13 +63,13 @@ def set_stop_color(document: Document, curve: int, side: str, stop: int, color: 
 
 def add_stop(document: Document, curve: int, side: str, stop: ColorStop) -> Document:
     """``document`` with ``stop`` added on ``side`` of curve ``curve``."""
-    old = document.curves[curve]
+    old = document.curve(curve)
     return replace_curve(document, curve, replace(old, **{side: getattr(old, _side(side)) + (stop,)}))
 
 
 def remove_stop(document: Document, curve: int, side: str, stop: int) -> Document:
     """``document`` without stop ``stop`` on ``side`` of curve ``curve``."""
-    old = document.curves[curve]
+    old = document.curve(curve)
     stops = getattr(old, _side(side))
     return replace_curve(document, curve, replace(old, **{side: stops[:stop] + stops[stop + 1 :]}))
 
@@ -77,10 +79,10 @@ def add_points(document: Document, points: Iterable[DiffusionPoint]) -> Document
     return document.with_points(document.points + tuple(points))
 
 
-def remove_points(document: Document, indices: Iterable[int]) -> Document:
-    """``document`` without the points at ``indices``."""
-    drop = set(indices)
-    return document.with_points(p for i, p in enumerate(document.points) if i not in drop)
+def remove_points(document: Document, point_ids: Iterable[int]) -> Document:
+    """``document`` without the points ``point_ids``."""
+    drop = set(point_ids)
+    return document.with_points(p for p in document.points if p.id not in drop) if drop else document
 
 
 def translate(document: Document, delta: tuple[float, float], curves: Iterable[int] = (),
@@ -93,12 +95,12 @@ def translate(document: Document, delta: tuple[float, float], curves: Iterable[i
     delta : tuple of float
         ``(dx, dy)`` in document pixels.
     curves : iterable of int
-        Curves moved whole (their stops travel with them: they sit at parameters).
+        Ids of curves moved whole (their stops travel with them: they sit at parameters).
     control_points : iterable of (int, int)
-        ``(curve, index)`` control points moved on their own; points of curves
+        ``(curve id, index)`` control points moved on their own; points of curves
         already in ``curves`` move once.
     points : iterable of int
-        Diffusion points moved.
+        Ids of the diffusion points moved.
 
     Returns
     -------
@@ -116,20 +118,20 @@ def translate(document: Document, delta: tuple[float, float], curves: Iterable[i
         return document
     new_curves = list(document.curves)
     for curve in whole | set(single):
-        old = document.curves[curve]
-        control = np.array(old.control_points)
+        index = document.curve_index(curve)
+        control = np.array(new_curves[index].control_points)
         if curve in whole:
             control += offset
         else:
             control[sorted(single[curve])] += offset
-        new_curves[curve] = replace(old, control_points=control)
+        new_curves[index] = replace(new_curves[index], control_points=control)
     moved = document.with_curves(new_curves) if whole or single else document
     if not moved_points:
         return moved
     dx, dy = offset
     return moved.with_points(
-        replace(p, position=(p.position[0] + dx, p.position[1] + dy)) if i in moved_points else p
-        for i, p in enumerate(document.points)
+        replace(p, position=(p.position[0] + dx, p.position[1] + dy)) if p.id in moved_points else p
+        for p in document.points
     )
 
 
@@ -140,7 +142,7 @@ def move_stop(document: Document, curve: int, side: str, stop: int, position: fl
     sorted again, so the moved stop's index may change (equal stops are
     interchangeable: find it by position and colour).
     """
-    old = document.curves[curve]
+    old = document.curve(curve)
     stops = list(getattr(old, _side(side)))
     stops[stop] = ColorStop(float(position), stops[stop].color)
     return replace_curve(document, curve, replace(old, **{side: tuple(stops)}))
@@ -202,7 +204,7 @@ def _without_anchor(curve: DiffusionCurve, anchor: int) -> DiffusionCurve:
 
 
 def remove_anchors(document: Document, curve: int, indices: Iterable[int]) -> Document:
-    """``document`` with the anchors at control-point ``indices`` of curve ``curve`` removed.
+    """``document`` with the anchors at control-point ``indices`` of the curve ``curve`` (an id) removed.
 
     Removing an inner anchor joins its two pieces into one (the outer
     handles stay, the anchor's own handles go); removing an end anchor drops
@@ -222,7 +224,7 @@ def remove_anchors(document: Document, curve: int, indices: Iterable[int]) -> Do
         When an index is not an anchor, or fewer than two anchors would
         remain (remove the curve instead).
     """
-    old = document.curves[curve]
+    old = document.curve(curve)
     anchors = sorted({int(i) for i in indices}, reverse=True)
     if any(i % 3 or not 0 <= i < len(old.control_points) for i in anchors):
         raise ValueError(f"anchors are control points 0, 3, ..., {len(old.control_points) - 1}, got {anchors}")
@@ -235,14 +237,14 @@ def remove_anchors(document: Document, curve: int, indices: Iterable[int]) -> Do
 
 
 def insert_anchor(document: Document, curve: int, s: float) -> Document:
-    """``document`` with curve ``curve`` split at position ``s`` into one more piece.
+    """``document`` with the curve ``curve`` (an id) split at position ``s`` into one more piece.
 
     The shape does not change (de Casteljau split) and stops stay at the same
     points of the curve; colours between stops may shift slightly, since they
     interpolate along the parameter, which the split changes.  ``s`` at an
     existing anchor (or out of range) changes nothing.
     """
-    old = document.curves[curve]
+    old = document.curve(curve)
     k = old.piece_count
     piece = int(np.floor(s))
     t = float(s) - piece

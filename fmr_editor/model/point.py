@@ -7,7 +7,9 @@ to each channel, in document pixels (x to the right, y down).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+
+from .identity import checked_id
 
 Color = tuple[float, float, float]
 
@@ -26,12 +28,16 @@ class DiffusionPoint:
         sRGB red, green, blue, normally in ``[0, 1]``.
     amplitude : float
         Multiplies the colour; negative values subtract.
+    id : int, optional
+        The point's stable id (``identity``); a new one when omitted.  Not
+        part of the point's value (equality and hash).
     """
 
     position: tuple[float, float]
     radius: float
     color: Color
     amplitude: float = 1.0
+    id: int | None = field(default=None, compare=False)
 
     def __post_init__(self) -> None:
         position = _floats(self.position, 2, "position")
@@ -44,6 +50,7 @@ class DiffusionPoint:
         object.__setattr__(self, "color", tuple(v + 0.0 for v in color))
         object.__setattr__(self, "radius", radius)
         object.__setattr__(self, "amplitude", _finite(self.amplitude, "amplitude") + 0.0)
+        object.__setattr__(self, "id", checked_id(self.id))
 
 
 def _finite(value, name: str) -> float:

@@ -40,7 +40,7 @@ def delete_selection(context: ToolContext) -> bool:
         if i % 3 == 0 and c not in doomed:
             anchors[c].add(i)
     for c, chosen in anchors.items():
-        if document.curves[c].piece_count + 1 - len(chosen) < 2:
+        if document.curve(c).piece_count + 1 - len(chosen) < 2:
             doomed.add(c)
     stops: dict[tuple[int, str], list[int]] = defaultdict(list)
     for c, side, i in selection.stops:

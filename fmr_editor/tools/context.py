@@ -55,18 +55,18 @@ def _set(items) -> frozenset:
 
 @dataclass(frozen=True)
 class Selection:
-    """What is selected, by index into the current document.
+    """What is selected: curves and points by id, their parts by index on their curve.
 
     Attributes
     ----------
     curves : frozenset of int
-        Curves selected whole.
+        Ids of curves selected whole.
     control_points : frozenset of (int, int)
-        ``(curve, index)`` anchors and handles.
+        ``(curve id, index)`` anchors and handles.
     stops : frozenset of (int, str, int)
-        ``(curve, side, index)`` colour stops.
+        ``(curve id, side, index)`` colour stops.
     points : frozenset of int
-        Diffusion points.
+        Ids of diffusion points.
     """
 
     curves: frozenset[int] = frozenset()
@@ -101,17 +101,17 @@ class Selection:
                 and self.stops <= other.stops and self.points <= other.points)
 
     def within(self, document: Document) -> Selection:
-        """This selection without the indices ``document`` does not have."""
-        n = len(document.curves)
-        curves = document.curves
+        """This selection without the items ``document`` does not have."""
+        has = document.has_curve
+        points = self.points & document.point_ids() if self.points else self.points
         return replace(
             self,
-            curves=frozenset(c for c in self.curves if c < n),
+            curves=frozenset(c for c in self.curves if has(c)),
             control_points=frozenset(
-                (c, i) for c, i in self.control_points if c < n and i < len(curves[c].control_points)
+                (c, i) for c, i in self.control_points if has(c) and i < len(document.curve(c).control_points)
             ),
-            stops=frozenset((c, s, i) for c, s, i in self.stops if c < n and i < len(getattr(curves[c], s))),
-            points=frozenset(p for p in self.points if p < len(document.points)),
+            stops=frozenset((c, s, i) for c, s, i in self.stops if has(c) and i < len(getattr(document.curve(c), s))),
+            points=points,
         )
 
 

@@ -43,7 +43,7 @@ class CurveHit:
     Attributes
     ----------
     curve : int
-        Index of the curve in the document.
+        The curve's id.
     s : float
         Position along it in piece units.
     foot : tuple of float
@@ -71,6 +71,7 @@ class CurveIndex:
 
     def __init__(self, curves) -> None:
         self.curves = tuple(curves)
+        self.ids = np.array([c.id for c in self.curves], dtype=np.int64)
         if self.curves:
             self.pieces = np.concatenate([c.pieces() for c in self.curves])
             self.owner = np.concatenate([np.full(c.piece_count, i) for i, c in enumerate(self.curves)])
@@ -92,7 +93,7 @@ class CurveIndex:
         return bezier(pieces, t[:, None])[:, 0], unit_tangents(pieces, t)
 
     def stop_markers(self, offset: float) -> list[tuple[int, str, int, np.ndarray]]:
-        """``(curve, side, index, marker position)`` of every stop, ``offset`` pixels off its curve."""
+        """``(curve id, side, index, marker position)`` of every stop, ``offset`` pixels off its curve."""
         keys = [(c, side, i, stop.position) for c, curve in enumerate(self.curves)
                 for side in ("left", "right") for i, stop in enumerate(getattr(curve, side))]
         if not keys:
@@ -101,7 +102,7 @@ class CurveIndex:
         points, tangent = self.evaluate(owner, s)
         sign = np.where(np.array(sides) == "left", 1.0, -1.0)[:, None]
         markers = points + sign * offset * np.stack([tangent[:, 1], -tangent[:, 0]], axis=1)
-        return [(c, side, i, marker) for (c, side, i, _), marker in zip(keys, markers)]
+        return [(int(self.ids[c]), side, i, marker) for (c, side, i, _), marker in zip(keys, markers)]
 
     def outlines(self, per_piece: int = 24) -> list[np.ndarray]:
         """Each curve sampled evenly in each piece's parameter, ``(per_piece * k + 1, 2)`` apiece."""
@@ -121,13 +122,13 @@ class CurveIndex:
         tolerance : float
             Largest distance in document pixels.
         only : iterable of int, optional
-            Consider only these curves.
+            Consider only the curves with these ids.
         """
         p = np.asarray(point, dtype=np.float64)
         gap = np.maximum(np.maximum(self.low - p, p - self.high), 0.0)
         keep = np.hypot(gap[:, 0], gap[:, 1]) <= tolerance  # the hull holds the piece
         if only is not None:
-            keep &= np.isin(self.owner, np.fromiter(only, dtype=np.int64))
+            keep &= np.isin(self.ids[self.owner], np.fromiter(only, dtype=np.int64))
         rows = np.flatnonzero(keep)
         if not len(rows):
             return None
@@ -139,11 +140,11 @@ class CurveIndex:
         curve = self.curves[self.owner[row]]
         s = min(float(self.number[row] + t[best]), float(curve.piece_count))
         foot = tuple(float(v) for v in curve.point_at(np.array([s]))[0])
-        return CurveHit(int(self.owner[row]), s, foot, float(distance[best]), side_of(curve, s, p))
+        return CurveHit(curve.id, s, foot, float(distance[best]), side_of(curve, s, p))
 
 
 class CurveSet:
-    """Some curves of a document, by document index, with their outlines and stop markers (computed once).
+    """Some curves of a document, by id, with their outlines and stop markers (computed once).
 
     Parameters
     ----------
@@ -154,13 +155,13 @@ class CurveSet:
 
     def __init__(self, document: Document, ids: Iterable[int]) -> None:
         self.ids = tuple(sorted(ids))
-        self.index = CurveIndex([document.curves[c] for c in self.ids])
+        self.index = CurveIndex([document.curve(c) for c in self.ids])
         self._markers: dict[float, list] = {}
         self._outlines: dict[int, np.ndarray] | None = None
         self._control: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
 
     def control_points(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """All the curves' control points ``(n, 2)``, with each one's curve (document index) and index."""
+        """All the curves' control points ``(n, 2)``, with each one's curve (id) and index."""
         if self._control is None:
             curves = self.index.curves
             if curves:
@@ -173,15 +174,15 @@ class CurveSet:
         return self._control
 
     def outlines(self) -> dict[int, np.ndarray]:
-        """Sampled outline of each curve, by document index."""
+        """Sampled outline of each curve, by id."""
         if self._outlines is None:
             self._outlines = dict(zip(self.ids, self.index.outlines()))
         return self._outlines
 
     def stop_markers(self, offset: float) -> list[tuple[int, str, int, np.ndarray]]:
-        """``(curve, side, index, marker position)`` of the curves' stops, by document index."""
+        """``(curve, side, index, marker position)`` of the curves' stops, by id."""
         if offset not in self._markers:
-            self._markers[offset] = [(self.ids[c], side, i, m) for c, side, i, m in self.index.stop_markers(offset)]
+            self._markers[offset] = self.index.stop_markers(offset)
         return self._markers[offset]
 
 
@@ -261,7 +262,7 @@ def nearest_control_point(document: Document, curves: Iterable[int], point, tole
     best, key = None, (tolerance, 1)
     p = np.asarray(point, dtype=np.float64)
     for c in sorted(curves):
-        control = document.curves[c].control_points
+        control = document.curve(c).control_points
         distance = np.hypot(*(control - p).T)
         handle = (np.arange(len(control)) % 3 != 0).astype(int)
         order = np.lexsort((handle, distance))
@@ -282,13 +283,13 @@ def nearest_stop(markers: list[tuple[int, str, int, np.ndarray]], point,
 
 
 def nearest_point(document: Document, point, tolerance: float) -> int | None:
-    """Index of the diffusion point whose centre is nearest to ``point``, or None."""
+    """Id of the diffusion point whose centre is nearest to ``point``, or None."""
     if not document.points:
         return None
     centres = np.array([q.position for q in document.points])
     distance = np.hypot(*(centres - np.asarray(point, dtype=np.float64)).T)
     i = int(np.argmin(distance))
-    return i if distance[i] <= tolerance else None
+    return document.points[i].id if distance[i] <= tolerance else None
 
 
 def inside(corner, opposite, positions: np.ndarray) -> np.ndarray:

@@ -28,7 +28,7 @@ def moving_control_points(document: Document, selection: Selection) -> set[tuple
     for c, i in selection.control_points:
         if c in selection.curves:
             continue
-        curve = document.curves[c]
+        curve = document.curve(c)
         n = len(curve.control_points)
         out.add((c, i))
         if i % 3 == 0:
@@ -68,8 +68,8 @@ def constrain(delta: tuple[float, float]) -> tuple[float, float]:
 
 
 def smooth_partner(document: Document, c: int, i: int) -> tuple[int, int] | None:
-    """``(anchor, opposite handle)`` when handle ``i`` of curve ``c`` belongs to a smooth anchor."""
-    curve = document.curves[c]
+    """``(anchor, opposite handle)`` when handle ``i`` of the curve ``c`` (an id) belongs to a smooth anchor."""
+    curve = document.curve(c)
     control = curve.control_points
     n = len(control)
     if i % 3 == 0:
@@ -106,9 +106,9 @@ class MoveDrag(EditDrag):
         document = translate_selection(self.start, self.selection, delta)
         if self.smooth is not None and not event.alt:
             (c, i), (anchor, opposite) = self.smooth
-            control = document.curves[c].control_points
+            control = document.curve(c).control_points
             u = control[i] - control[anchor]
-            length = np.hypot(*(self.start.curves[c].control_points[opposite] - control[anchor]))
+            length = np.hypot(*(self.start.curve(c).control_points[opposite] - control[anchor]))
             if np.hypot(*u) > 1e-9:
                 turned = control[anchor] - length * u / np.hypot(*u)
                 document = edits.move_control_point(document, c, opposite, tuple(turned))

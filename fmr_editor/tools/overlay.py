@@ -113,7 +113,7 @@ def curve_marks(context: ToolContext, curves: Iterable[int], nodes: bool = True,
     if markers:
         out.append(Markers.of(
             [m[3] for m in markers], "stop", [m[:3] in selection.stops for m in markers],
-            [getattr(document.curves[c], side)[i].color for c, side, i, _ in markers],
+            [getattr(document.curve(c), side)[i].color for c, side, i, _ in markers],
         ))
     return out
 
@@ -122,8 +122,8 @@ def point_marks(document: Document, selection: Selection) -> list:
     """Centres of all diffusion points, and the radius of the selected ones."""
     if not document.points:
         return []
-    points = document.points
-    out: list = [Markers.of([p.position for p in points], "point", [i in selection.points for i in range(len(points))],
+    points, chosen = document.points, selection.points
+    out: list = [Markers.of([p.position for p in points], "point", [p.id in chosen for p in points],
                             [p.color for p in points])]
-    out += [Circle(points[i].position, points[i].radius, "selected") for i in sorted(selection.points)]
+    out += [Circle(p.position, p.radius, "selected") for p in points if p.id in chosen]
     return out

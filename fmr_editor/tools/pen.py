@@ -158,7 +158,7 @@ class PenTool(Tool):
             right=(ColorStop(0.0, tuple(float(v) for v in options.secondary_color)),),
         )
         context.history.apply(edits.add_curve(context.document, curve), "Draw Curve")
-        context.selection = Selection.of(curves=[len(context.document.curves) - 1])
+        context.selection = Selection.of(curves=[context.document.curves[-1].id])
 
     # -- drawing -----------------------------------------------------------------------------
     def draw(self) -> list:

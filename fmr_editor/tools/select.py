@@ -65,13 +65,14 @@ class RubberBand(Drag):
 def banded(context: ToolContext, corner, opposite) -> Selection:
     """What a rubber band from ``corner`` to ``opposite`` selects."""
     document = context.document
-    points = [i for i, ok in enumerate(inside(corner, opposite, [p.position for p in document.points])) if ok]
-    curves = [i for i, c in enumerate(document.curves) if _wholly_inside(c, corner, opposite)]
+    points = [p.id for p, ok in zip(document.points, inside(corner, opposite, [p.position for p in document.points]))
+              if ok]
+    curves = [c.id for c in document.curves if _wholly_inside(c, corner, opposite)]
     shown = context.selection.active_curves() - set(curves)
     control = [
         (c, int(i))
         for c in shown
-        for i in np.flatnonzero(inside(corner, opposite, document.curves[c].control_points))
+        for i in np.flatnonzero(inside(corner, opposite, document.curve(c).control_points))
     ]
     return Selection.of(curves, control, (), points)
 
@@ -166,5 +167,5 @@ class SelectTool(Tool):
         if self.drag is None and self.pointer is not None:
             found = self.under(self.pointer)
             if found is not None and found[0] == "curve" and found[1].curve not in context.selection.active_curves():
-                out.insert(0, Polyline(polyline(document.curves[found[1].curve]), "hover"))
+                out.insert(0, Polyline(polyline(document.curve(found[1].curve)), "hover"))
         return out

@@ -24,8 +24,11 @@ from .overlay import Markers, curve_marks
 
 
 def find_stop(document: Document, curve: int, side: str, position: float, color) -> int:
-    """Index of the stop on ``side`` of ``curve`` at ``position`` with ``color`` (equal stops are interchangeable)."""
-    stops = getattr(document.curves[curve], side)
+    """Index of the stop on ``side`` of the curve ``curve`` (an id) at ``position`` with ``color``.
+
+    Equal stops are interchangeable.
+    """
+    stops = getattr(document.curve(curve), side)
     return next(i for i, stop in enumerate(stops) if stop.position == position and stop.color == color)
 
 
@@ -36,8 +39,8 @@ class StopDrag(EditDrag):
                  label: str = "Move Stop", pressed: Document | None = None) -> None:
         super().__init__(context, event, label, pressed)
         self.curve, self.side, self.index = stop
-        self.stop = getattr(self.base.curves[self.curve], self.side)[self.index]
-        self.track = CurveIndex([self.base.curves[self.curve]])
+        self.stop = getattr(self.base.curve(self.curve), self.side)[self.index]
+        self.track = CurveIndex([self.base.curve(self.curve)])
 
     def edited(self, event: PointerEvent) -> Document:
         s = self.track.nearest(event.position).s
@@ -57,7 +60,7 @@ def pick_stop_color(context: ToolContext, stop: tuple[int, str, int]) -> bool:
     if context.choose_color is None:
         return False
     c, side, i = stop
-    color = context.choose_color(getattr(context.document.curves[c], side)[i].color)
+    color = context.choose_color(getattr(context.document.curve(c), side)[i].color)
     if color is None:
         return False
     edited = edits.set_stop_color(context.document, c, side, i, tuple(float(v) for v in color))
@@ -131,6 +134,6 @@ class StopsTool(Tool):
             stop = stop_under(context, self.pointer, self.shown_curves(self.pointer))
             hit = context.curve_index().nearest(self.pointer, self.reach())
             if stop is None and hit is not None:  # where a click would add a stop
-                where = stop_marker(document.curves[hit.curve], hit.side, hit.s, context.marker_offset)
+                where = stop_marker(document.curve(hit.curve), hit.side, hit.s, context.marker_offset)
                 out.append(Markers.of([where], "stop", colors=[context.options.color]))
         return out

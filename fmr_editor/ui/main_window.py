@@ -221,8 +221,8 @@ class MainWindow(FileCommands, QMainWindow):
         if self.workspace is None:
             return
         document = self.workspace.context.document
-        self.workspace.context.selection = Selection.of(curves=range(len(document.curves)),
-                                                        points=range(len(document.points)))
+        self.workspace.context.selection = Selection.of(curves=[c.id for c in document.curves],
+                                                        points=document.point_ids())
         self._after_tool()
 
     def deselect(self) -> None:

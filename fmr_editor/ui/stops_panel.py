@@ -94,15 +94,16 @@ class StopsPanel(QWidget):
         self.refresh()
 
     def chosen_curve(self) -> int | None:
-        """The curve shown: that of the (first) selected stop, else the first selected curve."""
+        """The curve shown (its id): that of the (first) selected stop, else the first selected curve."""
         context = self.context
         if context is None:
             return None
-        selection = context.selection.within(context.document)
+        document = context.document
+        selection = context.selection.within(document)
         if selection.stops:
-            return min(selection.stops)[0]
+            return min(selection.stops, key=lambda stop: (document.curve_index(stop[0]), stop[1:]))[0]
         curves = selection.active_curves()
-        return min(curves) if curves else None
+        return min(curves, key=document.curve_index) if curves else None
 
     def selected(self, side: str) -> list[int]:
         """Indices of the selected stops on ``side`` of the shown curve."""
@@ -113,14 +114,14 @@ class StopsPanel(QWidget):
     def refresh(self) -> None:
         """Show the chosen curve's stops as they are now (cheap when nothing changed)."""
         context = self.context
-        self.curve = curve_index = self.chosen_curve()
-        curve = context.document.curves[curve_index] if curve_index is not None else None
-        state = (curve_index, curve, context.selection if context is not None else None)
+        self.curve = curve_id = self.chosen_curve()
+        curve = context.document.curve(curve_id) if curve_id is not None else None
+        state = (curve_id, curve, context.selection if context is not None else None)
         if state == self._shown:
             return
         self._shown = state
         self.title.setText("Select a curve to edit its colour stops." if curve is None
-                           else f"Curve {curve_index + 1}: {curve.piece_count} pieces")
+                           else f"Curve {context.document.curve_index(curve_id) + 1}: {curve.piece_count} pieces")
         for side in SIDES:
             bar = self.bars[side]
             stops = getattr(curve, side) if curve is not None else ()
@@ -146,7 +147,7 @@ class StopsPanel(QWidget):
         context.selection = context.selection ^ chosen if shift else chosen
         self._drag = None
         if stop in context.selection.stops:
-            curve = context.document.curves[self.curve]
+            curve = context.document.curve(self.curve)
             self._drag = {"side": side, "index": index, "base": context.document, "open": False,
                           "color": getattr(curve, side)[index].color, "length": curve.piece_count}
         self._done()
@@ -197,7 +198,7 @@ class StopsPanel(QWidget):
             return
         curve = self.curve
         stops = [(curve, side, i) for i in chosen]
-        current = getattr(context.document.curves[curve], side)[chosen[0]].color
+        current = getattr(context.document.curve(curve), side)[chosen[0]].color
 
         def apply(color, key) -> None:
             context.selection = Selection.of(stops=stops)
@@ -216,7 +217,7 @@ class StopsPanel(QWidget):
         context = self.context
         if context is None or self.curve is None:
             return
-        curve = context.document.curves[self.curve]
+        curve = context.document.curve(self.curve)
         s = min(max(float(s), 0.0), float(curve.piece_count))
         color = tuple(float(v) for v in getattr(curve, f"{side}_colors_at")([s])[0])
         new = ColorStop(s, color)

@@ -53,7 +53,7 @@ class CurveSegments:
         counts = np.array([len(piece) for piece in pieces], np.int64)
         clipped = concatenate([empty_segments(), *pieces])
         clipped = from_curve(clipped, 0)
-        clipped.origin[:, 0] = np.repeat(np.arange(len(pieces), dtype=np.float64), counts)
+        clipped.origin[:, 0] = np.repeat(np.array([curve.id for curve in document.curves], np.float64), counts)
         pairs = self._pairs(document.curves, canvas, counts, clipped)
         self._last = (document.curves, canvas, counts, pairs)
         return drop_covered_parts(clipped, pairs=pairs)

@@ -163,9 +163,9 @@ def cut_at_cells(segments: Segments, cell_size: float) -> Segments:
     return segments.split(owner[pair], t[pair], t[pair + 1])
 
 
-def from_curve(segments: Segments, index: int) -> Segments:
-    """``segments`` with ``index`` as the curve of their origin."""
-    return replace(segments, origin=np.column_stack([np.full(len(segments), float(index)), segments.origin[:, 1]]))
+def from_curve(segments: Segments, curve_id: int) -> Segments:
+    """``segments`` with the curve ``curve_id`` as their origin."""
+    return replace(segments, origin=np.column_stack([np.full(len(segments), float(curve_id)), segments.origin[:, 1]]))
 
 
 def curve_colors(segments: Segments, curve: DiffusionCurve) -> tuple[np.ndarray, np.ndarray]:
@@ -195,7 +195,7 @@ def curve_segments(
     flatten : callable
         ``flatten_curve`` or a cache in front of it.
     """
-    curves = [from_curve(flatten(curve, tolerance, max_length), index) for index, curve in enumerate(document.curves)]
+    curves = [from_curve(flatten(curve, tolerance, max_length), curve.id) for curve in document.curves]
     clipped = clip_to_canvas(concatenate([empty_segments(), *curves]), document.width, document.height)
     return drop_covered_parts(clipped)
 

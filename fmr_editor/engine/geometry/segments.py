@@ -32,9 +32,9 @@ class Segments:
         ``(n, 3)`` normal-derivative jump ``E`` (zero until solved; always
         zero on the border).
     origin : numpy.ndarray, optional
-        ``(n, 2)`` where each segment's colours come from: the index of its
-        curve in the document and the position (piece units) its colours
-        were taken at; ``(-1, nan)`` for the border and unknown origins.
+        ``(n, 2)`` where each segment's colours come from: the id of its
+        curve (``DiffusionCurve.id``) and the position (piece units) its
+        colours were taken at; ``(-1, nan)`` for the border and unknown origins.
     """
 
     p: np.ndarray

@@ -278,9 +278,12 @@ def carried_unknowns(old: Segments, unknowns: np.ndarray, new: Segments) -> np.n
     if len(loose) == 0 or len(sources) == 0:
         return out
     span = float(np.nanmax(np.abs(np.concatenate([old.origin[:, 1], new.origin[:, 1]])), initial=0.0)) + 1.0
-    def position(segments: Segments, index: np.ndarray) -> np.ndarray:  # curve, then place along it
-        curve, place = segments.origin[index, 0], np.nan_to_num(segments.origin[index, 1])
+    curve_ids = np.unique(np.concatenate([old.origin[:, 0], new.origin[:, 0]]))
+
+    def position(segments: Segments, index: np.ndarray) -> np.ndarray:  # curve (ranked: ids may be large), then place
+        curve, place = np.searchsorted(curve_ids, segments.origin[index, 0]), np.nan_to_num(segments.origin[index, 1])
         return curve * 4 * span + place
+
     keys = position(old, sources)
     order = np.argsort(keys)
     keys, sources = keys[order], sources[order]
