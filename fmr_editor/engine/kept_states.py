@@ -10,11 +10,12 @@ a history hands the same ``Document`` back on undo).
 from __future__ import annotations
 
 from collections import OrderedDict
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
 import numpy as np
 
 from ..model import Document
+from .cells import Cells
 from .fmm.lattice import Lattice
 from .geometry.segments import Segments
 from .points.field import LivePoints
@@ -30,21 +31,15 @@ class State:
     radii: np.ndarray
     boundary: Segments
     unknowns: np.ndarray
-    segments: Segments
-    cell_start: np.ndarray
-    fine: np.ndarray
-    local: np.ndarray
+    cells: Cells
     points: LivePoints | None
 
     @property
     def nbytes(self) -> int:
         """Bytes of the arrays the state holds (shared ones counted in every state that holds them)."""
-        arrays = [self.radii, self.unknowns, self.cell_start, self.fine, self.local]
-        for segments in (self.curves, self.boundary, self.segments):
-            arrays += [getattr(segments, field.name) for field in fields(segments)]
-        if self.points is not None:
-            arrays.append(self.points.tensor)
-        return sum(array.nbytes for array in arrays if array is not None)
+        points = self.points.tensor.nbytes if self.points is not None else 0
+        return (self.radii.nbytes + self.unknowns.nbytes + self.curves.nbytes() + self.boundary.nbytes()
+                + self.cells.nbytes() + points)
 
 
 class KeptStates:

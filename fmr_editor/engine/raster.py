@@ -141,32 +141,38 @@ def rasterise(
     xs = sample_coordinates(width, rep.width, samples)
     ys = sample_coordinates(height, rep.height, samples)
     poly = rep.polynomials(order) if method == "fmr" else None
-    seg = rep.segments
-    lattice = rep.lattice
     image = np.empty((height, width, 3))
     band = max(1, BAND_SAMPLES // (len(xs) * samples))
     for row in range(0, height, band):
         rows = slice(row, min(row + band, height))
         band_ys = ys[rows.start * samples : rows.stop * samples]
-        if method == "fmr":
-            values = far_field_grid(poly, xs, band_ys, lattice.cell_size)
-            near_field_grid(
-                xs, band_ys, lattice.cells_per_side, lattice.cell_size, rep.cell_start,
-                seg.p, seg.q, seg.flux, seg.jump, out=values,
-            )
-            if rep.points is not None:
-                rep.points.add_near_grid(xs, band_ys, values)
-        else:
-            targets = np.stack(np.broadcast_arrays(xs[None, :], band_ys[:, None]), axis=-1).reshape(-1, 2)
-            values = direct_sum(targets, seg.p, seg.q, seg.flux, seg.jump)
-            if rep.points is not None:
-                p = rep.points.points
-                values += gaussian_sum_reference(targets, p.positions, p.radii, p.weights)
-            values = values.reshape(len(band_ys), len(xs), 3)
+        values = _fmr_samples(rep, poly, xs, band_ys) if method == "fmr" else _direct_samples(rep, xs, band_ys)
         image[rows] = values if samples == 1 else _average_blocks(values, samples)
         if progress:
             progress("rasterise", rows.stop / height)
     return image
+
+
+def _fmr_samples(rep: Representation, poly: np.ndarray, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+    """The FMR on the grid ``ys x xs``: cell polynomials, near segments and near points; ``(len(ys), len(xs), 3)``."""
+    seg, lattice = rep.segments, rep.lattice
+    values = far_field_grid(poly, xs, ys, lattice.cell_size)
+    near_field_grid(xs, ys, lattice.cells_per_side, lattice.cell_size, rep.cell_start,
+                    seg.p, seg.q, seg.flux, seg.jump, out=values)
+    if rep.points is not None:
+        rep.points.add_near_grid(xs, ys, values)
+    return values
+
+
+def _direct_samples(rep: Representation, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+    """The direct sums over every segment and point on the grid ``ys x xs`` (the reference)."""
+    seg = rep.segments
+    targets = np.stack(np.broadcast_arrays(xs[None, :], ys[:, None]), axis=-1).reshape(-1, 2)
+    values = direct_sum(targets, seg.p, seg.q, seg.flux, seg.jump)
+    if rep.points is not None:
+        p = rep.points.points
+        values += gaussian_sum_reference(targets, p.positions, p.radii, p.weights)
+    return values.reshape(len(ys), len(xs), 3)
 
 
 def output_size(canvas_width: int, canvas_height: int, width: int | None, height: int | None) -> tuple[int, int]:

@@ -27,19 +27,17 @@ from __future__ import annotations
 import functools
 from collections import Counter
 from contextlib import nullcontext
-from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 from OpenGL import GL
 
 from ..engine import Representation
 from . import bounds, packing
-from .gl import BufferTexture, Framebuffer, Program, VertexArray, additive, plain_state
-from .view import View
+from .cached_image import CachedImage
+from .canvas_data import UNITS, CanvasData, ShaderLayout
+from .gl import Program, VertexArray, additive, plain_state, shader_source
+from .view import View, integer_shift
 
-#: The repository's shader folder.
-SHADER_DIR = Path(__file__).resolve().parents[2] / "shaders"
 #: Default ``CanvasRenderer.tolerance``: a twentieth of an 8-bit step.
 TOLERANCE = 0.05 / 255
 #: A delta pass leaves out the segments whose change is below this share of the tolerance.
@@ -47,15 +45,8 @@ SEGMENT_SHARE = 1 / 64
 #: What a delta pass may add to a cell's error (float32 rounding, generously): after some hundred passes
 #: without a full evaluation, the tolerance is reached and the cell is evaluated again, so errors never pile up.
 DELTA_ROUNDING = 2e-6
-#: A pan within this many window pixels of a whole number of pixels moves the cached image.
-SHIFT_TOLERANCE = 1e-6
 #: Above this share of the window's pixels in cells to evaluate, the whole window is evaluated instead.
 FULL_SHARE = 0.5
-
-#: Texture units of the shader's buffers (the delta pass binds its own tables to the first three).
-_UNITS = {"u_coeffs": 0, "u_segment_start": 1, "u_segments": 2, "u_point_start": 3, "u_point_members": 4,
-          "u_points": 5, "u_cell_list": 6}
-_DELTA = {"u_coeffs": "delta_coeffs", "u_segment_start": "delta_segment_start", "u_segments": "delta_segments"}
 
 
 def _plain(method):
@@ -65,35 +56,6 @@ def _plain(method):
         with plain_state():
             return method(self, *args, **kwargs)
     return wrapped
-
-
-def shader_source(name: str, defines: dict[str, object] | None = None) -> str:
-    """The GLSL source ``shaders/<name>`` with ``#define`` lines inserted after its ``#version`` line."""
-    text = (SHADER_DIR / name).read_text()
-    version, _, rest = text.partition("\n")
-    lines = [f"#define {key} {value}" for key, value in (defines or {}).items()]
-    return "\n".join([version, *lines, "#line 2", rest])
-
-
-@dataclass(frozen=True)
-class ShaderLayout:
-    """What the shader program and the buffers' shapes depend on."""
-
-    cells: int
-    cell_size: float
-    order: int
-    harmonic: bool
-    width: int
-    height: int
-
-    @classmethod
-    def of(cls, rep: Representation) -> ShaderLayout:
-        return cls(rep.lattice.cells_per_side, rep.lattice.cell_size, rep.order, packing.uses_harmonic(rep),
-                   rep.width, rep.height)
-
-    @property
-    def texels(self) -> int:
-        return packing.texels(self.order, self.harmonic)
 
 
 class CanvasRenderer:
@@ -130,22 +92,13 @@ class CanvasRenderer:
     def __init__(self, cache_format: int = GL.GL_RGBA32F, checker: float = 8.0, tolerance: float = TOLERANCE) -> None:
         self.checker = float(checker)
         self.tolerance = float(tolerance)
-        self._buffers = {name: BufferTexture(GL.GL_R32I if name.endswith(("start", "members", "list"))
-                                             else GL.GL_RGBA32F)
-                         for name in [*_UNITS, *_DELTA.values()]}
+        self._data = CanvasData()
         self._vao = VertexArray()
-        self._cache = Framebuffer(cache_format)
-        self._spare = Framebuffer(cache_format)
-        self._additive = cache_format == GL.GL_RGBA32F
-        # a float image is converted once per change into 8 bits, so plain redraws copy a quarter of the bytes
-        self._display = Framebuffer(GL.GL_RGBA8) if self._additive else None
-        self._stale: tuple[int, int, int, int] | None = None  # GL pixels of the cache not yet in the copy
+        self._cache = CachedImage(cache_format)
         self._programs: dict[tuple[int, bool], Program] = {}
-        self._rep: Representation | None = None
-        self._segment_table: packing.SegmentTable | None = None
+        self._rep: Representation | None = None  # what the image shows; None: a plain background
         self._layout: ShaderLayout | None = None
         self._dirty: np.ndarray | None = None  # cells to evaluate again at the next draw
-        self._mirror = np.zeros((0, 0), np.float32)  # the coefficients as uploaded, a row per cell
         self._unseen = np.zeros((0, 0))  # bound on each cell's change missing from the cached image
         self._cached_view: View | None = None  # what the cached image shows; None: nothing
         self.last_evaluation = "none"
@@ -159,12 +112,9 @@ class CanvasRenderer:
 
     def upload(self, rep: Representation) -> None:
         """Upload all of ``rep``; the next ``draw`` evaluates the whole window."""
-        self._layout = ShaderLayout.of(rep)
+        self._data.upload(rep)
+        self._layout = self._data.layout
         n = self._layout.cells
-        self._mirror = packing.cell_coefficients(rep).reshape(n * n, -1)
-        self._buffers["u_coeffs"].set_data(self._mirror)
-        self._upload_segments(rep)
-        self._upload_points(rep)
         self._rep = rep
         self._unseen = np.zeros((n, n))
         self._dirty = np.zeros((n, n), bool)
@@ -194,29 +144,28 @@ class CanvasRenderer:
         if changed.shape != (n, n):
             raise ValueError(f"changed must be ({n}, {n})")
         cells = np.flatnonzero(changed)
-        delta, moved = np.zeros((0, self._mirror.shape[1]), self._mirror.dtype), np.zeros(0)
-        if len(cells):  # none: only segments or near points may have changed
-            fresh = packing.cell_coefficients(rep, cells).reshape(len(cells), -1)
-            delta = fresh - self._mirror[cells]
-            moved = bounds.far_bound(delta, self._layout.order, self._layout.harmonic)
-            self._mirror[cells] = fresh
-            texels = self._layout.texels
-            for start, stop in packing.cell_runs(cells):
-                self._buffers["u_coeffs"].set_subdata(start * texels, self._mirror[start:stop])
         old = self._rep
         same_geometry = bounds.same_geometry(old, rep)
         near = bounds.near_bound(old, rep)  # inf beside segments that moved
-        near_points_changed = _near(rep) is not _near(old)
-        if rep.segments is not old.segments or rep.cell_start is not old.cell_start:
-            self._upload_segments(rep, same_geometry=same_geometry)
-        if near_points_changed:
-            self._upload_points(rep)
+        delta, moved, near_points_changed = self._data.update(rep, cells, same_geometry)
         self._rep = rep
         if near is not None and not near_points_changed:  # the bounds cover every change
             moved += near.ravel()[cells]
         else:
             moved[:] = np.inf
         exact = same_geometry and not near_points_changed  # the change can also be added to the image
+        self.last_update = self._catch_up(cells, delta, moved, exact, old)
+
+    def _catch_up(self, cells: np.ndarray, delta: np.ndarray, moved: np.ndarray, exact: bool,
+                  old: Representation) -> dict[str, int]:
+        """Bring the cached image up to date with an update: add some cells' change, mark others dirty.
+
+        ``moved`` bounds the change of each of ``cells``' pixels, ``delta`` is
+        the change of their coefficients; with ``exact`` the change can be
+        added to the image (a float image, and the same geometry).  Returns
+        the counts of ``last_update``.
+        """
+        rep = self._rep
         unseen = self._unseen.ravel()
         before = unseen[cells]
         total = before + moved
@@ -225,7 +174,7 @@ class CanvasRenderer:
         shown = cells[show]
         counts = {"changed": len(cells), "delta": 0, "evaluate": 0, "segments": 0}
         if self._cached_view is not None and len(shown):
-            if exact and self._additive:
+            if exact and self._cache.additive:
                 segment_moves = bounds.segment_changes(old, rep)
                 keep = segment_moves > SEGMENT_SHARE * self.tolerance
                 left_out = bounds.block_sums(np.where(keep, 0.0, segment_moves), rep).ravel()[shown]
@@ -238,34 +187,17 @@ class CanvasRenderer:
             unseen[shown] = 0.0
             self._dirty.ravel()[shown] = True
             counts["evaluate"] = len(shown)
-        self.last_update = counts
+        return counts
 
     def _add_change(self, delta: np.ndarray, cells: np.ndarray, old: Representation, new: Representation,
                     keep: np.ndarray) -> None:
         """Add the change of ``cells``' colour (far field ``delta``, the ``keep`` segments' change) to the image."""
         if len(cells) == 0:
             return
-        self._buffers["delta_coeffs"].set_data(delta)
-        table = packing.segment_table(new, new.segments.flux - old.segments.flux,
-                                      new.segments.jump - old.segments.jump, keep)
-        self._buffers["delta_segments"].set_data(table.texels)
-        self._buffers["delta_segment_start"].set_data(table.cell_start)
+        self._data.upload_change(delta, packing.segment_table(new, new.segments.flux - old.segments.flux,
+                                                              new.segments.jump - old.segments.jump, keep))
         self._cache.bind()
         self._pass(self._cached_view, cells, delta=True)
-
-    def _upload_segments(self, rep: Representation, same_geometry: bool = False) -> None:
-        """Upload the segment lists; with ``same_geometry``, only E and C changed since the last upload."""
-        like = self._segment_table if same_geometry else None
-        table = self._segment_table = packing.segment_table(rep, like=like)
-        self._buffers["u_segments"].set_data(table.texels)
-        if like is None:
-            self._buffers["u_segment_start"].set_data(table.cell_start)
-
-    def _upload_points(self, rep: Representation) -> None:
-        table = packing.point_table(rep)
-        self._buffers["u_points"].set_data(table.texels)
-        self._buffers["u_point_start"].set_data(table.start)
-        self._buffers["u_point_members"].set_data(table.members)
 
     def forget(self) -> None:
         """Drop the representation: ``draw`` shows a plain background until the next ``upload``."""
@@ -306,23 +238,8 @@ class CanvasRenderer:
             self.evaluations["preview"] += 1
         else:
             self._evaluate(view)
-            self._shown().blit_to(target)
+            self._cache.shown().blit_to(target)
         GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, target)
-
-    def _shown(self) -> Framebuffer:
-        """The cached image as the window shows it (its 8-bit copy, brought up to date, for a float cache)."""
-        if self._display is None:
-            return self._cache
-        if self._display.width != self._cache.width or self._display.height != self._cache.height:
-            self._display.resize(self._cache.width, self._cache.height)
-            self._stale = (0, 0, self._cache.width, self._cache.height)
-        if self._stale is not None:
-            x0, y0, x1, y1 = self._stale
-            GL.glBindFramebuffer(GL.GL_READ_FRAMEBUFFER, self._cache.handle)
-            GL.glBindFramebuffer(GL.GL_DRAW_FRAMEBUFFER, self._display.handle)
-            GL.glBlitFramebuffer(x0, y0, x1, y1, x0, y0, x1, y1, GL.GL_COLOR_BUFFER_BIT, GL.GL_NEAREST)
-            self._stale = None
-        return self._display
 
     def _touch(self, view: View, cells: np.ndarray | None = None) -> None:
         """Note that the cache changed: everywhere, or over the window rectangles of ``cells``."""
@@ -337,18 +254,16 @@ class CanvasRenderer:
             top = int(np.floor(rows.min() * size + view.offset_y)) - 1
             bottom = int(np.ceil((rows.max() + 1) * size + view.offset_y)) + 1
             rect = (max(x0, 0), max(view.height - bottom, 0), min(x1, view.width), min(view.height - top, view.height))
-        if self._stale is not None:
-            rect = tuple(f(a, b) for f, a, b in zip((min, min, max, max), self._stale, rect))
-        self._stale = rect
+        self._cache.touch(rect)
 
     def _needs_full(self, view: View) -> bool:
         cached = self._cached_view
-        return cached is None or (cached != view and _integer_shift(cached, view) is None) \
-            or (self._cache.width, self._cache.height) != (view.width, view.height)
+        return cached is None or (cached != view and integer_shift(cached, view) is None) \
+            or self._cache.size != (view.width, view.height)
 
     def _preview(self, view: View, target: int) -> None:
         """The cached image, scaled and moved to ``view``, over a plain background."""
-        cached, source = self._cached_view, self._shown()
+        cached, source = self._cached_view, self._cache.shown()
         GL.glBindFramebuffer(GL.GL_DRAW_FRAMEBUFFER, target)
         GL.glClearColor(0.7, 0.7, 0.7, 1.0)
         GL.glClear(GL.GL_COLOR_BUFFER_BIT)
@@ -375,15 +290,14 @@ class CanvasRenderer:
 
     def _evaluate(self, view: View) -> None:
         if self._rep is None:
-            self._cache.resize(view.width, view.height)
-            self._cache.bind()
+            self._cache.bind(view.width, view.height)
             GL.glClearColor(0.7, 0.7, 0.7, 1.0)
             GL.glClear(GL.GL_COLOR_BUFFER_BIT)
             self._cached_view, self.last_evaluation = None, "full"
             self._touch(view)
             self.evaluations["blank"] += 1
             return
-        shift = _integer_shift(self._cached_view, view)
+        shift = integer_shift(self._cached_view, view)
         if self._needs_full(view):
             self._full(view)
         else:
@@ -400,8 +314,7 @@ class CanvasRenderer:
         self.evaluations[self.last_evaluation] += 1
 
     def _full(self, view: View) -> None:
-        self._cache.resize(view.width, view.height)
-        self._cache.bind()
+        self._cache.bind(view.width, view.height)
         self._pass(view)
         self.last_evaluation = "full"
         self._unseen[:] = 0.0
@@ -423,11 +336,7 @@ class CanvasRenderer:
 
     def _shift(self, view: View, dx: int, dy: int) -> None:
         """Move the cached image by ``(dx, dy)`` window pixels and evaluate the strips it uncovers."""
-        self._spare.resize(view.width, view.height)
-        self._cache.blit_to(self._spare.handle, dx, -dy)  # GL rows go up
-        self._cache, self._spare = self._spare, self._cache
-        self._touch(view)
-        self._cache.bind()
+        self._cache.shift(view.width, view.height, dx, dy)
         w, h = view.width, view.height
         strips = []  # (x, y, width, height) in GL pixels
         if dx > 0:
@@ -452,15 +361,12 @@ class CanvasRenderer:
         ``delta``: the change tables stand in for the data, coefficient rows by instance.
         """
         instances = 0 if cells is None else len(cells)
-        if cells is not None:
-            self._buffers["u_cell_list"].set_data(cells.astype(np.int32))
         self._touch(view, cells)
         program = self._program()
         program.use()
-        for name, unit in _UNITS.items():
-            self._buffers[_DELTA.get(name, name) if delta else name].bind(unit)
+        self._data.bind(cells, delta)
         layout = self._layout
-        program.set(**_UNITS)
+        program.set(**UNITS)
         program.set(
             u_origin=(-view.offset_x / view.scale, -view.offset_y / view.scale), u_step=1.0 / view.scale,
             u_window_height=view.height, u_canvas=(layout.width, layout.height), u_cells=layout.cells,
@@ -483,23 +389,8 @@ class CanvasRenderer:
 
     def release(self) -> None:
         """Free the GL objects (with the context current); the renderer is unusable afterwards."""
-        for item in [*self._buffers.values(), *self._programs.values(), self._vao, self._cache, self._spare,
-                     self._display]:
-            if item is not None:
-                item.delete()
+        self._data.release()
+        for item in [*self._programs.values(), self._vao, self._cache]:
+            item.delete()
         self._programs.clear()
         self._rep = None
-
-
-def _near(rep: Representation):
-    return None if rep.points is None else rep.points.near
-
-
-def _integer_shift(before: View | None, after: View) -> tuple[int, int] | None:
-    """``(dx, dy)`` when ``after`` is ``before`` panned by whole window pixels, else None."""
-    if before is None or (before.scale, before.width, before.height) != (after.scale, after.width, after.height):
-        return None
-    dx, dy = after.offset_x - before.offset_x, after.offset_y - before.offset_y
-    if abs(dx - round(dx)) > SHIFT_TOLERANCE or abs(dy - round(dy)) > SHIFT_TOLERANCE:
-        return None
-    return int(round(dx)), int(round(dy))

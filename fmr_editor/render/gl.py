@@ -8,9 +8,21 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from contextlib import contextmanager
+from pathlib import Path
 
 import numpy as np
 from OpenGL import GL
+
+#: The repository's shader folder.
+SHADER_DIR = Path(__file__).resolve().parents[2] / "shaders"
+
+
+def shader_source(name: str, defines: dict[str, object] | None = None) -> str:
+    """The GLSL source ``shaders/<name>`` with ``#define`` lines inserted after its ``#version`` line."""
+    text = (SHADER_DIR / name).read_text()
+    version, _, rest = text.partition("\n")
+    lines = [f"#define {key} {value}" for key, value in (defines or {}).items()]
+    return "\n".join([version, *lines, "#line 2", rest])
 
 
 class ShaderError(RuntimeError):

@@ -77,3 +77,17 @@ class View:
     def resized(self, width: int, height: int) -> View:
         """This view in a window of another size (the document stays where it was, from the top-left)."""
         return replace(self, width=int(width), height=int(height))
+
+
+#: A pan within this many window pixels of a whole number of pixels counts as whole.
+SHIFT_TOLERANCE = 1e-6
+
+
+def integer_shift(before: View | None, after: View) -> tuple[int, int] | None:
+    """``(dx, dy)`` when ``after`` is ``before`` panned by whole window pixels, else None."""
+    if before is None or (before.scale, before.width, before.height) != (after.scale, after.width, after.height):
+        return None
+    dx, dy = after.offset_x - before.offset_x, after.offset_y - before.offset_y
+    if abs(dx - round(dx)) > SHIFT_TOLERANCE or abs(dy - round(dy)) > SHIFT_TOLERANCE:
+        return None
+    return int(round(dx)), int(round(dy))

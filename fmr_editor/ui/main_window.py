@@ -93,6 +93,19 @@ class MainWindow(FileCommands, QMainWindow):
         ]
         build_menus(self, self.actions, self.recent_menu, [d.toggleViewAction() for d in docks])
 
+        self._build_status_bar()
+
+        self.setAcceptDrops(True)
+        self.resize(1200, 800)
+        geometry = settings.value("window/geometry")
+        if geometry is not None:
+            self.restoreGeometry(geometry)
+            self.restoreState(settings.value("window/state", b""))
+        self.set_tool(self.tool_name)
+        self._update_state()
+
+    def _build_status_bar(self) -> None:
+        """Messages and the active tool's hint on the left; preview notice, progress and pointer on the right."""
         self.status_label = QLabel()
         self.hint_label = QLabel()  # what the active tool does
         self.shading_label = QLabel("Preview: approximate shading")  # shown while a frame is a drag's preview
@@ -110,15 +123,6 @@ class MainWindow(FileCommands, QMainWindow):
         status.addPermanentWidget(self.shading_label)
         status.addPermanentWidget(self.progress_bar)
         status.addPermanentWidget(self.position_label)
-
-        self.setAcceptDrops(True)
-        self.resize(1200, 800)
-        geometry = settings.value("window/geometry")
-        if geometry is not None:
-            self.restoreGeometry(geometry)
-            self.restoreState(settings.value("window/state", b""))
-        self.set_tool(self.tool_name)
-        self._update_state()
 
     def _dock(self, title: str, name: str, widget, area) -> QDockWidget:
         dock = QDockWidget(title, self)

@@ -174,6 +174,15 @@ def curve_colors(segments: Segments, curve: DiffusionCurve) -> tuple[np.ndarray,
     return left - right, 0.5 * (left + right)
 
 
+def with_curve_colors(segments: Segments, document: Document, curve_ids: tuple[int, ...]) -> Segments:
+    """``segments`` with the colours of those from the curves ``curve_ids`` taken afresh from ``document``."""
+    jump, mean = segments.jump.copy(), segments.mean.copy()
+    for curve_id in curve_ids:
+        mine = segments.origin[:, 0] == curve_id
+        jump[mine], mean[mine] = curve_colors(segments.take(mine), document.curve(curve_id))
+    return replace(segments, jump=jump, mean=mean)
+
+
 def curve_segments(
     document: Document,
     tolerance: float = 0.05,

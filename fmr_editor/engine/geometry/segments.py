@@ -60,6 +60,10 @@ class Segments:
     def lengths(self) -> np.ndarray:
         return np.hypot(*(self.q - self.p).T)
 
+    def nbytes(self) -> int:
+        """Bytes of the arrays held."""
+        return sum(getattr(self, name).nbytes for name in _FIELDS)
+
     def unknowns(self) -> np.ndarray:
         """The solve's unknowns ``(n, 3)``: ``E`` on curve segments, ``C`` on border segments."""
         return np.where(self.on_border[:, None], self.jump, self.flux)

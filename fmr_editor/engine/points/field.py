@@ -115,7 +115,7 @@ class LivePoints:
     """A document's points on a lattice, updated point by point.
 
     Adding and removing points changes the tensor in the cells they reach
-    (``gauss_delta.add_to_tensor``), in a copy: a tensor handed out by ``field``
+    (``increments.add_to_tensor``), in a copy: a tensor handed out by ``field``
     never changes afterwards.  Near points join the near lists in place;
     a removed one keeps its slot with zero weight (its terms are exact
     zeros) until dead slots outnumber live ones and the lists are compacted.
@@ -192,3 +192,32 @@ class LivePoints:
         twin = copy.copy(self)
         twin._slots = {point: list(slots) for point, slots in self._slots.items()}
         return twin
+
+
+def changed_point_cells(a: LivePoints | None, b: LivePoints | None) -> np.ndarray | bool:
+    """Fine cells whose points' polynomials or near points differ between ``a`` and ``b`` (True: all)."""
+    if a is None and b is None:
+        return False
+    if a is None or b is None:
+        return True
+    cells = np.any(a.tensor != b.tensor, axis=(2, 3, 4)) if a.tensor is not b.tensor else False
+    near_a, near_b = a.field().near, b.field().near
+    if near_a is not near_b:  # either's near points may be gone or new: their cells
+        n = a.lattice.cells_per_side
+        occupied = (np.diff(near_a.cell_start) > 0) | (np.diff(near_b.cell_start) > 0)
+        cells = cells | occupied.reshape(n, n)
+    return cells
+
+
+def warm_up_points(lattice: Lattice, order: int) -> None:
+    """Do once, now, what the first points edit on ``lattice`` would otherwise pay for.
+
+    That is the truncation table (0.2 s) and loading the compiled kernels of
+    both kinds of point (polynomial and near), on a scratch lattice.
+    """
+    centre = (lattice.side / 2, lattice.side / 2)
+    probes = (DiffusionPoint(centre, 2 * lattice.cell_size, (1.0, 1.0, 1.0)),
+              DiffusionPoint(centre, 0.25 * lattice.cell_size, (1.0, 1.0, 1.0)))  # polynomial and near
+    scratch = LivePoints((), Lattice(2, lattice.side), order)
+    scratch.update(probes, [], list(probes))
+    scratch.update((), list(probes), [])

@@ -1,0 +1,146 @@
+"""The cells of a representation: solved segments sorted by cell, their multipoles and local expansions.
+
+``Cells`` is an immutable snapshot: an edit makes new ``Cells`` from the
+old ones (``propagated``), carrying only the change of the fine multipoles
+up the quadtree and down through the interaction lists from the cells that
+changed (``sparse_downward.delta_local``).  The FMR is linear in its
+sources, so that change of the local expansions is exact.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from .fmm.lattice import (
+    Lattice,
+    cell_order,
+    changed_runs,
+    coarser_multipoles,
+    downward_pass,
+    fine_multipoles,
+    sort_into_cells,
+)
+from .fmm.sparse_downward import delta_local
+from .geometry.segments import Segments
+
+#: A fine cell whose multipoles changed by less than this share of the solve's
+#: own accuracy (relative to the largest multipole) keeps the change pending:
+#: it is added with a later one.  Such changes are mostly the solve's noise.
+NEGLIGIBLE = 0.1
+
+
+@dataclass(frozen=True, eq=False)
+class Cells:
+    """Solved segments sorted by fine cell, the fine cells' multipoles and their local expansions.
+
+    Attributes
+    ----------
+    segments : Segments
+        Sorted by fine cell.
+    cell_start : numpy.ndarray
+        CSR offsets of each fine cell's segments.
+    fine : numpy.ndarray
+        ``(2^L, 2^L, 3, P + 1)`` complex scaled multipoles of the fine cells.
+    local : numpy.ndarray
+        ``(2^L, 2^L, 3, P + 1)`` complex scaled local expansions of each fine
+        cell's far field.
+    """
+
+    segments: Segments
+    cell_start: np.ndarray
+    fine: np.ndarray
+    local: np.ndarray
+
+    @classmethod
+    def build(cls, solved: Segments, lattice: Lattice, order: int,
+              lap: Callable[[str], None] = lambda stage: None) -> Cells:
+        """The cells of ``solved`` segments: P2M, M2M (``lap("upward")``), M2L and L2L (``lap("downward")``)."""
+        segments, cell_start = sort_into_cells(solved, lattice)
+        fine = fine_multipoles(segments, cell_start, lattice, order)
+        multipoles = coarser_multipoles(fine, order)
+        lap("upward")
+        local = downward_pass(multipoles, lattice, order)
+        lap("downward")
+        return cls(segments, cell_start, fine, local)
+
+    @classmethod
+    def resume(cls, solved: Segments, lattice: Lattice, order: int, local: np.ndarray) -> Cells:
+        """The cells of ``solved`` segments whose local expansions ``local`` are known (a saved file)."""
+        segments, cell_start = sort_into_cells(solved, lattice)
+        return cls(segments, cell_start, fine_multipoles(segments, cell_start, lattice, order), local)
+
+    def nbytes(self) -> int:
+        """Bytes of the arrays held (shared ones counted too)."""
+        return self.segments.nbytes() + self.cell_start.nbytes + self.fine.nbytes + self.local.nbytes
+
+
+def propagated(cells: Cells, solved: Segments, lattice: Lattice, order: int, accuracy: float,
+               only_moved: bool = False) -> tuple[Cells, np.ndarray, np.ndarray]:
+    """``cells`` brought to the ``solved`` segments by the change of their multipoles.
+
+    Parameters
+    ----------
+    accuracy : float
+        Relative accuracy of the solved densities: fine cells whose multipoles
+        moved by less than ``NEGLIGIBLE`` of it keep their old ones (the change
+        waits for a later one).
+    only_moved : bool
+        True when only segments that moved or were replaced changed (a
+        preview keeps every other density): only their cells' multipoles are
+        made again.
+
+    Returns
+    -------
+    cells : Cells
+    local_change : numpy.ndarray
+        ``(2^L, 2^L)`` size of the change of each cell's local expansion (``largest_part``).
+    moved : numpy.ndarray
+        ``(2^L, 2^L)`` bool: fine cells whose multipoles changed.
+    """
+    segments, cell_start = sort_into_cells(solved, lattice)
+    if only_moved:
+        n = lattice.cells_per_side
+        changed = changed_runs(cells.segments, cells.cell_start, segments, cell_start)
+        fresh = cells.fine.copy()
+        fresh.reshape(n * n, *fresh.shape[2:])[changed] = fine_multipoles(segments, cell_start, lattice, order, changed)
+    else:
+        fresh = fine_multipoles(segments, cell_start, lattice, order)
+    delta = fresh - cells.fine
+    scale = max(largest_part(fresh), 1e-300)
+    moved = largest_part(delta, axis=(2, 3)) > NEGLIGIBLE * accuracy * scale
+    delta[~moved] = 0.0
+    local_change = delta_local(delta, lattice, order)
+    new = Cells(segments, cell_start, cells.fine + delta, cells.local + local_change)
+    return new, largest_part(local_change, axis=(2, 3)), moved
+
+
+def saved_unknowns(boundary: Segments, lattice: Lattice, saved) -> np.ndarray | None:
+    """The unknowns of ``boundary`` (in its order) that ``saved`` (a ``Representation`` of it) holds.
+
+    None when ``saved``'s segments are not ``boundary``'s sorted by cell
+    (another document, other settings, or a damaged file).
+    """
+    if len(saved.segments) != len(boundary):
+        return None
+    order, _ = cell_order(boundary, lattice)
+    ordered, theirs = boundary.take(order), saved.segments
+    curve = ~ordered.on_border
+    same = all(np.array_equal(getattr(ordered, name), getattr(theirs, name)) for name in ("p", "q", "on_border", "mean"))
+    if not (same and np.array_equal(ordered.jump[curve], theirs.jump[curve])):
+        return None
+    unknowns = np.empty_like(ordered.flux)
+    unknowns[order] = theirs.unknowns()
+    return unknowns
+
+
+def largest_part(values: np.ndarray, axis=None) -> np.ndarray | float:
+    """Largest absolute real or imaginary part of complex ``values`` (over ``axis``): a cheap size.
+
+    From the largest and smallest parts, so that no array of absolute values is made.
+    """
+    parts = values.view(np.float64)
+    largest = np.maximum(parts.max(axis=axis, initial=0.0), -parts.min(axis=axis, initial=0.0))
+    return largest if axis is not None else float(largest)

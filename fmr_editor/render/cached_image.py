@@ -1,0 +1,75 @@
+"""The canvas's cached image: the evaluated window, and the 8-bit copy a redraw shows.
+
+A float image (the default) keeps unclamped colours, to which a change can be
+added; it is converted into an 8-bit copy once per change (only the part that
+changed: ``touch``), so that plain redraws copy a quarter of the bytes.  A pan
+moves the image into a spare framebuffer (``shift``).
+"""
+
+from __future__ import annotations
+
+from OpenGL import GL
+
+from .gl import Framebuffer
+
+
+class CachedImage:
+    """A window-sized framebuffer of ``cache_format`` with its spare and its 8-bit copy (for float formats).
+
+    GL calls need the caller's context current.
+    """
+
+    def __init__(self, cache_format: int) -> None:
+        self.image = Framebuffer(cache_format)
+        self._spare = Framebuffer(cache_format)
+        self.additive = cache_format == GL.GL_RGBA32F
+        self._display = Framebuffer(GL.GL_RGBA8) if self.additive else None
+        self._stale: tuple[int, int, int, int] | None = None  # GL pixels of the image not yet in the copy
+
+    @property
+    def size(self) -> tuple[int, int]:
+        return self.image.width, self.image.height
+
+    def bind(self, width: int | None = None, height: int | None = None) -> None:
+        """Draw into the image from now on (resized to ``width x height`` first, when given)."""
+        if width is not None:
+            self.image.resize(width, height)
+        self.image.bind()
+
+    def touch(self, rect: tuple[int, int, int, int]) -> None:
+        """Note that the GL pixels ``(x0, y0, x1, y1)`` of the image changed."""
+        if self._stale is not None:
+            rect = tuple(f(a, b) for f, a, b in zip((min, min, max, max), self._stale, rect))
+        self._stale = rect
+
+    def shown(self) -> Framebuffer:
+        """The image as the window shows it (its 8-bit copy, brought up to date, for a float image)."""
+        if self._display is None:
+            return self.image
+        width, height = self.size
+        if (self._display.width, self._display.height) != (width, height):
+            self._display.resize(width, height)
+            self._stale = (0, 0, width, height)
+        if self._stale is not None:
+            x0, y0, x1, y1 = self._stale
+            GL.glBindFramebuffer(GL.GL_READ_FRAMEBUFFER, self.image.handle)
+            GL.glBindFramebuffer(GL.GL_DRAW_FRAMEBUFFER, self._display.handle)
+            GL.glBlitFramebuffer(x0, y0, x1, y1, x0, y0, x1, y1, GL.GL_COLOR_BUFFER_BIT, GL.GL_NEAREST)
+            self._stale = None
+        return self._display
+
+    def shift(self, width: int, height: int, dx: int, dy: int) -> None:
+        """Move the image by ``(dx, dy)`` window pixels (y down) at size ``width x height``; then draw into it."""
+        self._spare.resize(width, height)
+        self.image.blit_to(self._spare.handle, dx, -dy)  # GL rows go up
+        self.image, self._spare = self._spare, self.image
+        self.touch((0, 0, width, height))
+        self.image.bind()
+
+    def read(self):
+        return self.image.read()
+
+    def delete(self) -> None:
+        for item in (self.image, self._spare, self._display):
+            if item is not None:
+                item.delete()

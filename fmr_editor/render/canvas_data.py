@@ -1,0 +1,145 @@
+"""A representation on the GPU: the texture buffers the canvas shader reads, uploaded in part.
+
+``CanvasData`` keeps the cell coefficients, the per-cell segment lists and
+the near points in buffer textures (``packing`` says how each is laid out),
+with a copy of the coefficients as uploaded, so that an update uploads only
+the rows of the cells that changed and knows by how much each changed.  It
+also holds the change tables of a delta pass (``CanvasRenderer``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from OpenGL import GL
+
+from ..engine import Representation
+from . import bounds, packing
+from .gl import BufferTexture
+
+#: Texture units of the shader's buffers (the delta pass binds its own tables to the first three).
+UNITS = {"u_coeffs": 0, "u_segment_start": 1, "u_segments": 2, "u_point_start": 3, "u_point_members": 4,
+         "u_points": 5, "u_cell_list": 6}
+_DELTA = {"u_coeffs": "delta_coeffs", "u_segment_start": "delta_segment_start", "u_segments": "delta_segments"}
+
+
+@dataclass(frozen=True)
+class ShaderLayout:
+    """What the shader program and the buffers' shapes depend on."""
+
+    cells: int
+    cell_size: float
+    order: int
+    harmonic: bool
+    width: int
+    height: int
+
+    @classmethod
+    def of(cls, rep: Representation) -> ShaderLayout:
+        return cls(rep.lattice.cells_per_side, rep.lattice.cell_size, rep.order, packing.uses_harmonic(rep),
+                   rep.width, rep.height)
+
+    @property
+    def texels(self) -> int:
+        return packing.texels(self.order, self.harmonic)
+
+
+class CanvasData:
+    """The buffers of one representation at a time; GL calls need the caller's context current.
+
+    Attributes
+    ----------
+    rep : Representation or None
+        What the buffers hold.
+    layout : ShaderLayout or None
+    """
+
+    def __init__(self) -> None:
+        self._buffers = {name: BufferTexture(GL.GL_R32I if name.endswith(("start", "members", "list"))
+                                             else GL.GL_RGBA32F)
+                         for name in [*UNITS, *_DELTA.values()]}
+        self.rep: Representation | None = None
+        self.layout: ShaderLayout | None = None
+        self._segment_table: packing.SegmentTable | None = None
+        self._mirror = np.zeros((0, 0), np.float32)  # the coefficients as uploaded, a row per cell
+
+    def upload(self, rep: Representation) -> None:
+        """Upload all of ``rep``."""
+        self.layout = ShaderLayout.of(rep)
+        n = self.layout.cells
+        self._mirror = packing.cell_coefficients(rep).reshape(n * n, -1)
+        self._buffers["u_coeffs"].set_data(self._mirror)
+        self._upload_segments(rep)
+        self._upload_points(rep)
+        self.rep = rep
+
+    def update(self, rep: Representation, cells: np.ndarray,
+               same_geometry: bool) -> tuple[np.ndarray, np.ndarray, bool]:
+        """Go over to ``rep`` (of the same layout), uploading the coefficients of ``cells`` (flat indices).
+
+        Segment lists and near points are uploaded whole when they are other
+        arrays than the uploaded ones (with ``same_geometry``, only E and C of
+        the segments changed).
+
+        Returns
+        -------
+        delta : numpy.ndarray
+            ``(len(cells), row)`` change of those cells' coefficient rows.
+        moved : numpy.ndarray
+            ``(len(cells),)`` bound on the change of their far field's pixels (``bounds.far_bound``).
+        near_points_changed : bool
+        """
+        delta, moved = np.zeros((0, self._mirror.shape[1]), self._mirror.dtype), np.zeros(0)
+        if len(cells):  # none: only segments or near points may have changed
+            fresh = packing.cell_coefficients(rep, cells).reshape(len(cells), -1)
+            delta = fresh - self._mirror[cells]
+            moved = bounds.far_bound(delta, self.layout.order, self.layout.harmonic)
+            self._mirror[cells] = fresh
+            for start, stop in packing.cell_runs(cells):
+                self._buffers["u_coeffs"].set_subdata(start * self.layout.texels, self._mirror[start:stop])
+        old = self.rep
+        if rep.segments is not old.segments or rep.cell_start is not old.cell_start:
+            self._upload_segments(rep, same_geometry=same_geometry)
+        near_points_changed = _near(rep) is not _near(old)
+        if near_points_changed:
+            self._upload_points(rep)
+        self.rep = rep
+        return delta, moved, near_points_changed
+
+    def upload_change(self, delta: np.ndarray, table: packing.SegmentTable) -> None:
+        """The change tables of a delta pass: far-field ``delta`` rows and the segments' change ``table``."""
+        self._buffers["delta_coeffs"].set_data(delta)
+        self._buffers["delta_segments"].set_data(table.texels)
+        self._buffers["delta_segment_start"].set_data(table.cell_start)
+
+    def bind(self, cells: np.ndarray | None, delta: bool) -> None:
+        """Bind every buffer to its unit (``UNITS``): the change tables for a ``delta`` pass; ``cells`` listed."""
+        if cells is not None:
+            self._buffers["u_cell_list"].set_data(cells.astype(np.int32))
+        for name, unit in UNITS.items():
+            self._buffers[_DELTA.get(name, name) if delta else name].bind(unit)
+
+    def _upload_segments(self, rep: Representation, same_geometry: bool = False) -> None:
+        """Upload the segment lists; with ``same_geometry``, only E and C changed since the last upload."""
+        like = self._segment_table if same_geometry else None
+        table = self._segment_table = packing.segment_table(rep, like=like)
+        self._buffers["u_segments"].set_data(table.texels)
+        if like is None:
+            self._buffers["u_segment_start"].set_data(table.cell_start)
+
+    def _upload_points(self, rep: Representation) -> None:
+        table = packing.point_table(rep)
+        self._buffers["u_points"].set_data(table.texels)
+        self._buffers["u_point_start"].set_data(table.start)
+        self._buffers["u_point_members"].set_data(table.members)
+
+    def release(self) -> None:
+        """Free the buffers (with the context current)."""
+        for buffer in self._buffers.values():
+            buffer.delete()
+        self.rep = None
+
+
+def _near(rep: Representation):
+    return None if rep.points is None else rep.points.near
