@@ -131,7 +131,7 @@ def kernel_table(repeat: int, segments: int = 2000, targets: int = 20000, numpy_
     """Markdown rows: million target-segment pairs per second, numba against numpy.
 
     ``direct_sum``: random short segments and points on a 512 px canvas.
-    ``bem.assemble``: the dense collocation system of ``assembled`` random
+    ``dense.assemble``: the dense collocation system of ``assembled`` random
     segments (n^2 pairs).  ``near_sum``: ``near_segments`` random short
     segments sorted into a 64 x 64 lattice, evaluated at their own midpoints
     (the iterative solve's near field; pairs = the 3x3 blocks' sizes).
@@ -166,7 +166,7 @@ def kernel_table(repeat: int, segments: int = 2000, targets: int = 20000, numpy_
               f"{segments} x {targets}", segments * targets),
              ("numba `direct_sum`, 1 thread", 1, lambda: direct_sum(points, p, q, flux, jump),
               f"{segments} x {targets}", segments * targets),
-             (f"numba `bem.assemble`, {threads} threads", threads, lambda: assemble(system),
+             (f"numba `dense.assemble`, {threads} threads", threads, lambda: assemble(system),
               f"{assembled} x {assembled}", assembled**2),
              (f"numba `near_sum` at midpoints, {threads} threads", threads, run_near,
               f"{near_segments} in 3x3 blocks", near_pairs),

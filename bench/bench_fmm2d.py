@@ -36,7 +36,7 @@ from pathlib import Path
 import numba
 import numpy as np
 from bench_engine import machine
-from point_fmm import choose_levels, evaluate_points_direct, evaluate_points_fmm
+from point_fmm import evaluate_points_fmm, evaluate_points_reference, fmm_levels
 
 VENV = Path(__file__).resolve().parent / ".venv-fmm2d"
 STAGES = ("sort", "p2m", "m2m", "downward", "evaluate")
@@ -135,7 +135,7 @@ def ours(problem: dict, order: int, repeat: int = 1) -> tuple[float, np.ndarray,
         out = evaluate_points_fmm(sources, charges, dipoles, order=order, timings=timings)
         best = min(best, time.perf_counter() - start)
         stages = {k: min(v, stages.get(k, np.inf)) for k, v in timings.items()}
-    return best, out, stages, choose_levels(len(sources), len(sources), order)
+    return best, out, stages, fmm_levels(len(sources), len(sources), order)
 
 
 def match_order(problem: dict, target_error: float) -> tuple[int, float]:
@@ -178,7 +178,7 @@ def make_problem(n: int, seed: int, check_targets: int, folder: Path) -> dict:
         np.save(folder / f"{name}.npy", value)
     start = time.perf_counter()
     dipoles = dipstr[:, None] * dipvec
-    reference = evaluate_points_direct(sources, charges, dipoles, sources[check])
+    reference = evaluate_points_reference(sources, charges, dipoles, sources[check])
     log(f"  direct sum at {len(check)} check targets: {time.perf_counter() - start:.1f} s")
     return {"sources": sources, "charges": charges, "dipoles": dipoles, "check": check, "reference": reference}
 

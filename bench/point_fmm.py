@@ -23,7 +23,7 @@ the channel count; three cost 2.5-2.9x as much, measured: 1.40 s against
 0.57 s for the downward pass of 65,536 cells at order 18).  Near field (the 3x3
 block of each target's cell) and the evaluation of the fine-level locals are
 compiled kernels (the engine's ``far_field_at`` evaluates the locals).
-``evaluate_points_direct`` is the plain reference.  Not part of the editor:
+``evaluate_points_reference`` is the plain reference.  Not part of the editor:
 ``bench_fmm2d.py`` and ``tests/test_point_fmm.py`` use it.
 """
 
@@ -44,11 +44,11 @@ from fmr_editor.engine.solve.solver import far_field_at
 
 #: Time of one term-pair of the lattice passes (one cell, (order + 1)^2) against one near-field
 #: source-target pair; measured here (2 cores, order 16: 0.38 s for the passes of 65,536 cells,
-#: about 2.2 ns a near pair).  Sets the depth, ``choose_levels``.
+#: about 2.2 ns a near pair).  Sets the depth, ``fmm_levels``.
 PASS_TO_PAIR_COST = 7.0
 
 
-def choose_levels(sources: int, targets: int, order: int) -> int:
+def fmm_levels(sources: int, targets: int, order: int) -> int:
     """Lattice depth with the least modelled time for spread-out (uniform-like) points.
 
     Near-field pairs ``9 * targets * sources / 4^L`` against the passes'
@@ -74,7 +74,7 @@ def _dipole_vectors(dipoles: np.ndarray | None, count: int) -> np.ndarray:
     return np.asarray(dipoles, dtype=np.float64).reshape(count, 2)
 
 
-def evaluate_points_direct(
+def evaluate_points_reference(
     sources: np.ndarray,
     charges: np.ndarray | None,
     dipoles: np.ndarray | None,
@@ -309,7 +309,7 @@ def evaluate_points_fmm(
     targets : numpy.ndarray, optional
         ``(m, 2)``; the sources themselves when omitted (own term left out).
     levels : int, optional
-        Lattice depth (``2^levels`` cells a side); by default ``choose_levels``.
+        Lattice depth (``2^levels`` cells a side); by default ``fmm_levels``.
     order : int
         Highest expansion term carried and evaluated.
     timings : dict, optional
@@ -329,7 +329,7 @@ def evaluate_points_fmm(
     if n == 0 or len(targets) == 0:
         return np.zeros(len(targets))
     if levels is None:
-        levels = choose_levels(n, len(targets), order)
+        levels = fmm_levels(n, len(targets), order)
     lo_x, lo_y, extent = _bounds(sources, targets)
     side = max(extent, 1e-300) * (1.0 + 1e-12)
     lattice = Lattice(levels, side)

@@ -259,3 +259,53 @@ def test_with_curves_returns_a_new_document_and_keeps_the_old():
     assert new.curves == (first, second)
     assert isinstance(new.curves, tuple)
     assert (new.width, new.height) == (32, 16)
+
+
+# --- stable ids --------------------------------------------------------------------------------
+
+
+def _line(grey: float) -> DiffusionCurve:
+    return uniform_curve(straight_chain([(8.0, 8.0), (40.0, 30.0)]), grey / 4, 0.0)
+
+
+def test_items_get_distinct_ids_that_edits_keep_and_equality_ignores():
+    from fmr_editor.model import DiffusionPoint, edits
+
+    a, b = _line(1), _line(1)
+    assert a.id != b.id and a == b and hash(a) == hash(b)  # the id is not part of the value
+    dot = DiffusionPoint((1.0, 2.0), 3.0, (1.0, 0.0, 0.0))
+    assert dot == DiffusionPoint((1.0, 2.0), 3.0, (1.0, 0.0, 0.0)) and dot.id != a.id
+    doc = Document(64, 64, (a, b), (dot,))
+    moved = edits.move_control_point(doc, b.id, 0, (5.0, 5.0))
+    assert [c.id for c in moved.curves] == [a.id, b.id]
+    assert np.array_equal(moved.curve(b.id).control_points[0], (5.0, 5.0))
+    assert np.array_equal(moved.curve(a.id).control_points, a.control_points)  # not the equal twin
+    assert edits.translate(doc, (1.0, 0.0), points=[dot.id]).points[0].id == dot.id
+
+
+def test_ids_address_the_same_curve_after_others_are_removed_or_reordered():
+    from fmr_editor.model import edits
+
+    curves = [_line(k) for k in (1, 2, 3)]
+    doc = Document(64, 64, tuple(curves))
+    fewer = edits.remove_curves(doc, [curves[0].id])
+    assert fewer.curve_index(curves[2].id) == 1 and fewer.curve(curves[2].id) is curves[2]
+    reordered = doc.with_curves(reversed(doc.curves))
+    recoloured = edits.set_stop_color(reordered, curves[1].id, "left", 0, (0.5, 0.5, 0.5))
+    assert recoloured.curve(curves[1].id).left[0].color == (0.5, 0.5, 0.5)
+    assert recoloured.curves[0] is curves[2] and recoloured.curves[2] is curves[0]
+    with pytest.raises(KeyError):
+        fewer.curve(curves[0].id)
+
+
+def test_a_curve_added_twice_gets_a_new_id_for_its_second_place():
+    curve = _line(1)
+    doc = Document(64, 64, (curve, curve))
+    assert doc.curves[0] is curve and doc.curves[1] == curve and doc.curves[1].id != curve.id
+
+
+def test_ids_must_be_positive_whole_numbers():
+    with pytest.raises(ValueError, match="id"):
+        DiffusionCurve(_line(1).control_points, id=0)
+    with pytest.raises(ValueError, match="id"):
+        DiffusionCurve(_line(1).control_points, id=1.5)

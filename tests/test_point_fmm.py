@@ -5,7 +5,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 import pytest
-from point_fmm import _log_parts, _log_series, _p2m, choose_levels, evaluate_points_direct, evaluate_points_fmm
+from point_fmm import _log_parts, _log_series, _p2m, evaluate_points_fmm, evaluate_points_reference, fmm_levels
 
 from fmr_editor.engine.fmm.expansions import multipole_moments_reference
 
@@ -34,7 +34,7 @@ def relative_error(got, expected):
 @pytest.mark.parametrize("n, m", [(1000, 0), (10000, 0), (3000, 2000)])
 def test_fmm_matches_direct_sum_and_error_falls_with_order(n, m):
     sources, charges, dipoles, targets = random_problem(n + m, n, m)
-    expected = evaluate_points_direct(sources, charges, dipoles, targets)
+    expected = evaluate_points_reference(sources, charges, dipoles, targets)
     errors = [relative_error(evaluate_points_fmm(sources, charges, dipoles, targets, order=order), expected)
               for order in BOUNDS]
     for (order, bound), error in zip(BOUNDS.items(), errors):
@@ -46,7 +46,7 @@ def test_fmm_matches_direct_sum_and_error_falls_with_order(n, m):
 @pytest.mark.parametrize("levels", [2, 3, 5])
 def test_any_depth_gives_the_same_field(levels):
     sources, charges, dipoles, targets = random_problem(7, 2000, 500)
-    expected = evaluate_points_direct(sources, charges, dipoles, targets)
+    expected = evaluate_points_reference(sources, charges, dipoles, targets)
     got = evaluate_points_fmm(sources, charges, dipoles, targets, levels=levels, order=16)
     assert relative_error(got, expected) < BOUNDS[16]
 
@@ -55,7 +55,7 @@ def test_clustered_sources_and_empty_input():
     rng = np.random.default_rng(11)
     sources = np.concatenate([rng.normal(0, 0.01, (2000, 2)), rng.uniform(-1, 1, (200, 2))])
     charges, dipoles = rng.normal(size=2200), rng.normal(size=(2200, 2))
-    expected = evaluate_points_direct(sources, charges, dipoles)
+    expected = evaluate_points_reference(sources, charges, dipoles)
     assert relative_error(evaluate_points_fmm(sources, charges, dipoles, levels=6), expected) < BOUNDS[16]
     assert evaluate_points_fmm(np.zeros((0, 2)), None, None, np.ones((3, 2))).tolist() == [0.0, 0.0, 0.0]
     assert evaluate_points_fmm(sources, charges, dipoles, np.zeros((0, 2))).shape == (0,)
@@ -64,7 +64,7 @@ def test_clustered_sources_and_empty_input():
 def test_charges_only_dipoles_only_and_complex_dipoles():
     sources, charges, dipoles, _ = random_problem(3, 2000)
     for c, d in ((charges, None), (None, dipoles), (charges, dipoles[:, 0] + 1j * dipoles[:, 1])):
-        expected = evaluate_points_direct(sources, c, d)
+        expected = evaluate_points_reference(sources, c, d)
         assert relative_error(evaluate_points_fmm(sources, c, d, order=16), expected) < BOUNDS[16]
     as_vectors = evaluate_points_fmm(sources, charges, dipoles, order=10)
     as_complex = evaluate_points_fmm(sources, charges, dipoles[:, 0] + 1j * dipoles[:, 1], order=10)
@@ -85,7 +85,7 @@ def test_kernel_is_fmm2d_rfmm2d():
             if r @ r > 0:
                 u += c * np.log(np.hypot(*r)) - d @ r / (r @ r)
         expected.append(u)
-    np.testing.assert_allclose(evaluate_points_direct(sources, charges, dipoles, targets), expected, rtol=1e-14)
+    np.testing.assert_allclose(evaluate_points_reference(sources, charges, dipoles, targets), expected, rtol=1e-14)
     far_field_error = 1e-7  # some pairs are 2 cells apart at depth 2: truncation at order 16
     np.testing.assert_allclose(evaluate_points_fmm(sources, charges, dipoles, targets, levels=2), expected,
                                rtol=far_field_error)
@@ -96,7 +96,7 @@ def test_coincident_sources_are_left_out_at_their_own_position():
     sources = rng.uniform(0, 1, (1500, 2))
     sources[1000:1100] = sources[:100]  # duplicates: both copies drop out at that position
     charges, dipoles = rng.normal(size=1500), rng.normal(size=(1500, 2))
-    expected = evaluate_points_direct(sources, charges, dipoles)
+    expected = evaluate_points_reference(sources, charges, dipoles)
     assert np.isfinite(expected).all()
     got = evaluate_points_fmm(sources, charges, dipoles, sources, order=16)  # targets given explicitly
     assert relative_error(got, expected) < BOUNDS[16]
@@ -142,5 +142,5 @@ def test_vectorisable_logarithm_is_accurate():
 
 def test_depth_model_puts_tens_of_sources_in_a_cell():
     for n in (10**4, 10**5, 10**6):
-        levels = choose_levels(n, n, 16)
+        levels = fmm_levels(n, n, 16)
         assert 8 <= n / 4**levels <= 64, (n, levels)

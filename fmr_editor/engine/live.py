@@ -37,8 +37,9 @@ from .geometry.curve_cache import CurveSegments
 from .geometry.discretise import boundary_segments, with_curve_colors
 from .geometry.segments import Segments
 from .kept_states import KeptStates, State
-from .points.field import LivePoints, changed_point_cells, lattice_radius, point_levels, sorted_radii_after
-from .points.field import warm_up_points
+from .points.field import (
+    LivePoints, changed_point_cells, lattice_radius, point_levels, sorted_radii_after, warm_up_points,
+)
 from .representation import SOLVE_SEGMENTS_PER_CELL, Representation, Settings, choose_levels
 from .solve.solver import BoundarySolver
 from .solve.system_solvers import SystemSolvers
@@ -218,8 +219,8 @@ class LiveRepresentation:
         document = self.document
         return Representation(
             document.width, document.height, self.lattice, self._cells.segments, self._cells.cell_start,
-            self._cells.local,
-            self.settings.order, self.timings, self._points.field() if self._points is not None else None,
+            self._cells.local, self.settings.order, self.timings,
+            self._points.field() if self._points is not None else None,
         )
 
     def warm_up(self) -> None:

@@ -9,6 +9,7 @@ from functools import cached_property
 from itertools import repeat
 
 from .curve import DiffusionCurve
+from .identity import new_id
 from .point import DiffusionPoint
 
 
@@ -46,6 +47,7 @@ class Document:
         object.__setattr__(self, "curves", tuple(self.curves))
         if not all(map(isinstance, self.curves, repeat(DiffusionCurve))):  # map: 100k points in 3 ms
             raise TypeError("curves must be DiffusionCurve instances")
+        object.__setattr__(self, "curves", _distinct_ids(self.curves))
         object.__setattr__(self, "points", tuple(self.points))
         if not all(map(isinstance, self.points, repeat(DiffusionPoint))):
             raise TypeError("points must be DiffusionPoint instances")
@@ -86,3 +88,18 @@ class Document:
     def point_ids(self) -> frozenset[int]:
         """The ids of the document's points."""
         return frozenset(point.id for point in self.points)
+
+
+def _distinct_ids(curves: tuple[DiffusionCurve, ...]) -> tuple[DiffusionCurve, ...]:
+    """``curves`` with a later curve sharing an earlier one's id (one curve added twice) given a new id."""
+    ids = {curve.id for curve in curves}
+    if len(ids) == len(curves):
+        return curves
+    seen: set[int] = set()
+    distinct = []
+    for curve in curves:
+        if curve.id in seen:
+            curve = replace(curve, id=new_id())
+        seen.add(curve.id)
+        distinct.append(curve)
+    return tuple(distinct)
