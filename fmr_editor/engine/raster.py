@@ -7,8 +7,8 @@ so ``s = 1`` samples the pixel centre.
 
 Samples lie on a tensor grid (sorted ``xs`` by ``ys``), so each fine cell
 holds a run of columns times a run of rows, and both fields are computed cell
-by cell in compiled kernels (``grid_kernels.far_field_grid``,
-``grid_kernels.near_field_grid``): the far field is the cell polynomial by Horner's
+by cell in compiled kernels (``grid.far_field_grid``,
+``grid.near_field_grid``): the far field is the cell polynomial by Horner's
 rule, the near field the closed-form integrals over the 3x3 block's segments,
 gathered once per cell.  ``far_field`` here is the numpy form of the far field
 (two small matrix products per cell, batched), kept as a reference.  Work
@@ -66,7 +66,7 @@ def _grouped_powers(coords: np.ndarray, cell_size: float, cells: int, order: int
 def far_field_reference(poly: np.ndarray, xs: np.ndarray, ys: np.ndarray, cell_size: float) -> np.ndarray:
     """Cell polynomials evaluated on the tensor grid ``ys x xs``, ``(len(ys), len(xs), 3)``.
 
-    Plain numpy; ``rasterise`` uses the compiled ``grid_kernels.far_field_grid``.
+    Plain numpy; ``rasterise`` uses the compiled ``grid.far_field_grid``.
 
     Parameters
     ----------

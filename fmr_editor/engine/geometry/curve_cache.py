@@ -1,6 +1,6 @@
 """A document's curves as clipped segments, kept from one edit to the next.
 
-``segments.curve_segments`` flattens every curve, clips it to the canvas and
+``discretise.curve_segments`` flattens every curve, clips it to the canvas and
 lets later segments keep collinear overlaps (``overlaps``); that last step
 searches the whole set.  An edit changes a few curves, so ``CurveSegments``
 keeps each curve's flattened and clipped segments and the overlapping pairs
@@ -25,7 +25,7 @@ class CurveSegments:
     Parameters
     ----------
     tolerance, max_length : float
-        As for ``segments.curve_segments``.
+        As for ``discretise.curve_segments``.
     """
 
     def __init__(self, tolerance: float, max_length: float) -> None:

@@ -5,7 +5,7 @@ from vectorising a loop (numba has no SVML here).  ``log_poly`` and
 ``atan2_poly`` are the classic fdlibm logarithm and Cephes arctangent in
 plain arithmetic, so a loop calling them vectorises; measured against libm
 they are within 1 ulp (log) and 2 ulp (atan2), the same rounding envelope as
-numpy's own (``layers.pair_integrals``).
+numpy's own (``potentials.pair_integrals``).
 
 Two compile options decide whether those bounds hold and whether the loop
 vectorises.  Everything here is ``inline="always"``, and numba compiles
@@ -121,7 +121,7 @@ def log_r2(x, y, px, py):
 def potentials_from(x, y, px, py, qx, qy, tx, ty, h, log_p):
     """Single and double layer of one segment at (x, y) given ``log|p - x|^2``; also ``log|q - x|^2``.
 
-    The closed form of ``layers.pair_integrals`` (DESIGN section 3).  The two
+    The closed form of ``potentials.pair_integrals`` (DESIGN section 3).  The two
     arctangents of the single layer differ by the angle the segment subtends,
     which the double layer computes anyway, so one ``atan2`` and two
     logarithms serve both.  Guards: the logarithms' arguments are at least

@@ -1,6 +1,6 @@
 """Compiled raster kernels: near and far field on a tensor grid of samples, cell by cell.
 
-The twins of ``kernels.near_sum`` (arbitrary points) and ``raster.far_field_reference``
+The twins of ``segment_sums.near_sum`` (arbitrary points) and ``raster.far_field_reference``
 (numpy); the tests compare them.
 """
 

@@ -9,7 +9,7 @@ target x, with a = (x - p).t and b = (x - p).n (DESIGN section 3)::
 with F(w, b) = (w ln(w^2 + b^2) - 2w + 2|b| atan2(w, |b|)) / 2 and the
 signed angle from p - x to q - x; D = -1/2 just left of the segment and +1/2
 just right of it.  ``pair_integrals`` is the plain numpy reference; the
-compiled kernels in ``kernels`` must agree with it.
+compiled kernels in ``segment_sums`` must agree with it.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Compiled (numba) sums of segment integrals; ``layers`` holds the numpy reference.
+"""Compiled (numba) sums of segment integrals; ``potentials`` holds the numpy reference.
 
 The near field is the engine's bottleneck: plain numpy manages about 5 M
 target-segment pairs per second here, these loops tens of times that
@@ -16,7 +16,7 @@ weightless copies so the vector loop has no scalar remainder, once for all
 the targets in that cell (``near_sum`` visits its targets sorted by cell).
 
 Rasters, whose samples form a tensor grid, have their own cell-by-cell
-kernels in ``grid_kernels``.
+kernels in ``grid``.
 """
 
 from __future__ import annotations
@@ -34,7 +34,7 @@ _TILE = 512
 
 @numba.njit(cache=True, inline="always", fastmath=POLY_MATH, error_model="numpy")
 def segment_potentials(x: float, y: float, px: float, py: float, qx: float, qy: float, tx: float, ty: float, h: float):
-    """Single and double layer of one segment at (x, y); see ``layers``.
+    """Single and double layer of one segment at (x, y); see ``potentials``.
 
     Returns ``(S, D)``.  ``D`` is 0 on the segment's line outside it and at
     its end points; inside the segment the rounded cross product picks a side
@@ -125,7 +125,7 @@ def _direct_sum(targets, table, weights, out):
 def direct_sum(targets: np.ndarray, p: np.ndarray, q: np.ndarray, flux: np.ndarray, jump: np.ndarray) -> np.ndarray:
     """``sum_j E_j S_j(x) - C_j D_j(x)`` over every segment, ``(m, 3)``.
 
-    Compiled twin of ``layers.direct_sum_reference`` (a target on a segment
+    Compiled twin of ``potentials.direct_sum_reference`` (a target on a segment
     gets one side's value there, not the principal value).
     """
     out = np.empty((len(targets), 3))
@@ -317,7 +317,7 @@ def _collocation(mids, table, on_border, curve_jump, matrix, rhs):
 def collocation_system(
     p: np.ndarray, q: np.ndarray, on_border: np.ndarray, jump: np.ndarray, mean: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Dense collocation matrix and right-hand sides; compiled twin of ``bem.assemble_reference``."""
+    """Dense collocation matrix and right-hand sides; compiled twin of ``dense.assemble_reference``."""
     matrix = np.empty((len(p), len(p)))
     border = np.asarray(on_border, np.bool_)
     rhs = np.where(border[:, None], 0.0, mean)

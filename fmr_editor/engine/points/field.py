@@ -1,9 +1,9 @@
 """A document's diffusion points on the representation's lattice.
 
 Points wide enough for a fine cell go into a tensor of cell polynomials
-(``gauss_tensor``, the fast Gauss transform), laid out like
+(``tensor``, the fast Gauss transform), laid out like
 ``Representation.polynomials`` so the raster adds the two; smaller ones stay
-exact near points (``gauss_near``).  ``gauss.gaussian_sum_reference`` is the
+exact near points (``near``).  ``gauss.gaussian_sum_reference`` is the
 plain reference the tests compare against.
 """
 

@@ -32,7 +32,7 @@ polynomial in a cell is ``w u(s_x) (x) u(s_y)``: rank one per channel.
   whatever its radius (means measured per grid: 70-190 at P = 8, 25-50 at
   P = 12), and the polynomial is carried exactly (a change of variable)
   down to the fine cells.  *Near points*, for which even a fine cell is too wide,
-  are evaluated exactly (``gauss_near``): with ``tolerance`` 1e-5 and
+  are evaluated exactly (``near``): with ``tolerance`` 1e-5 and
   ``A = 1``, radii below 1.27 fine cells at P = 8, 0.72 at P = 12, 0.52 at 16.
 
 The error of a pixel is at most ``tolerance`` times the number of points

@@ -3,13 +3,13 @@
 A polynomial point's delta is, in each fine cell below its grid cells,
 ``w (x) X (x) Y`` with ``X = S[b] ux`` (``gauss.shift_matrices``) depending only
 on the fine column and ``Y = S[a] uy`` only on the fine row: the same
-polynomial ``gauss_tensor.point_polynomials`` builds (up to rounding), computed
+polynomial ``tensor.point_polynomials`` builds (up to rounding), computed
 per point.  Removing points is adding ``points.negated()``: the delta is then
 the same products with the sign flipped, so add-then-remove restores the
 tensor up to the rounding of the two additions.
 
 Near points are not in the tensor; the caller rebuilds its
-``gauss_near.NearPoints`` (cheap: sorting the near points' cell lists).
+``near.NearPoints`` (cheap: sorting the near points' cell lists).
 """
 
 from __future__ import annotations
@@ -138,9 +138,9 @@ def add_to_tensor(tensor: np.ndarray, points: GaussPoints, lattice: Lattice,
     ----------
     tensor : numpy.ndarray
         C-contiguous float64 ``(2^L, 2^L, 3, P + 1, P + 1)``, as from
-        ``gauss_tensor.point_polynomials`` with the same lattice and settings.
+        ``tensor.point_polynomials`` with the same lattice and settings.
     points : GaussPoints
-        Near and dropped points among them are skipped (see ``gauss_near``).
+        Near and dropped points among them are skipped (see ``near``).
 
     Returns
     -------

@@ -7,7 +7,7 @@ nearer than its reach ``R``), and a sample in a cell sums exactly over that
 cell's list.  Outside its window a point is below ``tolerance``.
 
 ``gauss.gaussian_sum_reference`` is the plain reference; on a tensor grid
-the kernel works cell by cell like ``grid_kernels.near_field_grid``, with
+the kernel works cell by cell like ``grid.near_field_grid``, with
 ``exp(-(dx^2 + dy^2) / r^2) = exp(-dx^2 / r^2) exp(-dy^2 / r^2)`` so a point
 costs one exponential per sample row and column of the cell.
 """
@@ -189,7 +189,7 @@ def polynomials_at(poly: np.ndarray, targets: np.ndarray, cell_size: float) -> n
 
 
 def evaluate_grid(poly: np.ndarray, near: NearPoints, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
-    """Points' field on the grid ``ys x xs``: cell polynomials (``grid_kernels.far_field_grid``) plus near points."""
+    """Points' field on the grid ``ys x xs``: cell polynomials (``grid.far_field_grid``) plus near points."""
     return near_grid(near, xs, ys, out=far_field_grid(poly, xs, ys, near.lattice.cell_size))
 
 

@@ -3,7 +3,7 @@
 The output has ``Representation.polynomials()``'s layout,
 ``c[row, column, channel, i, j]`` of ``xi^i eta^j``, so it adds to the curves'
 tensor.  ``point_polynomials_reference`` is the plain numpy twin;
-``gauss_delta`` adds and removes points on a built tensor, ``gauss_near``
+``increments`` adds and removes points on a built tensor, ``near``
 handles the points too small for polynomials.
 
 Points are expanded on the grid of their ratio (``gauss.expansion_ratios``),
@@ -13,7 +13,7 @@ cell are ``w (x) ux (x) uy`` with ``ux`` depending only on the cell's column and
 ``uy`` only on its row, so for the ``K`` points of one source block the sum
 into each target cell is a small matrix product
 ``(3 (P+1) x K) (K x (P+1))``, done by a register-blocked kernel
-(``gauss_kernels``; 7-15 G multiply-adds/s a core measured here for K >= 48,
+(``tensor_kernels``; 7-15 G multiply-adds/s a core measured here for K >= 48,
 against 1-2 for one read-modify-write of the cell a point).  Blocks are
 ``B x B`` source cells with ``B`` chosen for some ``BLOCK_POINTS`` points a
 block.  Threads take stripes of source rows two apart, so no two write the
@@ -99,7 +99,7 @@ def point_polynomials(points: GaussPoints, lattice: Lattice, settings: PointSett
     """The polynomial points' fine-cell tensor ``(2^L, 2^L, 3, P + 1, P + 1)``.
 
     Near and dropped points (``expansion_ratios`` <= 0) are left out; see
-    ``gauss_near`` for the former.
+    ``near`` for the former.
     """
     n, width = lattice.cells_per_side, settings.order + 1
     ratios = expansion_ratios(points, lattice, settings)

@@ -55,7 +55,7 @@ class CollocationEntries:
 
     Row i evaluates the field of unit densities at midpoint i: column j is
     ``S_ij`` on a curve segment, ``-D_ij`` on a border segment, with the
-    principal value and the border's ``-1/2`` on the diagonal (``bem``).
+    principal value and the border's ``-1/2`` on the diagonal (``dense``).
     """
 
     def __init__(self, segments: Segments) -> None:

@@ -1,6 +1,6 @@
 """Recursive skeletonization: a compressed LU factorisation of the collocation system.
 
-The collocation matrix A (``bem``) is dense, but the block coupling a box of
+The collocation matrix A (``dense``) is dense, but the block coupling a box of
 segments to everything outside it has low numerical rank.  Working up a
 quadtree from small boxes, each box keeps a *skeleton* of its unknowns
 through which all of that coupling passes; its other (*redundant*) unknowns

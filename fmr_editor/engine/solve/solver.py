@@ -1,6 +1,6 @@
 """Fast multipole boundary-element solve: GMRES whose product is the FMM.
 
-The collocation system of ``bem`` is never formed.  Its product with a
+The collocation system of ``dense`` is never formed.  Its product with a
 vector of unknowns x (E on curves, C on the border) is the field of those
 densities at every segment midpoint: far field through the same upward and
 downward passes that build the representation, near field (the 3x3 block)

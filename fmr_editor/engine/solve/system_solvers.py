@@ -2,7 +2,7 @@
 
 Factorising the system is the expensive part of a solve.  ``SystemSolvers``
 keeps one factorisation (the *base*) and answers each later geometry with an
-``updated_solve.UpdatedSolver`` of it, made only when first asked for; when
+``updated.UpdatedSolver`` of it, made only when first asked for; when
 the geometry has moved too far from the base (``updated_solver`` declines)
 or the update turns out singular, it factorises the current geometry and
 that becomes the base.
@@ -38,7 +38,7 @@ class SystemSolvers:
     def reset(self, base: BoundarySolver | None, boundary: Segments | None) -> None:
         """Take ``base``, the factorisation of ``boundary``, as the current solver (None: none yet)."""
         self._base, self._base_boundary, self._current, self._boundary = base, boundary, base, boundary
-        self._columns: dict[int, np.ndarray] = {}  # the base applied to unit vectors, by segment (updated_solve)
+        self._columns: dict[int, np.ndarray] = {}  # the base applied to unit vectors, by segment (``updated``)
 
     def move_to(self, boundary: Segments) -> None:
         """Go over to the geometry ``boundary``; its solver is made when first asked for."""
