@@ -72,9 +72,10 @@ class Cells:
         segments, cell_start = sort_into_cells(solved, lattice)
         return cls(segments, cell_start, fine_multipoles(segments, cell_start, lattice, order), local)
 
+    @property
     def nbytes(self) -> int:
         """Bytes of the arrays held (shared ones counted too)."""
-        return self.segments.nbytes() + self.cell_start.nbytes + self.fine.nbytes + self.local.nbytes
+        return self.segments.nbytes + self.cell_start.nbytes + self.fine.nbytes + self.local.nbytes
 
 
 def propagated(cells: Cells, solved: Segments, lattice: Lattice, order: int, accuracy: float,

@@ -60,6 +60,7 @@ class Segments:
     def lengths(self) -> np.ndarray:
         return np.hypot(*(self.q - self.p).T)
 
+    @property
     def nbytes(self) -> int:
         """Bytes of the arrays held."""
         return sum(getattr(self, name).nbytes for name in _FIELDS)
