@@ -23,7 +23,7 @@ ROOT = "fmr_editor"
 FAKE_ROOT = "fakeeditor"
 SUBPACKAGES = ("model", "engine", "io", "tools", "render", "ui")
 ENGINE_PACKAGES = ("geometry", "kernels", "fmm", "solve", "points")
-ENGINE_MODULES = ("representation", "composite", "live", "raster", "kept_states", "cells", "threads")
+ENGINE_MODULES = ("representation", "composite", "live", "raster", "kept_states", "cells", "threads", "stack")
 
 pytest.importorskip("importlinter", reason="import-linter is in the [test] extra")
 

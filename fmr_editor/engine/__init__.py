@@ -3,7 +3,7 @@
 Synchronous and free of Qt and OpenGL.  The sub-packages build on each
 other from the bottom up (an import-linter contract keeps that order)::
 
-    geometry -> kernels -> fmm -> solve | points -> representation -> live | raster
+    geometry -> kernels -> fmm -> solve | points -> representation | composite -> live | raster -> stack
 
 ``docs/architecture.md`` draws the data flow.  What the rest of the program
 uses is exported here; everything else is the engine's own.  Every fast path
@@ -14,6 +14,7 @@ from .threads import limit_blas
 
 limit_blas()  # before any work: see threads.py for why one BLAS thread is faster here
 
+from .composite import Composite, LayerFields  # noqa: E402
 from .fmm.expansions import local_polynomials  # noqa: E402
 from .fmm.lattice import Lattice  # noqa: E402
 from .geometry.segments import Segments  # noqa: E402
@@ -22,8 +23,10 @@ from .points.field import PointField  # noqa: E402
 from .points.gauss import GaussPoints  # noqa: E402
 from .raster import evaluate_points, output_size, rasterise  # noqa: E402
 from .representation import MAX_LEVELS, Representation, Settings  # noqa: E402
+from .stack import LiveStack, StackUpdate  # noqa: E402
 
 __all__ = [
-    "MAX_LEVELS", "GaussPoints", "Lattice", "LiveRepresentation", "PointField", "Progress", "Representation",
-    "Segments", "Settings", "Update", "build", "evaluate_points", "local_polynomials", "output_size", "rasterise",
+    "MAX_LEVELS", "Composite", "GaussPoints", "LayerFields", "Lattice", "LiveRepresentation", "LiveStack",
+    "PointField", "Progress", "Representation", "Segments", "Settings", "StackUpdate", "Update", "build",
+    "evaluate_points", "local_polynomials", "output_size", "rasterise",
 ]

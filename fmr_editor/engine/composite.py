@@ -9,14 +9,104 @@ V_below)``, is a product of polynomials; kept to the tensor's degree per axis
 (``blended``), it is the paper's merged coefficient set (its equation 32), as
 accurate as each factor where their product's dropped terms are small.  Near
 segments and where ``M`` leaves [0, 1] inside a cell, the per-pixel terms
-take over (not here).  ``truncated_product_reference`` is the plain loop.
+take over.  ``truncated_product_reference`` is the plain loop.
+
+``Composite`` is what a layered document is drawn from: each visible layer's
+representation with its mask's, opacity and transform; ``compose`` blends
+their values sample by sample, ``out = m T(V) + (1 - m) out_below`` with
+``m = opacity * clamp(M, 0, 1)`` (DESIGN section 6), from the topmost layer
+that covers everything (what lies below it cannot show).
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from dataclasses import dataclass
+
 import numpy as np
 
-from ..model.color_transform import ColorTransform
+from ..model.color_transform import IDENTITY, ColorTransform
+from ..model.layer import MASK_LUMA
+from .representation import Representation
+
+
+@dataclass(frozen=True)
+class LayerFields:
+    """One layer as the engine draws it.
+
+    Attributes
+    ----------
+    image : Representation
+        The layer's diffusion image.
+    mask : Representation or None
+        The mask's diffusion image (its luminance is the mask); None for a
+        constant mask (``mask_base`` everywhere) or none at all (base 1).
+    mask_base : float
+    mask_inverted : bool
+    opacity : float
+    transform : ColorTransform
+    """
+
+    image: Representation
+    mask: Representation | None = None
+    mask_base: float = 1.0
+    mask_inverted: bool = False
+    opacity: float = 1.0
+    transform: ColorTransform = IDENTITY
+
+    @property
+    def covers(self) -> bool:
+        """True when the layer's weight is 1 everywhere, hiding all below."""
+        value = self.mask_base if not self.mask_inverted else 1.0 - self.mask_base
+        return self.opacity == 1.0 and self.mask is None and value >= 1.0
+
+    def weight(self, mask_values: np.ndarray | None) -> np.ndarray | float:
+        """``m = opacity * clamp(M, 0, 1)`` from the mask's colour values ``(..., 3)`` (None: constant mask)."""
+        value = self.mask_base if mask_values is None else mask_values @ MASK_LUMA + self.mask_base
+        if self.mask_inverted:
+            value = 1.0 - value
+        return self.opacity * np.clip(value, 0.0, 1.0)
+
+
+@dataclass(frozen=True)
+class Composite:
+    """A layered picture: ``layers`` bottom first, on a ``width x height`` canvas."""
+
+    width: int
+    height: int
+    layers: tuple[LayerFields, ...]
+
+    @property
+    def shown(self) -> tuple[LayerFields, ...]:
+        """The layers that can show: from the topmost one that covers everything, up."""
+        start = max((i for i, layer in enumerate(self.layers) if layer.covers), default=0)
+        return self.layers[start:]
+
+    @property
+    def representations(self) -> tuple[Representation, ...]:
+        """Every representation ``shown`` reads: images and masks."""
+        reps = []
+        for layer in self.shown:
+            reps += [layer.image] + ([layer.mask] if layer.mask is not None else [])
+        return tuple(reps)
+
+
+def compose(composite: Composite, values: Callable[[Representation], np.ndarray], shape: tuple[int, ...]) -> np.ndarray:
+    """The composite's colours, of ``shape`` ``(..., 3)``, given ``values(rep)`` of each representation there.
+
+    Zero where no layer shows (all hidden); not clamped.
+    """
+    out = np.zeros(shape)
+    for layer in composite.shown:
+        colour = values(layer.image)
+        if not layer.transform.is_identity:
+            colour = layer.transform.apply(colour)
+        if layer.covers:
+            out = colour
+            continue
+        weight = layer.weight(values(layer.mask) if layer.mask is not None else None)
+        out += np.asarray(weight)[..., None] * (colour - out)
+    return out
 
 
 def transformed(poly: np.ndarray, transform: ColorTransform) -> np.ndarray:

@@ -21,6 +21,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from .composite import Composite, compose
 from .kernels.grid import far_field_grid, near_field_grid
 from .kernels.segment_sums import direct_sum, near_sum
 from .points.gauss import gaussian_sum_reference
@@ -103,7 +104,7 @@ def _average_blocks(values: np.ndarray, samples: int) -> np.ndarray:
 
 
 def rasterise(
-    rep: Representation,
+    rep: Representation | Composite,
     width: int | None = None,
     height: int | None = None,
     samples: int = 3,
@@ -115,7 +116,8 @@ def rasterise(
 
     Parameters
     ----------
-    rep : Representation
+    rep : Representation or Composite
+        One diffusion image, or layers composed sample by sample (``composite.compose``).
     width, height : int, optional
         Output size; defaults to the canvas size.  One alone keeps the aspect ratio.
     samples : int
@@ -140,13 +142,23 @@ def rasterise(
         raise ValueError(f"unknown method {method!r}; use 'fmr' or 'direct'")
     xs = sample_coordinates(width, rep.width, samples)
     ys = sample_coordinates(height, rep.height, samples)
-    poly = rep.polynomials(order) if method == "fmr" else None
+    sources = rep.representations if isinstance(rep, Composite) else (rep,)
+    polys = {id(source): source.polynomials(order) for source in sources} if method == "fmr" else {}
     image = np.empty((height, width, 3))
     band = max(1, BAND_SAMPLES // (len(xs) * samples))
     for row in range(0, height, band):
         rows = slice(row, min(row + band, height))
         band_ys = ys[rows.start * samples : rows.stop * samples]
-        values = _fmr_samples(rep, poly, xs, band_ys) if method == "fmr" else _direct_samples(rep, xs, band_ys)
+
+        def field(source: Representation) -> np.ndarray:
+            if method == "direct":
+                return _direct_samples(source, xs, band_ys)
+            return _fmr_samples(source, polys[id(source)], xs, band_ys)
+
+        if isinstance(rep, Composite):
+            values = compose(rep, field, (len(band_ys), len(xs), 3))
+        else:
+            values = field(rep)
         image[rows] = values if samples == 1 else _average_blocks(values, samples)
         if progress:
             progress("rasterise", rows.stop / height)
@@ -188,12 +200,14 @@ def output_size(canvas_width: int, canvas_height: int, width: int | None, height
     return int(width), int(height)
 
 
-def evaluate_points(rep: Representation, points: np.ndarray, order: int | None = None) -> np.ndarray:
-    """The FMR colour at arbitrary ``points (m, 2)``, ``(m, 3)`` (not clamped).
+def evaluate_points(rep: Representation | Composite, points: np.ndarray, order: int | None = None) -> np.ndarray:
+    """The FMR colour at arbitrary ``points (m, 2)``, ``(m, 3)`` (not clamped); of a composite, its layers composed.
 
     Zero outside the canvas.
     """
     points = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    if isinstance(rep, Composite):
+        return compose(rep, lambda source: evaluate_points(source, points, order), (len(points), 3))
     lattice, seg = rep.lattice, rep.segments
     poly = rep.polynomials(order)
     cells = lattice.cell_of(points)

@@ -2,6 +2,9 @@
 
 from .curve import BlurStop, ColorStop, DiffusionCurve, interpolate_stops
 from .document import Document
+from .layer import Layer, Mask
 from .point import DiffusionPoint
 
-__all__ = ["BlurStop", "ColorStop", "DiffusionCurve", "DiffusionPoint", "Document", "interpolate_stops"]
+from . import edits, layer_edits  # noqa: E402  (after what they import)
+
+__all__ = ["BlurStop", "ColorStop", "DiffusionCurve", "DiffusionPoint", "Document", "Layer", "Mask", "interpolate_stops"]

@@ -1,0 +1,173 @@
+"""A layered document's representations, kept up to date edit by edit.
+
+Every layer's image and every mask with items is a diffusion image of its
+own, so each keeps its own ``LiveRepresentation`` (its lattice, solver and
+kept states), under the layer's stable id.  An edit reaches only the fields
+whose items changed: a dab in a mask is the mask's points update, a hue
+change or an opacity change touches no representation at all (the
+composite reads them when it is drawn).  Fields of layers that leave the
+stack are kept a while (``RETIRED``), so undoing a deletion solves nothing.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import OrderedDict
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..model import Document
+from ..model.layer import Layer
+from .composite import Composite, LayerFields
+from .live import LiveRepresentation, Progress, Update
+from .representation import Representation, Settings
+
+#: Fields of removed layers kept for an undo.
+RETIRED = 4
+
+#: A field: ``(layer id, "image" or "mask")``.
+FieldKey = tuple[int, str]
+
+
+@dataclass(frozen=True)
+class StackUpdate:
+    """What one ``LiveStack.update`` did: each changed field's ``Update``, by ``FieldKey``."""
+
+    fields: dict[FieldKey, Update]
+    seconds: float
+
+    @property
+    def kind(self) -> str:
+        """``"none"``, the one field's kind, or ``"layers"`` when several fields changed."""
+        kinds = {update.kind for update in self.fields.values()} - {"none"}
+        return kinds.pop() if len(kinds) == 1 else ("none" if not kinds else "layers")
+
+    @property
+    def exact(self) -> bool:
+        return all(update.exact for update in self.fields.values())
+
+
+def _wanted(document: Document) -> dict[FieldKey, Document]:
+    """The one-image documents the engine keeps for ``document``: each layer's image, each mask with items."""
+    fields = {}
+    for layer in document.layers:
+        fields[layer.id, "image"] = document.flat(layer)
+        if layer.mask is not None and not layer.mask.is_constant:
+            fields[layer.id, "mask"] = document.flat(layer.mask)
+    return fields
+
+
+class LiveStack:
+    """A layered document's representations and their composite.
+
+    Parameters
+    ----------
+    document : Document
+    settings : Settings
+    progress : callable, optional
+        ``progress(stage, fraction)`` over all the builds.
+    saved : sequence, optional
+        Per layer, ``(image, mask)`` representations as saved (either may be
+        None): taken as they are, as ``LiveRepresentation`` takes one.
+    memory : int
+        Bytes the kept states of all fields may take, shared among them.
+
+    Attributes
+    ----------
+    document : Document
+    fields : dict
+        ``LiveRepresentation`` by ``FieldKey``.
+    """
+
+    def __init__(self, document: Document, settings: Settings = Settings(), progress: Progress | None = None,
+                 saved: Sequence[tuple[Representation | None, Representation | None]] | None = None,
+                 memory: int = 500 * 2**20) -> None:
+        self.settings = settings
+        self._memory = memory
+        self.document = document
+        self.fields: dict[FieldKey, LiveRepresentation] = {}
+        self._retired: OrderedDict[FieldKey, LiveRepresentation] = OrderedDict()
+        kept = {}
+        for layer, pair in zip(document.layers, saved or ()):
+            kept.update({(layer.id, kind): rep for kind, rep in zip(("image", "mask"), pair) if rep is not None})
+        self._follow(document, progress, kept, exact=True)
+
+    def _follow(self, document: Document, progress: Progress | None, saved: dict[FieldKey, Representation],
+                exact: bool) -> dict[FieldKey, Update]:
+        wanted = _wanted(document)
+        share = self._memory // max(1, len(wanted))
+        updates = {}
+        for number, (key, flat) in enumerate(wanted.items()):
+            def lap(stage: str, fraction: float, number=number) -> None:
+                if progress:
+                    progress(stage, (number + fraction) / len(wanted))
+
+            live = self.fields.get(key) or self._retired.pop(key, None)
+            if live is None:
+                start = time.perf_counter()
+                live = LiveRepresentation(flat, self.settings, lap, saved.get(key), memory=share)
+                n = live.lattice.cells_per_side
+                updates[key] = Update("rebuild", np.ones((n, n), bool), time.perf_counter() - start)
+            elif live.document.curves is not flat.curves or live.document.points is not flat.points:
+                updates[key] = live.update(flat, lap, exact)
+            elif exact and live.approximate:
+                updates[key] = live.refine()
+            self.fields[key] = live
+        for key in [key for key in self.fields if key not in wanted]:
+            self._retired[key] = self.fields.pop(key)
+            while len(self._retired) > RETIRED:
+                self._retired.popitem(last=False)
+        self.document = document
+        return updates
+
+    def update(self, document: Document, progress: Progress | None = None, exact: bool = True) -> StackUpdate:
+        """Bring every field to ``document``; see ``LiveRepresentation.update`` for ``exact``."""
+        start = time.perf_counter()
+        updates = self._follow(document, progress, {}, exact)
+        return StackUpdate(updates, time.perf_counter() - start)
+
+    def refine(self) -> StackUpdate:
+        """Make every approximate field exact (after previews)."""
+        start = time.perf_counter()
+        updates = {key: live.refine() for key, live in self.fields.items() if live.approximate}
+        return StackUpdate(updates, time.perf_counter() - start)
+
+    @property
+    def approximate(self) -> bool:
+        return any(live.approximate for live in self.fields.values())
+
+    def warm_up(self) -> None:
+        for live in self.fields.values():
+            live.warm_up()
+
+    def image(self, layer: Layer) -> Representation:
+        """``layer``'s image representation."""
+        return self.fields[layer.id, "image"].representation
+
+    def mask(self, layer: Layer) -> Representation | None:
+        """``layer``'s mask representation; None without a mask or for a constant one."""
+        live = self.fields.get((layer.id, "mask"))
+        return live.representation if live is not None else None
+
+    @property
+    def representation(self) -> Representation:
+        """The active layer's image (for a flat document, the picture itself)."""
+        return self.image(self.document.layer)
+
+    @property
+    def composite(self) -> Composite:
+        """The picture: the visible layers with their masks, opacities and transforms."""
+        document = self.document
+        layers = []
+        for layer in document.layers:
+            if not layer.visible:
+                continue
+            mask = layer.active_mask
+            layers.append(LayerFields(
+                self.image(layer), self.mask(layer) if mask is not None else None,
+                mask.base if mask is not None else 1.0, mask is not None and mask.inverted,
+                layer.opacity, layer.transform,
+            ))
+        return Composite(document.width, document.height, tuple(layers))

@@ -1,0 +1,228 @@
+"""Layers and masks: the model's stack and its edits, and the engine's composite against per-pixel composition."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from shapes import circle_points, scattered_document, uniform_curve
+
+from fmr_editor.engine import LiveStack, Settings, evaluate_points, rasterise
+from fmr_editor.model import DiffusionPoint, Document, Layer, Mask, edits, layer_edits
+from fmr_editor.model.color_transform import hue_rotation, inversion
+from fmr_editor.model.history import History
+
+SIZE = 128
+PIXELS = 48
+ONE_STEP = 1 / 255
+
+
+def soft_mask(seed: int = 3) -> Mask:
+    """Points of both signs: white dabs adding, a few subtracting, over base 0."""
+    rng = np.random.default_rng(seed)
+    points = [DiffusionPoint(tuple(rng.uniform(0, SIZE, 2)), rng.uniform(6, 20), (1.0, 1.0, 1.0),
+                             amplitude=rng.choice([1.0, 1.0, -0.6])) for _ in range(30)]
+    return Mask(points=points)
+
+
+def sharp_mask() -> Mask:
+    """A closed circle, white inside and black outside: 1 inside, 0 outside."""
+    return Mask(curves=[uniform_curve(circle_points(60, 70, 35), left=1.0, right=0.0)])
+
+
+def three_layers() -> Document:
+    bottom = Layer(scattered_document(SIZE, seed=2).curves, name="bottom")
+    middle = Layer(scattered_document(SIZE, seed=5).curves, name="middle", opacity=0.7, mask=soft_mask())
+    top = Layer(scattered_document(SIZE, seed=7).curves, name="top", mask=sharp_mask(), transform=hue_rotation(120))
+    return Document(SIZE, SIZE, layers=(bottom, middle, top), active=1)
+
+
+def reference(document: Document, width: int, height: int) -> np.ndarray:
+    """Per-pixel composition of each layer and mask rendered by the direct sums (no FMR), by the formula."""
+    def direct(target) -> np.ndarray:
+        return rasterise(LiveStack(document.flat(target)).representation, width, height, samples=1, method="direct")
+
+    luma = np.array([0.2126, 0.7152, 0.0722])
+    out = np.zeros((height, width, 3))
+    for layer in document.layers:
+        if not layer.visible:
+            continue
+        value = np.full((height, width), 1.0)
+        if layer.mask is not None and layer.mask.enabled:
+            value = layer.mask.base + (direct(layer.mask) @ luma if not layer.mask.is_constant else 0.0)
+            value = 1.0 - value if layer.mask.inverted else value
+        m = layer.opacity * np.minimum(np.maximum(value, 0.0), 1.0)
+        colour = direct(layer) @ layer.transform.matrix.T + layer.transform.offset
+        out = m[..., None] * colour + (1.0 - m[..., None]) * out
+    return out
+
+
+# -- the model ---------------------------------------------------------------------------------------------------
+
+
+def test_a_document_of_curves_is_one_plain_layer_and_edits_act_on_the_target():
+    flat = scattered_document(64, seed=1)
+    assert len(flat.layers) == 1 and flat.is_flat and flat.curves is flat.layers[0].curves
+    layered = layer_edits.add_layer(flat)
+    assert layered.active == 1 and layered.curves == () and not layered.is_flat
+    drawn = edits.add_curve(layered, flat.curves[0])
+    assert drawn.layers[0] == flat.layers[0] and drawn.layers[1].curves == (flat.curves[0],)
+    masked = layer_edits.select_layer(layer_edits.add_mask(drawn), 1, mask=True)
+    dabbed = edits.add_points(masked, [DiffusionPoint((3, 4), 5, (1, 1, 1))])
+    assert dabbed.layers[1].points == () and len(dabbed.layers[1].mask.points) == 1
+    assert dabbed.layers[1].mask.base == 1.0
+
+
+def test_the_active_layer_follows_its_layer_through_moves_and_deletions():
+    document = Document(8, 8, layers=[Layer(name=name) for name in "abcd"], active=1)
+    moved = layer_edits.move_layer(document, 1, 3)
+    assert [layer.name for layer in moved.layers] == list("acdb") and moved.layer.name == "b"
+    assert layer_edits.move_layer(document, 3, 0).layer.name == "b"
+    assert layer_edits.remove_layer(document, 1).layer.name == "a"
+    assert layer_edits.remove_layer(document, 3).layer.name == "b"
+    copy = layer_edits.duplicate_layer(document, 2)
+    assert [layer.name for layer in copy.layers] == ["a", "b", "c", "c copy", "d"] and copy.active == 3
+    assert copy.layers[3].id != copy.layers[2].id
+    with pytest.raises(ValueError, match="at least one layer"):
+        layer_edits.remove_layer(Document(8, 8))
+
+
+@pytest.mark.parametrize("opacity", [-0.1, 1.5, math.nan, math.inf, "half"])
+def test_opacity_outside_the_unit_interval_is_refused(opacity):
+    with pytest.raises(ValueError, match="opacity"):
+        layer_edits.set_opacity(Document(8, 8), 0, opacity)
+
+
+def test_undo_and_redo_of_every_layer_action_restore_the_document_exactly():
+    actions = [
+        ("Add Layer", layer_edits.add_layer),
+        ("Rename Layer", lambda d: layer_edits.rename_layer(d, None, "sky")),
+        ("Opacity", lambda d: layer_edits.set_opacity(d, None, 0.25)),
+        ("Add Mask", layer_edits.add_mask),
+        ("Invert Mask", layer_edits.invert_mask),
+        ("Disable Mask", lambda d: layer_edits.set_mask_enabled(d, None, False)),
+        ("Colour Adjust", lambda d: layer_edits.set_transform(d, None, hue_rotation(40).then(inversion()))),
+        ("Hide Layer", lambda d: layer_edits.set_visible(d, None, False)),
+        ("Duplicate Layer", layer_edits.duplicate_layer),
+        ("Move Layer", lambda d: layer_edits.move_layer(d, 2, 0)),
+        ("Delete Mask", layer_edits.remove_mask),
+        ("Delete Layer", layer_edits.remove_layer),
+    ]
+    history = History(scattered_document(64, seed=1))
+    seen = [history.document]
+    for label, action in actions:
+        history.apply(action(history.document), label)
+        seen.append(history.document)
+    assert history.labels[1:] == tuple(label for label, _ in actions)
+    for expected in reversed(seen[:-1]):
+        history.undo()
+        assert history.document == expected
+    for expected in seen[1:]:
+        history.redo()
+        assert history.document == expected
+
+
+# -- the composite -----------------------------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def stack() -> LiveStack:
+    return LiveStack(three_layers())
+
+
+def test_the_composite_equals_per_pixel_composition_of_the_layers(stack):
+    document = stack.document
+    expected = reference(document, PIXELS, PIXELS)
+    got = rasterise(stack.composite, PIXELS, PIXELS, samples=1)
+    assert np.abs(got - expected).max() < ONE_STEP
+    # each ingredient matters: the check would fail without the mask, the opacity or the hue
+    for changed in (layer_edits.remove_mask(document, 2), layer_edits.set_opacity(document, 1, 1.0),
+                    layer_edits.set_transform(document, 2, hue_rotation(0))):
+        assert np.abs(reference(changed, PIXELS, PIXELS) - expected).max() > 10 * ONE_STEP
+
+
+def test_the_curve_mask_is_the_indicator_of_its_circle(stack):
+    mask = stack.mask(stack.document.layers[2])
+    inside, outside = [(60, 70), (40, 60)], [(5, 5), (120, 120), (60, 20)]
+    values = evaluate_points(mask, np.array(inside + outside)) @ np.array([0.2126, 0.7152, 0.0722])
+    np.testing.assert_allclose(values, [1, 1, 0, 0, 0], atol=1e-3)
+
+
+def test_the_composite_at_any_points_equals_the_composite_image(stack):
+    xs = (np.arange(PIXELS) + 0.5) * SIZE / PIXELS
+    grid = np.stack(np.meshgrid(xs, xs), axis=-1).reshape(-1, 2)
+    image = rasterise(stack.composite, PIXELS, PIXELS, samples=1)
+    np.testing.assert_allclose(evaluate_points(stack.composite, grid).reshape(PIXELS, PIXELS, 3), image, atol=1e-9)
+
+
+def test_a_covering_layer_hides_everything_below_and_hidden_layers_do_not_show():
+    document = three_layers()
+    covered = layer_edits.add_layer(layer_edits.select_layer(document, 2), Layer(scattered_document(SIZE, seed=9).curves))
+    stack = LiveStack(covered)
+    alone = rasterise(stack.image(covered.layers[3]), PIXELS, PIXELS, samples=1)
+    np.testing.assert_array_equal(rasterise(stack.composite, PIXELS, PIXELS, samples=1), alone)
+    hidden = layer_edits.set_visible(covered, 3, False)
+    stack.update(hidden)
+    np.testing.assert_allclose(rasterise(stack.composite, PIXELS, PIXELS, samples=1),
+                               reference(document, PIXELS, PIXELS), atol=ONE_STEP)
+
+
+# -- incremental edits -------------------------------------------------------------------------------------------
+
+
+def representations(stack: LiveStack) -> dict:
+    """Each field's arrays (a representation is a new object on each access; its arrays are replaced, never changed)."""
+    return {key: Same(live.representation) for key, live in stack.fields.items()}
+
+
+class Same:
+    """A representation compared by the identity of its arrays."""
+
+    def __init__(self, rep) -> None:
+        points = (rep.points.tensor, rep.points.near) if rep.points is not None else ()
+        self.arrays = (rep.local, rep.segments, rep.cell_start, *points)
+
+    def __eq__(self, other: object) -> bool:
+        return all(a is b for a, b in zip(self.arrays, other.arrays))
+
+
+def test_an_edit_to_one_layer_touches_only_that_layer_and_equals_a_fresh_build():
+    document = three_layers()
+    stack = LiveStack(document)
+    before = representations(stack)
+    top = document.layers[2]
+    moved = edits.move_control_point(layer_edits.select_layer(document, 2), top.curves[0].id, 0, (30.0, 40.0))
+    update = stack.update(moved)
+    assert set(update.fields) == {(top.id, "image")} and update.kind == "geometry"
+    after = representations(stack)
+    for key in before:
+        assert (after[key] == before[key]) == (key != (top.id, "image"))
+    fresh = LiveStack(moved)
+    np.testing.assert_allclose(rasterise(stack.composite, PIXELS, PIXELS, samples=1),
+                               rasterise(fresh.composite, PIXELS, PIXELS, samples=1), atol=0.25 / 255)
+
+
+def test_a_mask_dab_updates_only_the_mask_and_hue_or_opacity_solve_nothing():
+    document = three_layers()
+    stack = LiveStack(document)
+    middle = document.layers[1]
+    dab = DiffusionPoint((40.0, 40.0), 12.0, (1.0, 1.0, 1.0))
+    dabbed = edits.add_points(layer_edits.select_layer(document, 1, mask=True), [dab])
+    update = stack.update(dabbed)
+    assert set(update.fields) == {(middle.id, "mask")} and update.kind == "points"
+    for change in (layer_edits.set_transform(dabbed, 1, hue_rotation(33)), layer_edits.set_opacity(dabbed, 1, 0.2)):
+        before = representations(stack)
+        assert stack.update(change).fields == {}
+        assert representations(stack) == before
+        np.testing.assert_allclose(rasterise(stack.composite, PIXELS, PIXELS, samples=1),
+                                   reference(change, PIXELS, PIXELS), atol=ONE_STEP)
+
+
+def test_undoing_a_deletion_takes_the_layer_back_without_a_solve():
+    document = three_layers()
+    stack = LiveStack(document)
+    kept = representations(stack)
+    stack.update(layer_edits.remove_layer(document, 1))
+    assert stack.update(document).fields == {}
+    assert representations(stack) == kept
