@@ -24,7 +24,7 @@ def load(path):
 
 
 def render_image(document, width=None, height=None, samples=3, *, order=None, method="fmr", progress=None):
-    """Render ``document`` to a float32 ``(height, width, 3)`` array in [0, 1].
+    """Render ``document`` (all its layers composed) to a float32 ``(height, width, 3)`` array in [0, 1].
 
     Parameters
     ----------
@@ -42,9 +42,9 @@ def render_image(document, width=None, height=None, samples=3, *, order=None, me
     """
     import numpy as np
 
-    from .engine import Settings, build, rasterise
+    from .engine import LiveStack, Settings, rasterise
 
     settings = Settings() if order is None else Settings(order=order, propagation_order=max(order, Settings().propagation_order))
-    rep = build(document, settings, progress=progress)
-    image = rasterise(rep, width, height, samples=samples, method=method, progress=progress)
+    picture = LiveStack(document, settings, progress).composite
+    image = rasterise(picture, width, height, samples=samples, method=method, progress=progress)
     return np.clip(image, 0.0, 1.0).astype(np.float32)

@@ -10,8 +10,9 @@
 
 The editor drives the same object: tools apply edits (a drag through the
 history's ``begin``/``preview``/``commit``), and every change of the current
-document, undo and redo included, updates the representation incrementally;
-``last_update`` says which cells changed.
+document, undo and redo included, updates the representations of the layers
+it touches incrementally; ``last_update`` says which.  Layer edits are in
+``model.layer_edits``; ``image`` renders the composite of all layers.
 """
 
 from __future__ import annotations
@@ -22,8 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .engine import LiveRepresentation, Progress, Representation, Settings, Update, rasterise
-from .io import open_live, save_fmr
+from .engine import LiveStack, Progress, Representation, Settings, StackUpdate, rasterise
+from .io import open_stack, save_fmr
 from .io.png import save_png
 from .model import Document
 from .model.history import History
@@ -40,28 +41,28 @@ class Session:
     settings : Settings
     progress : callable, optional
         ``progress(stage, fraction)`` during the first build and rebuilds.
-    saved : Representation, optional
-        ``document``'s saved representation, taken instead of a build.
+    saved : sequence, optional
+        Per layer, ``(image, mask)`` representations as saved, taken instead of builds.
 
     Attributes
     ----------
     history : History
         The undo history; changing its current document updates the FMR.
-    live : LiveRepresentation
-        The document's representation, kept up to date.
-    last_update : Update or None
+    live : LiveStack
+        The representations of the document's layers and masks, kept up to date.
+    last_update : StackUpdate or None
         What the most recent change did (None before any).
     """
 
-    def __init__(self, document: Document, settings: Settings = Settings(),
-                 progress: Progress | None = None, saved: Representation | None = None) -> None:
-        self._adopt(LiveRepresentation(document, settings, progress, saved), progress)
+    def __init__(self, document: Document, settings: Settings = Settings(), progress: Progress | None = None,
+                 saved: tuple[tuple[Representation | None, Representation | None], ...] | None = None) -> None:
+        self._adopt(LiveStack(document, settings, progress, saved), progress)
 
-    def _adopt(self, live: LiveRepresentation, progress: Progress | None) -> None:
+    def _adopt(self, live: LiveStack, progress: Progress | None) -> None:
         self.history = History(live.document)
         self._progress = progress
         self.live = live
-        self.last_update: Update | None = None
+        self.last_update: StackUpdate | None = None
         self.history.subscribe(self._follow)
 
     @classmethod
@@ -70,10 +71,10 @@ class Session:
 
         A ``.fmr`` file's saved representation is taken as it is (no solve).
         """
-        return cls.resume(open_live(path, settings))
+        return cls.resume(open_stack(path, settings))
 
     @classmethod
-    def resume(cls, live: LiveRepresentation) -> Session:
+    def resume(cls, live: LiveStack) -> Session:
         """A session on ``live``'s document, taking ``live`` as it is."""
         session = cls.__new__(cls)
         session._adopt(live, None)
@@ -88,14 +89,15 @@ class Session:
 
     @property
     def representation(self) -> Representation:
+        """The active layer's image (of a one-layer document, the picture)."""
         return self.live.representation
 
-    def apply(self, edit: Edit | Document, label: str, merge_key: Hashable | None = None) -> Update | None:
+    def apply(self, edit: Edit | Document, label: str, merge_key: Hashable | None = None) -> StackUpdate | None:
         """Apply ``edit`` (a function of the document, or the new document) as one undo step.
 
         Returns
         -------
-        Update or None
+        StackUpdate or None
             What the engine did; None when the edit changed nothing.
         """
         document = edit(self.document) if callable(edit) else edit
@@ -103,29 +105,29 @@ class Session:
         self.history.apply(document, label, merge_key)
         return self.last_update
 
-    def undo(self) -> Update | None:
+    def undo(self) -> StackUpdate | None:
         """Undo the last step (nothing when there is none)."""
         self.last_update = None
         self.history.undo()
         return self.last_update
 
-    def redo(self) -> Update | None:
+    def redo(self) -> StackUpdate | None:
         """Redo the next undone step (nothing when there is none)."""
         self.last_update = None
         self.history.redo()
         return self.last_update
 
     def image(self, width: int | None = None, height: int | None = None, samples: int = 3) -> np.ndarray:
-        """The current image ``(height, width, 3)`` in [0, 1] floats (unclamped), as ``engine.rasterise``."""
-        return rasterise(self.representation, width, height, samples=samples)
+        """The picture (all layers composed) ``(height, width, 3)``, floats not clamped, as ``engine.rasterise``."""
+        return rasterise(self.live.composite, width, height, samples=samples)
 
     def cells(self, order: int | None = None) -> np.ndarray:
-        """The cells' polynomials ``c[row, column, channel, i, j]`` (see ``Representation.polynomials``)."""
+        """The active layer's cell polynomials ``c[row, column, channel, i, j]`` (``Representation.polynomials``)."""
         return self.representation.polynomials(order)
 
     def save(self, path: str | os.PathLike) -> Path:
         """Save the document with its representation as ``.fmr`` (atomically) and mark it saved."""
-        written = save_fmr(path, self.document, self.representation, settings=self.live.settings)
+        written = save_fmr(path, self.document, self.live.composite, settings=self.live.settings)
         self.history.mark_saved()
         return written
 

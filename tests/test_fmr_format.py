@@ -142,7 +142,7 @@ def test_document_only_file_opens_without_representation(tmp_path, document):
     path = save_fmr(tmp_path / "plain.fmr", document)
     assert sorted(entries(path)) == ["document.json", "mimetype"]
     opened = load_fmr(path)
-    assert opened == FmrFile(document, None, None, ())
+    assert opened == FmrFile(document, ((None, None),), None, ())
     assert load_document(path) == document
 
 
@@ -236,14 +236,14 @@ def test_mimetype_is_first_and_stored(saved):
         names = archive.namelist()
     # readable by magic-number sniffing: the content follows the 30-byte header and the name
     assert saved.read_bytes()[38:62] == b"application/x-fmr-editor"
-    assert {"document.json", "representation.json", "thumbnail.png", "representation/local.npy"} <= set(names)
+    assert {"document.json", "layers/0/image/representation.json", "thumbnail.png", "layers/0/image/representation/local.npy"} <= set(names)
 
 
 def test_arrays_are_plain_npy_files(saved, built):
     data = entries(saved)
-    local = np.load(io.BytesIO(data["representation/local.npy"]), allow_pickle=False)
+    local = np.load(io.BytesIO(data["layers/0/image/representation/local.npy"]), allow_pickle=False)
     np.testing.assert_array_equal(local, built.local)
-    manifest = json.loads(data["representation.json"])
+    manifest = json.loads(data["layers/0/image/representation.json"])
     assert manifest["version"] == 1 and manifest["segment_count"] == len(built.segments)
 
 
@@ -395,7 +395,7 @@ def valid_document_data() -> dict:
 @pytest.mark.parametrize(
     "edit, message",
     [
-        (lambda d: d.update(version=2), "newer fmr-editor (document format version 2; this version reads up to 1)"),
+        (lambda d: d.update(version=3), "newer fmr-editor (document format version 3; this version reads up to 2)"),
         (lambda d: d.update(version="1"), "version must be a whole number"),
         (lambda d: d.pop("version"), "version is missing"),
         (lambda d: d.update(format="something else"), "format is 'something else'"),
@@ -405,22 +405,31 @@ def valid_document_data() -> dict:
         (lambda d: d["canvas"].update(width=12.5), "canvas.width must be a whole number"),
         (lambda d: d["canvas"].update(width=True), "canvas.width must be a whole number"),
         (lambda d: d.pop("canvas"), "canvas is missing"),
-        (lambda d: d.update(curves={}), "curves must be a list, got an object"),
-        (lambda d: d["curves"][1].update(control_points=[[0, 0]] * 5), "curves[1].control_points has 5 points"),
-        (lambda d: d["curves"][1]["control_points"][2].__setitem__(1, "3"),
-         "curves[1].control_points[2][1] must be a number, got a string"),
-        (lambda d: d["curves"][1]["control_points"][2].append(1.0), "curves[1].control_points[2] must be 2 numbers"),
-        (lambda d: d["curves"][0]["left"][1].update(color=[1, 2]), "curves[0].left[1].color must be 3 numbers, got 2"),
-        (lambda d: d["curves"][0]["left"][1].update(color=[1, None, 2]),
-         "curves[0].left[1].color[1] must be a number, got null"),
-        (lambda d: d["curves"][0]["right"][0].pop("position"), "curves[0].right[0]: position is missing"),
-        (lambda d: d["curves"][3]["blur"][0].update(blur=False),
-         "curves[3].blur[0].blur must be a number, got a boolean"),
-        (lambda d: d["points"][0].update(radius=-2.0), "points[0].radius must be positive"),
-        (lambda d: d["points"][0].update(radius=0), "points[0].radius must be positive"),
-        (lambda d: d["points"][1].update(position=[1.0]), "points[1].position must be 2 numbers"),
-        (lambda d: d["points"][1].update(amplitude=10**400), "points[1].amplitude must be a finite number"),
-        (lambda d: d.update(points=[3]), "points[0] must be an object, got a number"),
+        (lambda d: d["layers"][0].update(curves={}), "layers[0].curves must be a list, got an object"),
+        (lambda d: d.update(layers=[]), "layers must hold 1 to 1000 layers, got 0"),
+        (lambda d: d.pop("layers"), "layers is missing"),
+        (lambda d: d.update(active=1), "active must be from 0 to 0, got 1"),
+        (lambda d: d["layers"][0].update(opacity=1.5), "layers[0].opacity must lie in [0, 1], got 1.5"),
+        (lambda d: d["layers"][0].update(visible="yes"), "layers[0].visible must be true or false"),
+        (lambda d: d["layers"][0].update(transform={"matrix": [[1, 0, 0]]}), "layers[0].transform.matrix must have 3 rows"),
+        (lambda d: d["layers"][0].update(mask={"base": "1"}), "layers[0].mask.base must be a number"),
+        (lambda d: d["layers"][0].update(mask={"points": [{"position": [1, 2]}]}),
+         "layers[0].mask.points[0]: radius is missing"),
+        (lambda d: d["layers"][0]["curves"][1].update(control_points=[[0, 0]] * 5), "layers[0].curves[1].control_points has 5 points"),
+        (lambda d: d["layers"][0]["curves"][1]["control_points"][2].__setitem__(1, "3"),
+         "layers[0].curves[1].control_points[2][1] must be a number, got a string"),
+        (lambda d: d["layers"][0]["curves"][1]["control_points"][2].append(1.0), "layers[0].curves[1].control_points[2] must be 2 numbers"),
+        (lambda d: d["layers"][0]["curves"][0]["left"][1].update(color=[1, 2]), "layers[0].curves[0].left[1].color must be 3 numbers, got 2"),
+        (lambda d: d["layers"][0]["curves"][0]["left"][1].update(color=[1, None, 2]),
+         "layers[0].curves[0].left[1].color[1] must be a number, got null"),
+        (lambda d: d["layers"][0]["curves"][0]["right"][0].pop("position"), "layers[0].curves[0].right[0]: position is missing"),
+        (lambda d: d["layers"][0]["curves"][3]["blur"][0].update(blur=False),
+         "layers[0].curves[3].blur[0].blur must be a number, got a boolean"),
+        (lambda d: d["layers"][0]["points"][0].update(radius=-2.0), "layers[0].points[0].radius must be positive"),
+        (lambda d: d["layers"][0]["points"][0].update(radius=0), "layers[0].points[0].radius must be positive"),
+        (lambda d: d["layers"][0]["points"][1].update(position=[1.0]), "layers[0].points[1].position must be 2 numbers"),
+        (lambda d: d["layers"][0]["points"][1].update(amplitude=10**400), "layers[0].points[1].amplitude must be a finite number"),
+        (lambda d: d["layers"][0].update(points=[3]), "layers[0].points[0] must be an object, got a number"),
     ],
 )
 def test_document_json_with_wrong_content(tmp_path, saved, edit, message):
@@ -441,8 +450,9 @@ def test_document_json_with_non_finite_numbers(tmp_path, saved, constant):
 
 def test_unknown_keys_and_entries_are_ignored(tmp_path, saved, document):
     data = valid_document_data()
-    data["layers"] = [{"future": True}]
-    data["curves"][0]["stroke"] = "later"
+    data["future"] = True
+    data["layers"][0]["future"] = True
+    data["layers"][0]["curves"][0]["stroke"] = "later"
     path = rewritten(saved, tmp_path / "future.fmr", {"document.json": json.dumps(data).encode()},
                      add=[("history/0001.json", b"{}")])
     assert load_fmr(path).document == document
@@ -452,7 +462,7 @@ def test_unknown_keys_and_entries_are_ignored(tmp_path, saved, document):
 
 
 def with_array(tmp_path: Path, saved: Path, name: str, content: bytes) -> Path:
-    return rewritten(saved, tmp_path / f"{name}.fmr", {f"representation/{name}.npy": content})
+    return rewritten(saved, tmp_path / f"{name}.fmr", {f"layers/0/image/representation/{name}.npy": content})
 
 
 def test_pickled_objects_are_never_loaded(tmp_path, saved):
@@ -500,15 +510,15 @@ def test_array_checks(tmp_path, saved, built):
     for (name, content), message in cases.items():
         problem = load_error(with_array(tmp_path, saved, name, content))
         assert message in problem, (name, message, problem)
-    missing = rewritten(saved, tmp_path / "missing.fmr", {"representation/flux.npy": None})
-    assert "representation/flux.npy is missing" in load_error(missing)
+    missing = rewritten(saved, tmp_path / "missing.fmr", {"layers/0/image/representation/flux.npy": None})
+    assert "layers/0/image/representation/flux.npy is missing" in load_error(missing)
     # the document alone still opens from any of these files
     assert load_fmr(missing, representation=False).representation is None
     assert load_document(missing) == load_fmr(saved).document
 
 
 def manifest_of(saved: Path) -> dict:
-    return json.loads(entries(saved)["representation.json"])
+    return json.loads(entries(saved)["layers/0/image/representation.json"])
 
 
 @pytest.mark.parametrize(
@@ -530,22 +540,22 @@ def manifest_of(saved: Path) -> dict:
 def test_representation_json_with_wrong_content(tmp_path, saved, edit, message):
     manifest = manifest_of(saved)
     edit(manifest)
-    path = rewritten(saved, tmp_path / "m.fmr", {"representation.json": json.dumps(manifest).encode()})
+    path = rewritten(saved, tmp_path / "m.fmr", {"layers/0/image/representation.json": json.dumps(manifest).encode()})
     problem = load_error(path)
-    assert problem.startswith("representation.json: ") and message in problem, problem
+    assert problem.startswith("layers/0/image/representation.json: ") and message in problem, problem
 
 
 def test_segment_count_that_disagrees_with_the_arrays(tmp_path, saved):
     manifest = manifest_of(saved)
     manifest["segment_count"] -= 1
-    path = rewritten(saved, tmp_path / "m.fmr", {"representation.json": json.dumps(manifest).encode()})
-    assert "representation/p.npy" in load_error(path)
+    path = rewritten(saved, tmp_path / "m.fmr", {"layers/0/image/representation.json": json.dumps(manifest).encode()})
+    assert "layers/0/image/representation/p.npy" in load_error(path)
 
 
 def test_newer_representation_is_skipped_and_the_document_opens(tmp_path, saved, document):
     manifest = manifest_of(saved)
     manifest["version"] = 2
-    path = rewritten(saved, tmp_path / "newer.fmr", {"representation.json": json.dumps(manifest).encode()})
+    path = rewritten(saved, tmp_path / "newer.fmr", {"layers/0/image/representation.json": json.dumps(manifest).encode()})
     opened = load_fmr(path)
     assert opened.document == document and opened.representation is None
     assert len(opened.notes) == 1 and "representation format version 2" in opened.notes[0]
@@ -559,7 +569,7 @@ def test_zip_bomb_entry_is_refused_from_its_declared_size(tmp_path, saved):
     path = with_array(tmp_path, saved, "p", bomb)
     assert path.stat().st_size < saved.stat().st_size + (1 << 20)
     problem = load_error(path)
-    assert "unpacks to 64.0 MiB" in problem and "representation/p.npy" in problem
+    assert "unpacks to 64.0 MiB" in problem and "layers/0/image/representation/p.npy" in problem
 
 
 def set_declared_size(blob: bytes, name: str, size: int) -> bytes:
@@ -648,7 +658,7 @@ def test_the_documented_example_is_a_valid_document():
 
 def test_representation_of_an_edited_document_is_skipped(tmp_path, saved, document):
     data = valid_document_data()
-    data["curves"][0]["left"][0]["color"] = [0.0, 0.0, 0.0]
+    data["layers"][0]["curves"][0]["left"][0]["color"] = [0.0, 0.0, 0.0]
     path = with_document(tmp_path, saved, data)
     opened = load_fmr(path)
     assert opened.representation is None and opened.document != document

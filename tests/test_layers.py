@@ -6,56 +6,16 @@ import math
 
 import numpy as np
 import pytest
-from shapes import circle_points, scattered_document, uniform_curve
+from layered import SIZE, reference, three_layers
+from shapes import scattered_document
 
-from fmr_editor.engine import LiveStack, Settings, evaluate_points, rasterise
-from fmr_editor.model import DiffusionPoint, Document, Layer, Mask, edits, layer_edits
+from fmr_editor.engine import LiveStack, evaluate_points, rasterise
+from fmr_editor.model import DiffusionPoint, Document, Layer, edits, layer_edits
 from fmr_editor.model.color_transform import hue_rotation, inversion
 from fmr_editor.model.history import History
 
-SIZE = 128
 PIXELS = 48
 ONE_STEP = 1 / 255
-
-
-def soft_mask(seed: int = 3) -> Mask:
-    """Points of both signs: white dabs adding, a few subtracting, over base 0."""
-    rng = np.random.default_rng(seed)
-    points = [DiffusionPoint(tuple(rng.uniform(0, SIZE, 2)), rng.uniform(6, 20), (1.0, 1.0, 1.0),
-                             amplitude=rng.choice([1.0, 1.0, -0.6])) for _ in range(30)]
-    return Mask(points=points)
-
-
-def sharp_mask() -> Mask:
-    """A closed circle, white inside and black outside: 1 inside, 0 outside."""
-    return Mask(curves=[uniform_curve(circle_points(60, 70, 35), left=1.0, right=0.0)])
-
-
-def three_layers() -> Document:
-    bottom = Layer(scattered_document(SIZE, seed=2).curves, name="bottom")
-    middle = Layer(scattered_document(SIZE, seed=5).curves, name="middle", opacity=0.7, mask=soft_mask())
-    top = Layer(scattered_document(SIZE, seed=7).curves, name="top", mask=sharp_mask(), transform=hue_rotation(120))
-    return Document(SIZE, SIZE, layers=(bottom, middle, top), active=1)
-
-
-def reference(document: Document, width: int, height: int) -> np.ndarray:
-    """Per-pixel composition of each layer and mask rendered by the direct sums (no FMR), by the formula."""
-    def direct(target) -> np.ndarray:
-        return rasterise(LiveStack(document.flat(target)).representation, width, height, samples=1, method="direct")
-
-    luma = np.array([0.2126, 0.7152, 0.0722])
-    out = np.zeros((height, width, 3))
-    for layer in document.layers:
-        if not layer.visible:
-            continue
-        value = np.full((height, width), 1.0)
-        if layer.mask is not None and layer.mask.enabled:
-            value = layer.mask.base + (direct(layer.mask) @ luma if not layer.mask.is_constant else 0.0)
-            value = 1.0 - value if layer.mask.inverted else value
-        m = layer.opacity * np.minimum(np.maximum(value, 0.0), 1.0)
-        colour = direct(layer) @ layer.transform.matrix.T + layer.transform.offset
-        out = m[..., None] * colour + (1.0 - m[..., None]) * out
-    return out
 
 
 # -- the model ---------------------------------------------------------------------------------------------------

@@ -39,29 +39,44 @@ class LayerFields:
     image : Representation
         The layer's diffusion image.
     mask : Representation or None
-        The mask's diffusion image (its luminance is the mask); None for a
-        constant mask (``mask_base`` everywhere) or none at all (base 1).
+        The mask's diffusion image (its luminance plus ``mask_base`` is the
+        mask); None for a mask without items (``mask_base`` everywhere) or no
+        mask at all (base 1).
     mask_base : float
     mask_inverted : bool
+    mask_enabled : bool
+        False draws the layer as without a mask.
     opacity : float
     transform : ColorTransform
+    visible : bool
     """
 
     image: Representation
     mask: Representation | None = None
     mask_base: float = 1.0
     mask_inverted: bool = False
+    mask_enabled: bool = True
     opacity: float = 1.0
     transform: ColorTransform = IDENTITY
+    visible: bool = True
 
     @property
     def covers(self) -> bool:
         """True when the layer's weight is 1 everywhere, hiding all below."""
+        if not self.mask_enabled:
+            return self.opacity == 1.0
         value = self.mask_base if not self.mask_inverted else 1.0 - self.mask_base
         return self.opacity == 1.0 and self.mask is None and value >= 1.0
 
+    @property
+    def masked(self) -> bool:
+        """True when the weight varies over the canvas (an enabled mask with items)."""
+        return self.mask_enabled and self.mask is not None
+
     def weight(self, mask_values: np.ndarray | None) -> np.ndarray | float:
-        """``m = opacity * clamp(M, 0, 1)`` from the mask's colour values ``(..., 3)`` (None: constant mask)."""
+        """``m = opacity * clamp(M, 0, 1)`` from the mask's colour values ``(..., 3)`` (None: constant)."""
+        if not self.mask_enabled:
+            return self.opacity
         value = self.mask_base if mask_values is None else mask_values @ MASK_LUMA + self.mask_base
         if self.mask_inverted:
             value = 1.0 - value
@@ -70,7 +85,7 @@ class LayerFields:
 
 @dataclass(frozen=True)
 class Composite:
-    """A layered picture: ``layers`` bottom first, on a ``width x height`` canvas."""
+    """A layered picture: every layer of a document, bottom first, on a ``width x height`` canvas."""
 
     width: int
     height: int
@@ -78,16 +93,17 @@ class Composite:
 
     @property
     def shown(self) -> tuple[LayerFields, ...]:
-        """The layers that can show: from the topmost one that covers everything, up."""
-        start = max((i for i, layer in enumerate(self.layers) if layer.covers), default=0)
-        return self.layers[start:]
+        """The layers that can show: the visible ones from the topmost that covers everything, up."""
+        visible = [layer for layer in self.layers if layer.visible]
+        start = max((i for i, layer in enumerate(visible) if layer.covers), default=0)
+        return tuple(visible[start:])
 
     @property
     def representations(self) -> tuple[Representation, ...]:
         """Every representation ``shown`` reads: images and masks."""
         reps = []
         for layer in self.shown:
-            reps += [layer.image] + ([layer.mask] if layer.mask is not None else [])
+            reps += [layer.image] + ([layer.mask] if layer.masked else [])
         return tuple(reps)
 
 
@@ -104,7 +120,7 @@ def compose(composite: Composite, values: Callable[[Representation], np.ndarray]
         if layer.covers:
             out = colour
             continue
-        weight = layer.weight(values(layer.mask) if layer.mask is not None else None)
+        weight = layer.weight(values(layer.mask) if layer.masked else None)
         out += np.asarray(weight)[..., None] * (colour - out)
     return out
 

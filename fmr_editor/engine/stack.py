@@ -48,6 +48,11 @@ class StackUpdate:
     def exact(self) -> bool:
         return all(update.exact for update in self.fields.values())
 
+    @property
+    def changed(self) -> np.ndarray | None:
+        """The changed cells of the one field updated (see ``Update.changed``); None when several or none were."""
+        return next(iter(self.fields.values())).changed if len(self.fields) == 1 else None
+
 
 def _wanted(document: Document) -> dict[FieldKey, Document]:
     """The one-image documents the engine keeps for ``document``: each layer's image, each mask with items."""
@@ -158,16 +163,18 @@ class LiveStack:
 
     @property
     def composite(self) -> Composite:
-        """The picture: the visible layers with their masks, opacities and transforms."""
-        document = self.document
-        layers = []
-        for layer in document.layers:
-            if not layer.visible:
-                continue
-            mask = layer.active_mask
-            layers.append(LayerFields(
-                self.image(layer), self.mask(layer) if mask is not None else None,
-                mask.base if mask is not None else 1.0, mask is not None and mask.inverted,
-                layer.opacity, layer.transform,
-            ))
-        return Composite(document.width, document.height, tuple(layers))
+        """The picture: every layer's representations with its mask, opacity, transform and visibility."""
+        return composite_of(self.document, [(self.image(layer), self.mask(layer)) for layer in self.document.layers])
+
+
+def composite_of(document: Document,
+                 fields: Sequence[tuple[Representation, Representation | None]]) -> Composite:
+    """``document``'s picture from each layer's ``(image, mask)`` representations (mask None: no mask or no items)."""
+    layers = []
+    for layer, (image, mask_field) in zip(document.layers, fields, strict=True):
+        mask = layer.mask
+        layers.append(LayerFields(
+            image, mask_field, mask.base if mask is not None else 1.0, mask is not None and mask.inverted,
+            mask is None or mask.enabled, layer.opacity, layer.transform, layer.visible,
+        ))
+    return Composite(document.width, document.height, tuple(layers))

@@ -4,12 +4,18 @@ Kept apart from the container so that other features (history snapshots,
 the clipboard) can reuse it.  The schema, with an example, is in
 ``docs/fmr-format.md``; in short::
 
-    {"format": "fmr-editor document", "version": 1,
-     "canvas": {"width": 512, "height": 512},
-     "curves": [{"control_points": [[x, y], ...],
-                 "left": [{"position": s, "color": [r, g, b]}, ...],
-                 "right": [...], "blur": [{"position": s, "blur": b}, ...]}],
-     "points": [{"position": [x, y], "radius": r, "color": [r, g, b], "amplitude": a}]}
+    {"format": "fmr-editor document", "version": 2,
+     "canvas": {"width": 512, "height": 512}, "active": 0,
+     "layers": [{"name": "Layer 1", "visible": true, "opacity": 1.0,
+                 "transform": {"matrix": [[1, 0, 0], [0, 1, 0], [0, 0, 1]], "offset": [0, 0, 0]},
+                 "mask": null or {"base": 1.0, "inverted": false, "enabled": true, "curves": [...], "points": [...]},
+                 "curves": [{"control_points": [[x, y], ...],
+                             "left": [{"position": s, "color": [r, g, b]}, ...],
+                             "right": [...], "blur": [{"position": s, "blur": b}, ...]}],
+                 "points": [{"position": [x, y], "radius": r, "color": [r, g, b], "amplitude": a}]}]}
+
+Version 1 (before layers) had ``curves`` and ``points`` at the top level and
+no ``layers``; it reads as one layer.
 
 Positions along curves are in piece units (the model's convention).  Floats
 are written with Python's shortest round-trip ``repr``, so a document comes
@@ -23,7 +29,8 @@ from __future__ import annotations
 
 import json
 
-from ..model import BlurStop, ColorStop, DiffusionCurve, DiffusionPoint, Document
+from ..model import BlurStop, ColorStop, DiffusionCurve, DiffusionPoint, Document, Layer, Mask
+from ..model.color_transform import ColorTransform
 from .json_checks import (
     SchemaError,
     as_list,
@@ -40,8 +47,11 @@ from .json_checks import (
 FORMAT_NAME = "fmr-editor document"
 """Value of the ``format`` key."""
 
-SCHEMA_VERSION = 1
-"""The version written, and the newest one read."""
+SCHEMA_VERSION = 2
+"""The version written, and the newest one read (1: one image, 2: layers)."""
+
+MAX_LAYERS = 1000
+"""Most layers read."""
 
 MAX_CANVAS_SIZE = 32768
 """Largest canvas width or height accepted (as the Orzan reader)."""
@@ -62,8 +72,29 @@ def document_to_data(document: Document) -> dict:
         "format": FORMAT_NAME,
         "version": SCHEMA_VERSION,
         "canvas": {"width": document.width, "height": document.height},
-        "curves": [_curve_to_data(curve) for curve in document.curves],
-        "points": [_point_to_data(point) for point in document.points],
+        "active": document.active,
+        "layers": [_layer_to_data(layer) for layer in document.layers],
+    }
+
+
+def _items_to_data(target: Layer | Mask) -> dict:
+    return {
+        "curves": [_curve_to_data(curve) for curve in target.curves],
+        "points": [_point_to_data(point) for point in target.points],
+    }
+
+
+def _layer_to_data(layer: Layer) -> dict:
+    mask = layer.mask
+    return {
+        "name": layer.name,
+        "visible": layer.visible,
+        "opacity": layer.opacity,
+        "transform": {"matrix": layer.transform.matrix.tolist(), "offset": layer.transform.offset.tolist()},
+        "mask": None if mask is None else {
+            "base": mask.base, "inverted": mask.inverted, "enabled": mask.enabled, **_items_to_data(mask)
+        },
+        **_items_to_data(layer),
     }
 
 
@@ -133,13 +164,60 @@ def document_from_data(data: object) -> Document:
     root = as_object(data, "the top level")
     if root.get("format") != FORMAT_NAME:
         raise SchemaError(f"format is {root.get('format')!r:.60}, expected {FORMAT_NAME!r}")
-    check_version(root, "version", SCHEMA_VERSION, "document format")
+    version = check_version(root, "version", SCHEMA_VERSION, "document format")
     canvas = as_object(required(root, "canvas", ""), "canvas")
     width = whole(required(canvas, "width", "canvas"), "canvas.width", 1, MAX_CANVAS_SIZE)
     height = whole(required(canvas, "height", "canvas"), "canvas.height", 1, MAX_CANVAS_SIZE)
-    curves = [_curve(item, f"curves[{i}]") for i, item in enumerate(as_list(root.get("curves", []), "curves"))]
-    points = [_point(item, f"points[{i}]") for i, item in enumerate(as_list(root.get("points", []), "points"))]
-    return Document(width, height, tuple(curves), tuple(points))
+    if version == 1:
+        curves, points = _items(root, "")
+        return Document(width, height, curves, points)
+    values = as_list(required(root, "layers", ""), "layers")
+    if not 1 <= len(values) <= MAX_LAYERS:
+        raise SchemaError(f"layers must hold 1 to {MAX_LAYERS} layers, got {len(values)}")
+    layers = tuple(_layer(value, f"layers[{i}]") for i, value in enumerate(values))
+    active = whole(root.get("active", 0), "active", 0, len(layers) - 1)
+    return Document(width, height, layers=layers, active=active)
+
+
+def _items(item: dict, where: str) -> tuple[tuple[DiffusionCurve, ...], tuple[DiffusionPoint, ...]]:
+    """The curves and points of a layer, a mask or a version-1 document."""
+    prefix = f"{where}." if where else ""
+    curves = as_list(item.get("curves", []), f"{prefix}curves")
+    points = as_list(item.get("points", []), f"{prefix}points")
+    return (tuple(_curve(value, f"{prefix}curves[{i}]") for i, value in enumerate(curves)),
+            tuple(_point(value, f"{prefix}points[{i}]") for i, value in enumerate(points)))
+
+
+def _flag(item: dict, key: str, default: bool, where: str) -> bool:
+    value = item.get(key, default)
+    if not isinstance(value, bool):
+        raise SchemaError(f"{where}.{key} must be true or false, got {value!r:.40}")
+    return value
+
+
+def _layer(value: object, where: str) -> Layer:
+    item = as_object(value, where)
+    name = item.get("name", "Layer")
+    if not isinstance(name, str) or len(name) > 1000:
+        raise SchemaError(f"{where}.name must be text of at most 1000 characters")
+    opacity = finite(item.get("opacity", 1.0), f"{where}.opacity")
+    if not 0.0 <= opacity <= 1.0:
+        raise SchemaError(f"{where}.opacity must lie in [0, 1], got {opacity!r}")
+    transform = as_object(item.get("transform", {}), f"{where}.transform")
+    matrix = finite_rows(transform.get("matrix", [[1, 0, 0], [0, 1, 0], [0, 0, 1]]), 3, f"{where}.transform.matrix")
+    if len(matrix) != 3:
+        raise SchemaError(f"{where}.transform.matrix must have 3 rows, got {len(matrix)}")
+    offset = finite_tuple(transform.get("offset", [0, 0, 0]), 3, f"{where}.transform.offset")
+    mask = None
+    if item.get("mask") is not None:
+        mask_item = as_object(item["mask"], f"{where}.mask")
+        curves, points = _items(mask_item, f"{where}.mask")
+        mask = Mask(curves, points, finite(mask_item.get("base", 0.0), f"{where}.mask.base"),
+                    _flag(mask_item, "inverted", False, f"{where}.mask"),
+                    _flag(mask_item, "enabled", True, f"{where}.mask"))
+    curves, points = _items(item, where)
+    return Layer(curves, points, name, _flag(item, "visible", True, where), opacity, mask,
+                 ColorTransform(matrix, offset))
 
 
 def _curve(value: object, where: str) -> DiffusionCurve:

@@ -4,8 +4,11 @@ An ``.fmr`` file is a ZIP archive (as OpenRaster and Krita files are):
 
 * ``mimetype``, first and stored: ``application/x-fmr-editor``;
 * ``document.json``: the editable document (``document_json``);
-* ``representation.json`` and ``representation/*.npy``: the solved
-  representation (``representation_entries``), optional;
+* per layer ``i``, ``layers/i/image/representation.json`` and
+  ``layers/i/image/representation/*.npy``: its solved representation
+  (``representation_entries``), optional; ``layers/i/mask/...`` likewise
+  for a mask with items.  Files of version 1 (one image) have
+  ``representation.json`` and ``representation/*.npy`` at the top;
 * ``thumbnail.png``: at most 256 px on its longest side, present with a
   representation.
 
@@ -31,7 +34,7 @@ from typing import BinaryIO
 import numpy as np
 from PIL import Image
 
-from ..engine import Representation, Settings, rasterise
+from ..engine import Composite, Representation, Settings, composite_of, rasterise
 from ..model import Document
 from .atomic import write_atomically
 from .document_json import dumps_document, loads_document
@@ -78,11 +81,12 @@ class FmrFile:
     Attributes
     ----------
     document : Document
-    representation : Representation or None
-        Ready to render; None when the file has none, when it was not asked
-        for, or when it cannot be used (see ``notes``).
+    fields : tuple
+        Per layer, its image's and its mask's representations ``(image,
+        mask)``, ready to render; None where the file has none, where they
+        were not asked for, or where they cannot be used (see ``notes``).
     settings : Settings or None
-        The build settings saved with the representation, when given.
+        The build settings saved with the representations, when given.
     notes : tuple of str
         Why a representation present in the file was left out: written by
         a newer fmr-editor, or saved with another ``document.json`` (the
@@ -90,9 +94,29 @@ class FmrFile:
     """
 
     document: Document
-    representation: Representation | None = None
+    fields: tuple[tuple[Representation | None, Representation | None], ...] = ()
     settings: Settings | None = None
     notes: tuple[str, ...] = ()
+
+    @property
+    def representation(self) -> Representation | None:
+        """The picture's representation for a one-layer document (its image); None otherwise."""
+        return self.fields[0][0] if self.fields and self.document.is_flat else None
+
+    @property
+    def composite(self) -> Composite | None:
+        """The picture, ready to render, when the file holds every representation it needs; else None."""
+        if len(self.fields) != len(self.document.layers):
+            return None
+        for layer, (image, mask) in zip(self.document.layers, self.fields):
+            if image is None or (layer.mask is not None and not layer.mask.is_constant and mask is None):
+                return None
+        return composite_of(self.document, self.fields)
+
+
+def field_prefix(layer: int, kind: str) -> str:
+    """Where the representation of layer ``layer``'s ``kind`` (``"image"`` or ``"mask"``) is kept."""
+    return f"layers/{layer}/{kind}/"
 
 
 # --- saving --------------------------------------------------------------------------------------
@@ -101,7 +125,7 @@ class FmrFile:
 def save_fmr(
     path: str | os.PathLike,
     document: Document,
-    representation: Representation | None = None,
+    representation: Representation | Composite | None = None,
     *,
     settings: Settings | None = None,
 ) -> Path:
@@ -118,9 +142,10 @@ def save_fmr(
     path : str or os.PathLike
         The file to write; its folder must exist.
     document : Document
-    representation : Representation, optional
-        ``build(document, settings)``'s result, saved so that opening needs
-        no solve; also gives the thumbnail.
+    representation : Representation or Composite, optional
+        What opening takes instead of solving, and what the thumbnail shows:
+        ``LiveStack.composite`` (every layer's representations), or for a
+        one-layer document ``build(document, settings)``.
     settings : Settings, optional
         The settings ``representation`` was built with, saved beside it.
 
@@ -137,14 +162,37 @@ def save_fmr(
         If the file cannot be written.
     """
     document_bytes = dumps_document(document)
-    manifest, arrays = describe(representation, document, settings) if representation is not None else (None, {})
-    if manifest is not None:
+    fields = []
+    for prefix, rep, target in _fields(document, representation):
+        manifest, arrays = describe(rep, document.flat(target), settings)
         manifest["document_sha256"] = _digest(document_bytes)
-    return write_atomically(path, lambda stream: _write_archive(stream, document_bytes, manifest, arrays, representation))
+        fields.append((prefix, manifest, arrays))
+    return write_atomically(path, lambda stream: _write_archive(stream, document_bytes, fields, representation))
 
 
-def _write_archive(stream: BinaryIO, document_bytes: bytes, manifest: dict | None, arrays: dict,
-                   rep: Representation | None) -> None:
+def _fields(document: Document, representation: Representation | Composite | None) -> list[tuple]:
+    """``(prefix, representation, layer or mask)`` of each representation to save."""
+    if representation is None:
+        return []
+    if isinstance(representation, Representation):
+        if len(document.layers) != 1:
+            raise ValueError(f"a document of {len(document.layers)} layers is saved with its composite")
+        return [(field_prefix(0, "image"), representation, document.layers[0])]
+    if len(representation.layers) != len(document.layers):
+        raise ValueError(f"the composite has {len(representation.layers)} layers, the document "
+                         f"{len(document.layers)}")
+    fields = []
+    for i, (layer, drawn) in enumerate(zip(document.layers, representation.layers)):
+        fields.append((field_prefix(i, "image"), drawn.image, layer))
+        if drawn.mask is not None:
+            if layer.mask is None:
+                raise ValueError(f"layer {i} of the composite has a mask, the document's has none")
+            fields.append((field_prefix(i, "mask"), drawn.mask, layer.mask))
+    return fields
+
+
+def _write_archive(stream: BinaryIO, document_bytes: bytes, fields: list[tuple], rep: Representation | Composite
+                   | None) -> None:
     """The archive's entries, in their order (``mimetype`` first and stored)."""
     stamp = time.localtime()[:6]
 
@@ -157,21 +205,21 @@ def _write_archive(stream: BinaryIO, document_bytes: bytes, manifest: dict | Non
     with zipfile.ZipFile(stream, "w", allowZip64=True) as archive:
         archive.writestr(info("mimetype", zipfile.ZIP_STORED), MIMETYPE)
         archive.writestr(info(DOCUMENT_ENTRY, zipfile.ZIP_DEFLATED), document_bytes, compresslevel=COMPRESS_LEVEL)
-        if manifest is None:
-            return
-        text = dumps_manifest(manifest)
-        archive.writestr(info(REPRESENTATION_ENTRY, zipfile.ZIP_DEFLATED), text)
-        for name, array in arrays.items():
-            if name in _COMPRESSED:  # small: through memory, which lets writestr set the level
-                buffer = io.BytesIO()
-                np.save(buffer, array, allow_pickle=False)
-                entry = info(entry_name(name), zipfile.ZIP_DEFLATED)
-                archive.writestr(entry, buffer.getbuffer(), compresslevel=COMPRESS_LEVEL)
-            else:  # large: streamed
-                entry = info(entry_name(name), zipfile.ZIP_STORED)
-                with archive.open(entry, "w", force_zip64=array.nbytes > (1 << 30)) as out:
-                    np.save(out, array, allow_pickle=False)
-        archive.writestr(info(THUMBNAIL_ENTRY, zipfile.ZIP_STORED), thumbnail_png(rep))
+        for prefix, manifest, arrays in fields:
+            text = dumps_manifest(manifest)
+            archive.writestr(info(prefix + REPRESENTATION_ENTRY, zipfile.ZIP_DEFLATED), text)
+            for name, array in arrays.items():
+                if name in _COMPRESSED:  # small: through memory, which lets writestr set the level
+                    buffer = io.BytesIO()
+                    np.save(buffer, array, allow_pickle=False)
+                    entry = info(entry_name(name, prefix), zipfile.ZIP_DEFLATED)
+                    archive.writestr(entry, buffer.getbuffer(), compresslevel=COMPRESS_LEVEL)
+                else:  # large: streamed
+                    entry = info(entry_name(name, prefix), zipfile.ZIP_STORED)
+                    with archive.open(entry, "w", force_zip64=array.nbytes > (1 << 30)) as out:
+                        np.save(out, array, allow_pickle=False)
+        if rep is not None:
+            archive.writestr(info(THUMBNAIL_ENTRY, zipfile.ZIP_STORED), thumbnail_png(rep))
 
 
 def dumps_manifest(manifest: dict) -> bytes:
@@ -179,7 +227,7 @@ def dumps_manifest(manifest: dict) -> bytes:
     return json.dumps(manifest, allow_nan=False, indent=1).encode("utf-8")
 
 
-def thumbnail_png(rep: Representation) -> bytes:
+def thumbnail_png(rep: Representation | Composite) -> bytes:
     """A PNG of ``rep`` at most ``THUMBNAIL_SIZE`` pixels on its longest side (2x2 samples a pixel)."""
     scale = min(1.0, THUMBNAIL_SIZE / max(rep.width, rep.height))
     image = rasterise(rep, max(1, round(rep.width * scale)), max(1, round(rep.height * scale)), samples=2)
@@ -232,8 +280,8 @@ def load_fmr(path: str | os.PathLike, *, representation: bool = True) -> FmrFile
         raise DocumentLoadError(name, "not enough memory to open the file") from None
     except OSError as error:
         raise DocumentLoadError(name, f"cannot read the file ({error.strerror or error})") from None
-    if result.representation is not None:
-        result.representation.timings["open"] = time.perf_counter() - start
+    for rep in (rep for pair in result.fields for rep in pair if rep is not None):
+        rep.timings["open"] = time.perf_counter() - start
     return result
 
 
@@ -244,27 +292,48 @@ def _read(archive: zipfile.ZipFile, with_representation: bool) -> FmrFile:
         document = loads_document(document_bytes)
     except SchemaError as error:
         raise _prefixed(error, DOCUMENT_ENTRY) from None
-    if not with_representation or REPRESENTATION_ENTRY not in archive.namelist():
+    if not with_representation:
         return FmrFile(document)
+    names = set(archive.namelist())
+    fields, notes, settings = [], [], None
+    for i, layer in enumerate(document.layers):
+        pair = []
+        for kind, target in (("image", layer), ("mask", layer.mask)):
+            prefix = "" if REPRESENTATION_ENTRY in names and (i, kind) == (0, "image") else field_prefix(i, kind)
+            if target is None or prefix + REPRESENTATION_ENTRY not in names:
+                pair.append(None)
+                continue
+            rep, field_settings, note = _read_field(archive, prefix, document_bytes, document.flat(target))
+            pair.append(rep)
+            settings = settings or field_settings
+            notes += [note] if note else []
+        fields.append(tuple(pair))
+    return FmrFile(document, tuple(fields), settings, tuple(dict.fromkeys(notes)))
+
+
+def _read_field(archive: zipfile.ZipFile, prefix: str, document_bytes: bytes,
+                target: Document) -> tuple[Representation | None, Settings | None, str | None]:
+    """The representation saved under ``prefix`` for ``target``; or None and a note saying why not."""
+    entry = prefix + REPRESENTATION_ENTRY
     try:
-        manifest = as_object(parse_json(read_entry(archive, REPRESENTATION_ENTRY, MAX_MANIFEST_BYTES)), "the top level")
+        manifest = as_object(parse_json(read_entry(archive, entry, MAX_MANIFEST_BYTES)), "the top level")
         check_version(manifest, "version", REPRESENTATION_VERSION, "representation format")
     except NewerVersionError as error:  # derived data a newer engine wrote: the document still opens
-        return FmrFile(document, notes=(f"{REPRESENTATION_ENTRY}: {error}; the representation must be rebuilt",))
+        return None, None, f"{REPRESENTATION_ENTRY}: {error}; the representation must be rebuilt"
     except SchemaError as error:
-        raise _prefixed(error, REPRESENTATION_ENTRY) from None
+        raise _prefixed(error, entry) from None
     if manifest.get("document_sha256") != _digest(document_bytes):  # document.json edited after saving
-        return FmrFile(document, notes=(
-            f"{REPRESENTATION_ENTRY}: it was saved with another {DOCUMENT_ENTRY}; the representation must be rebuilt",
-        ))
+        return None, None, (f"{REPRESENTATION_ENTRY}: it was saved with another {DOCUMENT_ENTRY}; "
+                            "the representation must be rebuilt")
     try:
-        layout = parse_manifest(manifest, document)
+        layout = parse_manifest(manifest, target)
     except SchemaError as error:
-        raise _prefixed(error, REPRESENTATION_ENTRY) from None
+        raise _prefixed(error, entry) from None
     arrays = {
-        name: read_npy(archive, entry_name(name), dtype, shape) for name, (dtype, shape) in layout.arrays().items()
+        name: read_npy(archive, entry_name(name, prefix), dtype, shape)
+        for name, (dtype, shape) in layout.arrays().items()
     }
-    return FmrFile(document, assemble(layout, arrays, document), layout.settings)
+    return assemble(layout, arrays, target), layout.settings, None
 
 
 def _digest(document_bytes: bytes) -> str:

@@ -90,9 +90,9 @@ class ArrayLayout:
         return arrays
 
 
-def entry_name(array: str) -> str:
-    """The archive entry holding ``array``."""
-    return f"representation/{array}.npy"
+def entry_name(array: str, prefix: str = "") -> str:
+    """The archive entry holding ``array`` of the representation under ``prefix`` (``fmr_file.field_prefix``)."""
+    return f"{prefix}representation/{array}.npy"
 
 
 # --- saving --------------------------------------------------------------------------------------

@@ -5,6 +5,4 @@ from .document import Document
 from .layer import Layer, Mask
 from .point import DiffusionPoint
 
-from . import edits, layer_edits  # noqa: E402  (after what they import)
-
 __all__ = ["BlurStop", "ColorStop", "DiffusionCurve", "DiffusionPoint", "Document", "Layer", "Mask", "interpolate_stops"]

@@ -112,8 +112,16 @@ class Document:
         return len(self.layers) == 1 and self.layers[0].plain
 
     def flat(self, target: Layer | Mask) -> Document:
-        """A one-layer document of ``target``'s curves and points on this canvas (what the engine solves)."""
-        return Document(self.width, self.height, target.curves, target.points)
+        """A one-layer document of ``target``'s curves and points on this canvas (what the engine solves).
+
+        The same target on the same canvas gives the same object: the engine
+        recognises a document it has seen (undo) by identity.
+        """
+        memo = target.__dict__.setdefault("_flat_documents", {})  # not a field: no part of the target's value
+        key = (self.width, self.height)
+        if key not in memo:
+            memo[key] = Document(self.width, self.height, target.curves, target.points)
+        return memo[key]
 
     @cached_property
     def _curve_positions(self) -> dict[int, int]:

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from .color_transform import ColorTransform
+from .color_transform import IDENTITY, ColorTransform
 from .document import Document
 from .layer import Layer, Mask
 
@@ -116,3 +116,31 @@ def invert_mask(document: Document, index: int | None = None) -> Document:
 
 def set_mask_enabled(document: Document, index: int | None, enabled: bool) -> Document:
     return _mask_changed(document, index, enabled=enabled)
+
+
+def stacked(bottom: Document, top: Document, mask: Document | None = None, opacity: float = 1.0,
+            transform: ColorTransform | None = None) -> Document:
+    """A two-layer document: ``top`` over ``bottom``, masked by the luminance of ``mask``'s picture.
+
+    Each of the three is a one-layer document on the same canvas; the top
+    layer takes ``opacity`` and ``transform``, and ``mask``'s curves and
+    points as its mask (base 0: black hides the top layer).
+
+    Raises
+    ------
+    ValueError
+        When the canvases differ, a document has layers of its own, or the
+        opacity lies outside [0, 1].
+    """
+    sources = {"bottom": bottom, "top": top} | ({"mask": mask} if mask is not None else {})
+    for role, document in sources.items():
+        if (document.width, document.height) != (bottom.width, bottom.height):
+            raise ValueError(f"the {role} canvas is {document.width}x{document.height}, the bottom's "
+                             f"{bottom.width}x{bottom.height}; compose documents of one canvas size")
+        if not document.is_flat:
+            raise ValueError(f"the {role} document has layers of its own; compose takes one-layer documents")
+    layer_mask = Mask(mask.curves, mask.points, base=0.0) if mask is not None else None
+    layers = (replace(bottom.layer, name="Bottom"),
+              Layer(top.curves, top.points, "Top", opacity=opacity, mask=layer_mask,
+                    transform=transform if transform is not None else IDENTITY))
+    return Document(bottom.width, bottom.height, layers=layers, active=1)

@@ -1,0 +1,147 @@
+"""Layered documents in files and on the command line.
+
+Checks
+------
+* A ``.fmr`` written before layers (``files/version1.fmr``, saved by the code
+  of that time and kept) opens as one plain layer with its representation, no
+  solve, and renders as a fresh build of its document.
+* A layered document saved and reopened is the same document, opens without a
+  solve, and gives the same pixels.
+* ``fmr-editor compose`` writes what the reference composition gives;
+  ``fmr-editor render`` renders it; bad input gives one clear line, exit 2 and
+  no file.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+from pathlib import Path
+
+import numpy as np
+import pytest
+from layered import SIZE, reference, sharp_mask, soft_mask, three_layers
+from PIL import Image
+from shapes import scattered_document
+
+from fmr_editor.cli import main
+from fmr_editor.engine import LiveStack, Settings, build, rasterise
+from fmr_editor.io import DocumentLoadError, load_fmr, open_live, save_fmr
+from fmr_editor.io.png import to_rgb8
+from fmr_editor.model import Document, layer_edits
+from fmr_editor.model.color_transform import hue_rotation
+from fmr_editor.session import Session
+
+VERSION_1 = Path(__file__).parent / "files" / "version1.fmr"
+PIXELS = 32
+
+
+def test_a_version_1_file_opens_as_one_layer_without_a_solve():
+    opened = load_fmr(VERSION_1)
+    document = opened.document
+    assert len(document.layers) == 1 and document.is_flat
+    assert len(document.curves) == 2 and len(document.points) == 2
+    assert opened.representation is not None and opened.notes == ()
+    live = open_live(VERSION_1)
+    assert live.timings.keys() == {"resume"}
+    fresh = build(document, opened.settings or Settings())
+    np.testing.assert_allclose(rasterise(opened.representation, PIXELS, samples=1),
+                               rasterise(fresh, PIXELS, samples=1), rtol=0, atol=1e-9)
+
+
+def test_a_layered_document_saved_and_reopened_is_the_same_without_a_solve(tmp_path):
+    session = Session(three_layers())
+    session.apply(lambda d: layer_edits.set_visible(d, 0, False), "Hide Layer")
+    path = session.save(tmp_path / "layers.fmr")
+    opened = load_fmr(path)
+    assert opened.document == session.document
+    assert opened.composite is not None  # every representation it needs is in the file
+    reopened = Session.open(path)
+    assert all(live.timings.keys() == {"resume"} for live in reopened.live.fields.values())
+    assert len(reopened.live.fields) == 5  # three images, two masks
+    np.testing.assert_array_equal(reopened.image(PIXELS, PIXELS, samples=1), session.image(PIXELS, PIXELS, samples=1))
+
+
+def test_the_editor_refuses_to_show_a_layered_document_rather_than_show_one_layer(tmp_path):
+    path = save_fmr(tmp_path / "layers.fmr", three_layers())
+    with pytest.raises(DocumentLoadError, match="has 3 layers.*fmr-editor render"):
+        open_live(path)
+
+
+# -- the command line --------------------------------------------------------------------------------------------
+
+
+def run(*argv: str) -> tuple[int, str, str]:
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        try:
+            code = main(list(argv))
+        except SystemExit as exit:  # argparse
+            code = exit.code
+    return code, out.getvalue(), err.getvalue()
+
+
+@pytest.fixture(scope="module")
+def inputs(tmp_path_factory) -> dict[str, Path]:
+    folder = tmp_path_factory.mktemp("compose")
+    documents = three_layers()
+    bottom, top = (Document(SIZE, SIZE, layer.curves) for layer in (documents.layers[0], documents.layers[2]))
+    paths = {"bottom": folder / "bottom.fmr", "top": folder / "top.fmr", "mask": folder / "mask.fmr",
+             "small": folder / "small.fmr"}
+    settings = Settings()
+    save_fmr(paths["bottom"], bottom, build(bottom, settings), settings=settings)  # with a representation
+    save_fmr(paths["top"], top)  # without: compose solves it
+    mask = sharp_mask()
+    save_fmr(paths["mask"], Document(SIZE, SIZE, mask.curves, soft_mask().points))
+    save_fmr(paths["small"], scattered_document(64))
+    return paths
+
+
+def test_compose_writes_the_reference_composition_and_render_draws_it(tmp_path, inputs):
+    out = tmp_path / "out.fmr"
+    code, printed, _ = run("compose", str(inputs["bottom"]), str(inputs["top"]), "-o", str(out),
+                           "--mask", str(inputs["mask"]), "--opacity", "0.8", "--hue", "150")
+    assert code == 0 and "2 layers" in printed
+    document = load_fmr(out).document
+    top = document.layers[1]
+    assert [layer.name for layer in document.layers] == ["Bottom", "Top"] and top.opacity == 0.8
+    assert top.transform == hue_rotation(150) and top.mask.base == 0.0 and len(top.mask.points) == 30
+    png = tmp_path / "out.png"
+    assert run("render", str(out), "-o", str(png), "--width", str(PIXELS), "--samples", "1")[0] == 0
+    expected = to_rgb8(reference(document, PIXELS, PIXELS)).astype(int)
+    got = np.asarray(Image.open(png).convert("RGB")).astype(int)
+    assert np.abs(got - expected).max() <= 1
+    without_mask = to_rgb8(reference(layer_edits.remove_mask(document, 1), PIXELS, PIXELS)).astype(int)
+    assert np.abs(without_mask - expected).max() > 20  # the mask shows
+
+
+@pytest.mark.parametrize("extra, message", [
+    (("--opacity", "1.5"), "must lie between 0 and 1, got 1.5"),
+    (("--opacity", "nan"), "must be a finite number, got nan"),
+    (("--hue", "inf"), "must be a finite number"),
+    (("--mask", "missing.fmr"), "cannot open missing.fmr: file not found"),
+    (("--mask", "{small}"), "the mask canvas is 64x64, the bottom's 128x128"),
+])
+def test_compose_refuses_bad_input_with_one_line_and_writes_nothing(tmp_path, inputs, extra, message):
+    out = tmp_path / "out.fmr"
+    extra = tuple(item.format(small=inputs["small"]) for item in extra)
+    code, _, err = run("compose", str(inputs["bottom"]), str(inputs["top"]), "-o", str(out), *extra)
+    assert code == 2 and message in err.strip().splitlines()[-1]
+    assert "Traceback" not in err and not out.exists()
+
+
+def test_compose_refuses_documents_of_different_sizes(tmp_path, inputs):
+    out = tmp_path / "out.fmr"
+    code, _, err = run("compose", str(inputs["small"]), str(inputs["top"]), "-o", str(out))
+    assert code == 2 and err.count("\n") == 1 and "the top canvas is 128x128, the bottom's 64x64" in err
+    assert not out.exists()
+
+
+def test_a_composed_file_opens_ready_for_a_session(tmp_path, inputs):
+    out = tmp_path / "out.fmr"
+    assert run("compose", str(inputs["bottom"]), str(inputs["top"]), "-o", str(out), "--hue", "90")[0] == 0
+    session = Session.open(out)
+    assert all(live.timings.keys() == {"resume"} for live in session.live.fields.values())
+    stack = LiveStack(session.document)
+    np.testing.assert_allclose(session.image(PIXELS, samples=1), rasterise(stack.composite, PIXELS, samples=1),
+                               atol=1e-9)
