@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from .engine import LiveStack, Progress, Representation, Settings, StackUpdate, rasterise
-from .io import open_stack, save_fmr
+from .io import open_live, save_fmr
 from .io.png import save_png
 from .model import Document
 from .model.history import History
@@ -71,7 +71,7 @@ class Session:
 
         A ``.fmr`` file's saved representation is taken as it is (no solve).
         """
-        return cls.resume(open_stack(path, settings))
+        return cls.resume(open_live(path, settings))
 
     @classmethod
     def resume(cls, live: LiveStack) -> Session:

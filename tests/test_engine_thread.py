@@ -13,14 +13,14 @@ os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")  # no GL needed here
 
 from shapes import scattered_document  # noqa: E402
 
-from fmr_editor.engine import LiveRepresentation, Settings, build  # noqa: E402
+from fmr_editor.engine import LiveStack, Settings, build  # noqa: E402
 from fmr_editor.model import DiffusionPoint, edits  # noqa: E402
 from fmr_editor.ui.engine_thread import EngineThread  # noqa: E402
 
 
 def test_every_frame_stays_a_snapshot_of_its_document(qtbot):
     document = scattered_document(64, circles=2, seed=9)
-    live = LiveRepresentation(document)
+    live = LiveStack(document)
     engine = EngineThread(live)
     frames = []
     engine.ready.connect(frames.append)
@@ -34,7 +34,7 @@ def test_every_frame_stays_a_snapshot_of_its_document(qtbot):
             engine.request(newer)
         qtbot.waitUntil(lambda: bool(frames) and frames[-1].document is documents[-1], timeout=20_000)
         assert len(frames) <= len(documents) - 1
-        settings = Settings(levels=live.lattice.levels)
+        settings = Settings(levels=frames[-1].representation.lattice.levels)
         for frame in [first, *frames]:  # later updates changed none of the arrays an earlier frame holds
             np.testing.assert_allclose(frame.representation.polynomials(), build(frame.document, settings).polynomials(),
                                        atol=1e-9)
@@ -49,7 +49,7 @@ def test_every_frame_stays_a_snapshot_of_its_document(qtbot):
 
 def test_a_result_in_flight_is_delivered_while_newer_requests_wait(qtbot, monkeypatch):
     document = scattered_document(64, circles=2, seed=9)
-    live = LiveRepresentation(document)
+    live = LiveStack(document)
     engine = EngineThread(live)
     frames, started, release = [], threading.Event(), threading.Event()
     engine.ready.connect(frames.append)
@@ -77,7 +77,7 @@ def test_a_result_in_flight_is_delivered_while_newer_requests_wait(qtbot, monkey
 
 def test_a_failing_update_is_reported_and_the_worker_goes_on(qtbot, monkeypatch):
     document = scattered_document(64, circles=2, seed=9)
-    live = LiveRepresentation(document)
+    live = LiveStack(document)
     engine = EngineThread(live)
     try:
         original = live.update

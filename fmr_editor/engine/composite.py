@@ -49,6 +49,8 @@ class LayerFields:
     opacity : float
     transform : ColorTransform
     visible : bool
+    id : int
+        The layer's stable id (``model.Layer.id``), by which views keep what they made of it.
     """
 
     image: Representation
@@ -59,6 +61,7 @@ class LayerFields:
     opacity: float = 1.0
     transform: ColorTransform = IDENTITY
     visible: bool = True
+    id: int = 0
 
     @property
     def covers(self) -> bool:

@@ -175,6 +175,6 @@ def composite_of(document: Document,
         mask = layer.mask
         layers.append(LayerFields(
             image, mask_field, mask.base if mask is not None else 1.0, mask is not None and mask.inverted,
-            mask is None or mask.enabled, layer.opacity, layer.transform, layer.visible,
+            mask is None or mask.enabled, layer.opacity, layer.transform, layer.visible, layer.id,
         ))
     return Composite(document.width, document.height, tuple(layers))

@@ -5,15 +5,14 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from ..engine import LiveRepresentation, LiveStack, Progress, Settings
+from ..engine import LiveStack, Progress, Settings
 from ..model import Document
 from .errors import DocumentLoadError
 from .fmr_file import FmrFile, load_fmr, save_fmr
 from .orzan import load_orzan, parse_orzan
 
 __all__ = [
-    "DocumentLoadError", "FmrFile", "load_document", "load_fmr", "load_orzan", "open_live", "open_stack",
-    "parse_orzan", "save_fmr",
+    "DocumentLoadError", "FmrFile", "load_document", "load_fmr", "load_orzan", "open_live", "parse_orzan", "save_fmr",
 ]
 
 
@@ -46,36 +45,17 @@ def load_document(path: str | os.PathLike) -> Document:
     raise DocumentLoadError(name, f"unsupported file type {suffix or '(no suffix)'!r}; supported: .fmr, .xml")
 
 
-def open_live(path: str | os.PathLike, settings: Settings | None = None,
-              progress: Progress | None = None) -> LiveRepresentation:
-    """The one-image document in ``path`` with its live representation, ready to edit.
+def open_live(path: str | os.PathLike, settings: Settings | None = None, progress: Progress | None = None) -> LiveStack:
+    """The document in ``path`` with the live representations of its layers and masks, ready to edit.
 
-    A ``.fmr`` file's saved representation is taken as it is (no solve), with
-    the settings it was built with; anything else is built with ``settings``
-    (default ``Settings()``).
+    A ``.fmr`` file's saved representations are taken as they are (no solve),
+    with the settings they were built with; anything else is built with
+    ``settings`` (default ``Settings()``).
 
     Raises
     ------
     DocumentLoadError
-        When the file cannot be read, or holds layers (``open_stack`` takes those).
-    """
-    settings = settings or Settings()
-    if Path(path).suffix.lower() == ".fmr":
-        saved = load_fmr(path)
-        document, representation = saved.document, saved.representation
-        settings = saved.settings or settings
-    else:
-        document, representation = load_document(path), None
-    if not document.is_flat:
-        raise DocumentLoadError(Path(path).name, f"has {len(document.layers)} layers or a layer with a mask, opacity "
-                                "or colour transform, which this editor does not show yet; `fmr-editor render` draws it")
-    return LiveRepresentation(document, settings, progress, representation)
-
-
-def open_stack(path: str | os.PathLike, settings: Settings | None = None, progress: Progress | None = None) -> LiveStack:
-    """The document in ``path`` with the live representations of its layers and masks.
-
-    As ``open_live``, for documents of any number of layers.
+        When the file cannot be read.
     """
     settings = settings or Settings()
     if Path(path).suffix.lower() == ".fmr":

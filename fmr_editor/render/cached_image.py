@@ -11,6 +11,7 @@ from __future__ import annotations
 from OpenGL import GL
 
 from .gl import Framebuffer
+from .view import View
 
 
 class CachedImage:
@@ -73,3 +74,25 @@ class CachedImage:
         for item in (self.image, self._spare, self._display):
             if item is not None:
                 item.delete()
+
+
+def show_scaled(source: Framebuffer, cached: View, view: View, target: int) -> None:
+    """``source``, an image of the window seen through ``cached``, scaled and moved to ``view``, over a plain
+    background, into framebuffer ``target`` (a zoom's quick preview)."""
+    GL.glBindFramebuffer(GL.GL_DRAW_FRAMEBUFFER, target)
+    GL.glClearColor(0.7, 0.7, 0.7, 1.0)
+    GL.glClear(GL.GL_COLOR_BUFFER_BIT)
+    ratio = cached.scale / view.scale  # cached window = target window * ratio + shift
+    rect = []
+    for offset, cached_offset, size, cached_size in ((view.offset_x, cached.offset_x, view.width, cached.width),
+                                                    (view.offset_y, cached.offset_y, view.height, cached.height)):
+        shift = cached_offset - offset * ratio
+        low, high = max(shift, 0.0), min(size * ratio + shift, float(cached_size))
+        if high <= low:
+            return
+        rect.append((low, high, (low - shift) / ratio, (high - shift) / ratio))
+    (sx0, sx1, dx0, dx1), (sy0, sy1, dy0, dy1) = rect
+    GL.glBindFramebuffer(GL.GL_READ_FRAMEBUFFER, source.handle)
+    GL.glBlitFramebuffer(round(sx0), round(cached.height - sy1), round(sx1), round(cached.height - sy0),
+                         round(dx0), round(view.height - dy1), round(dx1), round(view.height - dy0),
+                         GL.GL_COLOR_BUFFER_BIT, GL.GL_LINEAR)

@@ -33,7 +33,7 @@ from OpenGL import GL
 
 from ..engine import Representation
 from . import bounds, packing
-from .cached_image import CachedImage
+from .cached_image import CachedImage, show_scaled
 from .canvas_data import UNITS, CanvasData, ShaderLayout
 from .gl import Program, VertexArray, additive, plain_state, shader_source
 from .view import View, integer_shift
@@ -109,6 +109,11 @@ class CanvasRenderer:
     @property
     def representation(self) -> Representation | None:
         return self._rep
+
+    @property
+    def image_texture(self) -> int:
+        """The GL texture of the cached float image (what ``evaluate`` brings up to date)."""
+        return self._cache.image.texture
 
     def upload(self, rep: Representation) -> None:
         """Upload all of ``rep``; the next ``draw`` evaluates the whole window."""
@@ -233,7 +238,7 @@ class CanvasRenderer:
             cache as it is; a later ``draw`` without ``preview`` evaluates.
         """
         if preview and self._rep is not None and self._cached_view is not None and self._needs_full(view):
-            self._preview(view, target)
+            show_scaled(self._cache.shown(), self._cached_view, view, target)
             self.last_evaluation = "preview"
             self.evaluations["preview"] += 1
         else:
@@ -260,27 +265,6 @@ class CanvasRenderer:
         cached = self._cached_view
         return cached is None or (cached != view and integer_shift(cached, view) is None) \
             or self._cache.size != (view.width, view.height)
-
-    def _preview(self, view: View, target: int) -> None:
-        """The cached image, scaled and moved to ``view``, over a plain background."""
-        cached, source = self._cached_view, self._cache.shown()
-        GL.glBindFramebuffer(GL.GL_DRAW_FRAMEBUFFER, target)
-        GL.glClearColor(0.7, 0.7, 0.7, 1.0)
-        GL.glClear(GL.GL_COLOR_BUFFER_BIT)
-        ratio = cached.scale / view.scale  # cached window = target window * ratio + shift
-        rect = []
-        for offset, cached_offset, size, cached_size in ((view.offset_x, cached.offset_x, view.width, cached.width),
-                                                        (view.offset_y, cached.offset_y, view.height, cached.height)):
-            shift = cached_offset - offset * ratio
-            low, high = max(shift, 0.0), min(size * ratio + shift, float(cached_size))
-            if high <= low:
-                return
-            rect.append((low, high, (low - shift) / ratio, (high - shift) / ratio))
-        (sx0, sx1, dx0, dx1), (sy0, sy1, dy0, dy1) = rect
-        GL.glBindFramebuffer(GL.GL_READ_FRAMEBUFFER, source.handle)
-        GL.glBlitFramebuffer(round(sx0), round(cached.height - sy1), round(sx1), round(cached.height - sy0),
-                             round(dx0), round(view.height - dy1), round(dx1), round(view.height - dy0),
-                             GL.GL_COLOR_BUFFER_BIT, GL.GL_LINEAR)
 
     @_plain
     def evaluate(self, view: View) -> str:

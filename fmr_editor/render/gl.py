@@ -47,6 +47,8 @@ def _text(log: bytes | str) -> str:
 _SETTERS = {
     GL.GL_FLOAT: lambda loc, v: GL.glUniform1f(loc, float(v)),
     GL.GL_FLOAT_VEC2: lambda loc, v: GL.glUniform2f(loc, *map(float, v)),
+    GL.GL_FLOAT_VEC3: lambda loc, v: GL.glUniform3f(loc, *map(float, v)),
+    GL.GL_FLOAT_MAT3: lambda loc, v: GL.glUniformMatrix3fv(loc, 1, GL.GL_TRUE, np.asarray(v, np.float32)),
     GL.GL_DOUBLE: lambda loc, v: GL.glUniform1d(loc, float(v)),
     GL.GL_DOUBLE_VEC2: lambda loc, v: GL.glUniform2d(loc, *map(float, v)),
     GL.GL_INT: lambda loc, v: GL.glUniform1i(loc, int(v)),
@@ -85,6 +87,19 @@ def plain_state() -> Iterator[None]:
         GL.glBlendFuncSeparate(*blend[:4])
         GL.glBlendEquationSeparate(*blend[4:])
         GL.glColorMask(*mask)
+
+
+@contextmanager
+def over() -> Iterator[None]:
+    """Blend the body's fragments over the target by their alpha (``SRC_ALPHA, ONE_MINUS_SRC_ALPHA``)."""
+    GL.glEnable(GL.GL_BLEND)
+    GL.glBlendEquation(GL.GL_FUNC_ADD)
+    GL.glBlendFuncSeparate(GL.GL_SRC_ALPHA, GL.GL_ONE_MINUS_SRC_ALPHA, GL.GL_ONE, GL.GL_ZERO)
+    try:
+        yield
+    finally:
+        GL.glBlendFunc(GL.GL_ONE, GL.GL_ZERO)
+        GL.glDisable(GL.GL_BLEND)
 
 
 @contextmanager

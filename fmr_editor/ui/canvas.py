@@ -1,9 +1,11 @@
-"""The canvas widget: a representation drawn by the shader renderer, with pan, zoom and pointer signals.
+"""The canvas widget: a picture drawn by the shader renderer, with pan, zoom and pointer signals.
 
-``Canvas`` owns a ``render.CanvasRenderer`` in its OpenGL context; give it a
-representation with ``set_representation`` and, after an engine update, the
-new one with ``update_representation(rep, update.changed)``.  Both only record
-the request; the renderer uploads and draws in ``paintGL``.
+``Canvas`` owns a ``render.PictureRenderer`` in its OpenGL context; give it a
+picture (a representation, or a layered ``engine.Composite``) with
+``set_representation`` and, after an engine update, the new one with
+``update_representation(picture, changed)`` (``update.changed`` of a
+representation, or the changed cells by field of a composite).  Both only
+record the request; the renderer uploads and draws in ``paintGL``.
 
 Navigation: the wheel zooms about the cursor, Ctrl+plus / Ctrl+minus about
 the centre, Ctrl+0 fits the canvas; the middle button, or the left one while
@@ -21,8 +23,10 @@ from PySide6.QtCore import QPointF, Qt, QTimer, Signal
 from PySide6.QtGui import QImage, QSurfaceFormat
 from PySide6.QtOpenGLWidgets import QOpenGLWidget
 
-from ..engine import Representation
-from ..render import CanvasRenderer, ShaderError, View
+from ..engine import Composite, Representation
+from ..render import PictureRenderer, ShaderError, View, merge_changes
+
+Picture = Representation | Composite
 
 #: Zoom factor of one wheel notch and of Ctrl+plus.
 ZOOM_STEP = 1.25
@@ -64,12 +68,12 @@ class Canvas(QOpenGLWidget):
         self.setFormat(surface_format())
         self.setMouseTracking(True)
         self.setFocusPolicy(Qt.FocusPolicy.StrongFocus)
-        self.renderer: CanvasRenderer | None = None
+        self.renderer: PictureRenderer | None = None
         self.error: str | None = None  # why nothing can be drawn (no suitable OpenGL)
-        self.frames_shown = 0  # paints that showed a representation not shown before
-        self._rep: Representation | None = None
+        self.frames_shown = 0  # paints that showed a picture not shown before
+        self._rep: Picture | None = None
         self._full_upload = False
-        self._changed: np.ndarray | None = None
+        self._changed: dict | None = None  # changed cells by field since the last paint
         self._view = View(width=max(self.width(), 1), height=max(self.height(), 1))
         self._fitted = True  # the view follows the widget's size until the user pans or zooms
         self._pan_from: QPointF | None = None
@@ -81,23 +85,27 @@ class Canvas(QOpenGLWidget):
 
     # -- content ------------------------------------------------------------------------------
     @property
-    def representation(self) -> Representation | None:
+    def representation(self) -> Picture | None:
+        """The picture shown: a representation or a composite."""
         return self._rep
 
-    def set_representation(self, rep: Representation | None, fit: bool = True) -> None:
+    def set_representation(self, rep: Picture | None, fit: bool = True) -> None:
         """Show ``rep`` (all of it is uploaded); ``fit`` fits its canvas in the window."""
         self._rep, self._full_upload, self._changed = rep, True, None
         if fit and rep is not None:
             self.fit()
         self.update()
 
-    def update_representation(self, rep: Representation, changed: np.ndarray) -> None:
-        """Show ``rep``, which differs from the shown one only in the ``changed`` cells (``engine.Update.changed``)."""
+    def update_representation(self, rep: Picture, changed: np.ndarray | dict) -> None:
+        """Show ``rep``, which differs from the shown one only as ``changed`` says.
+
+        ``changed``: the cells (``engine.Update.changed``) of a representation,
+        or of a composite a dict of them by field (a field left out is unchanged).
+        """
+        if isinstance(changed, np.ndarray):
+            changed = {(0, "image"): changed}
         if not self._full_upload:
-            if self._changed is not None and self._changed.shape != changed.shape:
-                self._full_upload = True
-            else:
-                self._changed = changed.copy() if self._changed is None else self._changed | changed
+            self._changed = merge_changes(self._changed or {}, changed)
         self._rep = rep
         self.update()
 
@@ -161,7 +169,7 @@ class Canvas(QOpenGLWidget):
                 or fmt.profile() != QSurfaceFormat.OpenGLContextProfile.CoreProfile:
             self.error = f"the canvas needs OpenGL 4.1 core; got {fmt.majorVersion()}.{fmt.minorVersion()}"
             return
-        self.renderer = CanvasRenderer()
+        self.renderer = PictureRenderer()
         self._full_upload = self._rep is not None
         self.context().aboutToBeDestroyed.connect(self._release)
 

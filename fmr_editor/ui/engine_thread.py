@@ -1,8 +1,8 @@
 """The engine on a worker thread: the window never waits for a solve.
 
 The window posts each new document with ``request``; a worker thread brings
-its ``LiveRepresentation`` up to date and hands back a ``Frame`` after every
-update.  While an update runs, newer requests replace older pending ones
+its ``LiveStack`` (the representations of every layer and mask) up to date
+and hands back a ``Frame`` after every update.  While an update runs, newer requests replace older pending ones
 (the newest document is the next one built), so a drag gets a frame for
 each update the worker manages, never a backlog.  A request marked
 ``preview`` (a drag in progress) may be answered approximately (a geometry
@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from PySide6.QtCore import QObject, QThread, Signal, Slot
 
-from ..engine import LiveRepresentation, Representation
+from ..engine import Composite, LiveStack, Representation
 from ..model import Document
 
 
@@ -31,28 +31,48 @@ class Frame:
     ----------
     document : Document
         The document this frame shows.
-    representation : Representation
-        Its FMR: a snapshot (later updates replace the engine's arrays, never change them).
-    changed : numpy.ndarray
-        ``(2^L, 2^L)`` bool: cells that differ from the previous frame (all for the first).
+    picture : Composite
+        Its layers' representations: a snapshot (later updates replace the
+        engine's arrays, never change them).
+    changes : dict
+        By field ``(layer id, "image" | "mask")``, the ``(2^L, 2^L)`` bool
+        cells that differ from the previous frame (every field, all cells, in
+        the first); a field left out did not change.
     kind : str
-        The update's kind (see ``engine.Update``), or ``"build"``.
+        The update's kind (see ``engine.StackUpdate``), or ``"build"``.
     exact : bool
         False while the shading is a drag's approximate preview.
     """
 
     document: Document
-    representation: Representation
-    changed: np.ndarray
+    picture: Composite
+    changes: dict[tuple[int, str], np.ndarray]
     kind: str
     exact: bool = True
 
     @classmethod
-    def first(cls, live: LiveRepresentation) -> Frame:
-        """The frame of ``live`` as built: every cell changed."""
-        rep = live.representation
-        n = rep.lattice.cells_per_side
-        return cls(live.document, rep, np.ones((n, n), bool), "build", not live.approximate)
+    def first(cls, live: LiveStack) -> Frame:
+        """The frame of ``live`` as built: every cell of every field changed."""
+        changes = {}
+        for key, field in live.fields.items():
+            n = field.lattice.cells_per_side
+            changes[key] = np.ones((n, n), bool)
+        return cls(live.document, live.composite, changes, "build", not live.approximate)
+
+    @property
+    def representation(self) -> Representation:
+        """The active layer's image (of a one-layer document, the picture)."""
+        return self.picture.layers[self.document.active].image
+
+    @property
+    def changed(self) -> np.ndarray:
+        """The cells of the active layer's image that changed (none when it did not)."""
+        layer = self.document.layer
+        changed = self.changes.get((layer.id, "image"))
+        if changed is None:
+            n = self.representation.lattice.cells_per_side
+            changed = np.zeros((n, n), bool)
+        return changed
 
 
 class _Worker(QObject):
@@ -60,7 +80,7 @@ class _Worker(QObject):
     failed = Signal(str)
     progress = Signal(str, float)
 
-    def __init__(self, live: LiveRepresentation) -> None:
+    def __init__(self, live: LiveStack) -> None:
         super().__init__()
         self.live = live
         self._lock = threading.Lock()
@@ -95,18 +115,18 @@ class _Worker(QObject):
                 if self._pending is request:
                     self._pending = None
             if update is not None:
-                rep = self.live.representation
-                self.ready.emit(Frame(document, rep, update.changed, update.kind, update.exact))
+                changes = {key: field.changed for key, field in update.fields.items()}
+                self.ready.emit(Frame(document, self.live.composite, changes, update.kind, update.exact))
 
 
 class EngineThread(QObject):
-    """A ``LiveRepresentation`` updated on its own thread.
+    """A ``LiveStack`` updated on its own thread.
 
     Parameters
     ----------
-    live : LiveRepresentation
+    live : LiveStack
         Built already (opening a document builds it on a worker too, see ``ui``).
-        The thread first warms it up (``LiveRepresentation.warm_up``).
+        The thread first warms it up (``LiveStack.warm_up``).
 
     Signals
     -------
@@ -124,7 +144,7 @@ class EngineThread(QObject):
     _wake = Signal()
     _warm = Signal()
 
-    def __init__(self, live: LiveRepresentation) -> None:
+    def __init__(self, live: LiveStack) -> None:
         super().__init__()
         self._thread = QThread()
         self._worker = _Worker(live)

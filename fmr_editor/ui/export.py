@@ -16,7 +16,7 @@ from PySide6.QtWidgets import (
     QCheckBox, QDialog, QDialogButtonBox, QFormLayout, QHBoxLayout, QLineEdit, QPushButton, QSpinBox, QWidget,
 )
 
-from ..engine import Representation, Settings, build, rasterise
+from ..engine import Composite, LiveStack, Representation, Settings, rasterise
 from ..io.png import save_png
 from ..model import Document
 from .files import ask_png_path
@@ -46,12 +46,12 @@ class ExportOptions:
     samples: int = 3
 
 
-def export_png(options: ExportOptions, document: Document, representation: Representation | None,
+def export_png(options: ExportOptions, document: Document, picture: Composite | Representation | None,
                settings: Settings = Settings(), progress: Callable[[str, float], None] | None = None) -> Path:
-    """Rasterise ``representation`` (built first if None) and write the PNG; returns the path written."""
-    if representation is None:
-        representation = build(document, settings, progress=progress)
-    image = rasterise(representation, options.width, options.height, samples=options.samples, progress=progress)
+    """Rasterise ``picture`` (``document``'s, built first if None) and write the PNG; returns the path written."""
+    if picture is None:
+        picture = LiveStack(document, settings, progress).composite
+    image = rasterise(picture, options.width, options.height, samples=options.samples, progress=progress)
     if progress:
         progress("write", 1.0)
     return save_png(image.clip(0.0, 1.0), options.path)

@@ -137,10 +137,10 @@ class FileCommands:
             show_error(self, "Cannot Save the Document", f"{path.name}: {_reason(error)}")
 
         def start(frame) -> None:
-            representation = frame.representation if frame is not None and frame.document is document else None
-            settings = workspace.settings if representation is not None else None
+            picture = frame.picture if frame is not None and frame.document is document else None
+            settings = workspace.settings if picture is not None else None
             self._start(f"Saving {path.name}",
-                        lambda progress: save_fmr(path, document, representation, settings=settings), saved, failed)
+                        lambda progress: save_fmr(path, document, picture, settings=settings), saved, failed)
 
         workspace.when_current(start)
 
@@ -168,9 +168,9 @@ class FileCommands:
             show_error(self, "Cannot Export", f"{options.path.name}: {_reason(error)}")
 
         def start(frame) -> None:
-            representation = frame.representation if frame is not None and frame.document is document else None
+            picture = frame.picture if frame is not None and frame.document is document else None
             self._start(f"Exporting {options.path.name}",
-                        lambda progress: export_png(options, document, representation, workspace.settings, progress),
+                        lambda progress: export_png(options, document, picture, workspace.settings, progress),
                         done, failed)
 
         workspace.when_current(start)

@@ -270,7 +270,7 @@ class MainWindow(FileCommands, QMainWindow):
         workspace.engine_progress.connect(self._engine_progress)
         self.workspace = workspace
         frame = opened.frame
-        self.canvas.set_representation(frame.representation, fit=True)
+        self.canvas.set_representation(frame.picture, fit=True)
         workspace.context.zoom = self.canvas.view.scale
         first = f"Open {workspace.name}" if workspace.path is not None else "New Document"
         self.history_panel.bind(workspace.history, first)
@@ -298,8 +298,7 @@ class MainWindow(FileCommands, QMainWindow):
 
     def _frame_ready(self, frame) -> None:
         self.shading_label.setVisible(not frame.exact)
-        if frame.changed.any():  # the renderer takes no empty update (an edit undone before it was built)
-            self.canvas.update_representation(frame.representation, frame.changed)
+        self.canvas.update_representation(frame.picture, frame.changes)
         if self.job is None:
             self.progress_bar.hide()
 

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 from PySide6.QtCore import QObject, Signal
 
-from ..engine import LiveRepresentation, Progress, Settings, evaluate_points
+from ..engine import LiveStack, Progress, Settings, evaluate_points
 from ..io import open_live
 from ..model import ColorStop, DiffusionCurve, Document
 from ..model.history import History
@@ -36,7 +36,7 @@ class Opened:
 
     Attributes
     ----------
-    live : LiveRepresentation
+    live : LiveStack
         Built for ``live.document``.
     frame : Frame
         The first frame (every cell changed).
@@ -44,7 +44,7 @@ class Opened:
         The file it came from; None for a new document.
     """
 
-    live: LiveRepresentation
+    live: LiveStack
     frame: Frame
     path: Path | None
 
@@ -53,7 +53,7 @@ class Opened:
         return self.live.document
 
 
-def _opened(live: LiveRepresentation, path: Path | None) -> Opened:
+def _opened(live: LiveStack, path: Path | None) -> Opened:
     return Opened(live, Frame.first(live), path)
 
 
@@ -90,7 +90,7 @@ def new_document(width: int = DEFAULT_SIZE[0], height: int = DEFAULT_SIZE[1],
                  progress: Progress | None = None) -> Opened:
     """A canvas of ``width x height`` pixels with a white background curve (``background_curve``), built."""
     document = Document(int(width), int(height), (background_curve(width, height),))
-    return _opened(LiveRepresentation(document, Settings(), progress), None)
+    return _opened(LiveStack(document, Settings(), progress), None)
 
 
 class Workspace(QObject):
@@ -206,7 +206,7 @@ class Workspace(QObject):
 
     def sample(self, x: float, y: float) -> tuple[float, float, float]:
         """The rendered colour at document point ``(x, y)`` (the eyedropper's sampler)."""
-        value = evaluate_points(self.frame.representation, np.array([[x, y]], dtype=np.float64))[0]
+        value = evaluate_points(self.frame.picture, np.array([[x, y]], dtype=np.float64))[0]
         return tuple(float(v) for v in np.clip(value, 0.0, 1.0))
 
     def close(self) -> None:

@@ -1,0 +1,271 @@
+"""A layered picture on the GPU: one ``CanvasRenderer`` per layer image and mask, composed per window pixel.
+
+Each field (a layer's image, a mask) keeps its own cached window image and
+re-evaluates only its changed cells, so an edit to one layer costs what it
+costs in a one-layer document.  Drawing brings every shown field's image up
+to date and, when any of them or the layers' settings changed, composes them
+bottom up into a float image with ``shaders/compose.frag`` (the blend unit
+does ``m T(V) + (1 - m) below``, as ``engine.composite.compose`` on the CPU);
+a redraw with nothing changed copies that image.  A picture of one plain
+layer is drawn by its field's renderer alone, exactly as before layers.
+"""
+
+from __future__ import annotations
+
+import functools
+from collections import Counter
+
+import numpy as np
+from OpenGL import GL
+
+from ..engine import Composite, LayerFields, Representation
+from .cached_image import CachedImage, show_scaled
+from .canvas_renderer import TOLERANCE, CanvasRenderer
+from .gl import Program, VertexArray, over, plain_state, shader_source
+from .view import View
+
+#: A field: ``(layer id, "image" or "mask")``, as ``engine.stack``'s.
+FieldKey = tuple[int, str]
+#: ``changed`` of a field to upload whole (a new lattice, or changes merged across lattices).
+WHOLE = None
+
+
+def picture_of(rep: Representation | Composite) -> Composite:
+    """``rep`` as a picture: a representation is a one-layer picture (layer id 0)."""
+    if isinstance(rep, Composite):
+        return rep
+    return Composite(rep.width, rep.height, (LayerFields(rep),))
+
+
+def merge_changes(before: dict[FieldKey, np.ndarray | None],
+                  after: dict[FieldKey, np.ndarray | None]) -> dict[FieldKey, np.ndarray | None]:
+    """Changes of two updates in a row, by field (``WHOLE`` where the cell grids differ)."""
+    merged = dict(before)
+    for key, changed in after.items():
+        old = merged.get(key, False)
+        if old is False:
+            merged[key] = None if changed is None else changed.copy()
+        elif old is None or changed is None or old.shape != changed.shape:
+            merged[key] = WHOLE
+        else:
+            merged[key] = old | changed
+    return merged
+
+
+def _plain(method):
+    @functools.wraps(method)
+    def wrapped(self, *args, **kwargs):
+        with plain_state():
+            return method(self, *args, **kwargs)
+    return wrapped
+
+
+class PictureRenderer:
+    """Draws a ``Composite`` (or one representation) through the canvas shader, any pan and zoom.
+
+    Parameters are ``CanvasRenderer``'s, for every field's renderer.
+
+    Attributes
+    ----------
+    renderers : dict
+        ``CanvasRenderer`` by ``FieldKey``.
+    composed : int
+        How many draws composed the layers (a redraw of an unchanged picture does not).
+    """
+
+    def __init__(self, cache_format: int = GL.GL_RGBA32F, checker: float = 8.0, tolerance: float = TOLERANCE) -> None:
+        self._options = (cache_format, checker, tolerance)
+        self.renderers: dict[FieldKey, CanvasRenderer] = {}
+        self._picture: Composite | None = None
+        self._composed = CachedImage(GL.GL_RGBA32F)
+        self._composed_view: View | None = None  # what the composed image shows; None: compose again
+        self._program: Program | None = None
+        self._vao: VertexArray | None = None
+        self._last_key: FieldKey | None = None
+        self._background: CanvasRenderer | None = None  # draws the plain background when there is no picture
+        self.composed = 0
+
+    # -- data ---------------------------------------------------------------------------------
+    @property
+    def picture(self) -> Composite | None:
+        return self._picture
+
+    def upload(self, picture: Representation | Composite) -> None:
+        """Upload every field of ``picture``; the next ``draw`` evaluates them all."""
+        picture = picture_of(picture)
+        self.update(picture, {key: WHOLE for key in _fields(picture)})
+
+    def update(self, picture: Representation | Composite, changed: dict[FieldKey, np.ndarray | None]) -> None:
+        """Go over to ``picture``, whose fields differ from the uploaded ones only as ``changed`` says.
+
+        A field missing from ``changed`` is unchanged; ``WHOLE`` (None) uploads it whole, as does a field
+        not uploaded before.  Fields no layer reads any more are released.
+        """
+        picture = picture_of(picture)
+        fields = _fields(picture)
+        for key in [key for key in self.renderers if key not in fields]:
+            self.renderers.pop(key).release()
+        for key, rep in fields.items():
+            renderer = self.renderers.get(key)
+            if renderer is None:
+                renderer = self.renderers[key] = CanvasRenderer(*self._options)
+                renderer.upload(rep)
+            elif key in changed and changed[key] is WHOLE:
+                renderer.upload(rep)
+            elif key in changed and changed[key].any():  # an update that changed no cell keeps the shown one
+                renderer.update(rep, changed[key])
+            else:
+                continue
+            self._last_key = key
+        self._picture = picture
+        self._composed_view = None
+
+    def forget(self) -> None:
+        """Drop the picture: ``draw`` shows a plain background until the next ``upload``."""
+        for renderer in self.renderers.values():
+            renderer.release()
+        self.renderers.clear()
+        self._picture = None
+        self._composed_view = None
+
+    def invalidate(self) -> None:
+        """Forget every cached image: the next ``draw`` evaluates the whole window."""
+        for renderer in self.renderers.values():
+            renderer.invalidate()
+        self._composed_view = None
+
+    # -- what the tests and the window read ----------------------------------------------------
+    @property
+    def evaluations(self) -> Counter:
+        """What the fields' renderers evaluated, summed (see ``CanvasRenderer.evaluations``)."""
+        return sum((renderer.evaluations for renderer in self.renderers.values()), Counter())
+
+    @property
+    def last_update(self) -> dict[str, int]:
+        """``CanvasRenderer.last_update`` of the field updated last."""
+        renderer = self.renderers.get(self._last_key)
+        return renderer.last_update if renderer is not None else {}
+
+    @property
+    def last_evaluation(self) -> str:
+        """``CanvasRenderer.last_evaluation`` of the field updated last."""
+        renderer = self.renderers.get(self._last_key)
+        return renderer.last_evaluation if renderer is not None else "none"
+
+    def _single(self) -> CanvasRenderer | None:
+        """The renderer that draws the picture by itself: one plain layer shown; else None."""
+        shown = self._picture.shown if self._picture is not None else ()
+        if len(shown) == 1 and shown[0].covers and shown[0].transform.is_identity:
+            return self.renderers[shown[0].id, "image"]
+        return None
+
+    # -- drawing ------------------------------------------------------------------------------
+    def draw(self, view: View, target: int = 0, preview: bool = False) -> None:
+        """Bring the fields' images up to date for ``view``, compose them and copy the result into ``target``.
+
+        ``preview`` as ``CanvasRenderer.draw``: while zooming, the last composed image is shown scaled.
+        """
+        single = self._single() if self._picture is not None else None
+        if single is not None or self._picture is None:
+            (single or self._blank()).draw(view, target, preview)
+            return
+        self._draw_layers(view, target, preview)
+
+    @_plain
+    def _draw_layers(self, view: View, target: int, preview: bool) -> None:
+        if preview and self._composed_view is not None and self._composed_view != view:
+            show_scaled(self._composed.shown(), self._composed_view, view, target)
+        else:
+            self._evaluate(view)
+            self._composed.shown().blit_to(target)
+        GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, target)
+
+    def _blank(self) -> CanvasRenderer:
+        """A renderer without a representation (it draws the plain background)."""
+        if self._background is None:
+            self._background = CanvasRenderer(*self._options)
+        return self._background
+
+    def evaluate(self, view: View) -> str:
+        """Bring the image for ``view`` up to date without drawing it anywhere; what the fields evaluated."""
+        single = self._single()
+        if single is not None:
+            return single.evaluate(view)
+        with plain_state():
+            return self._evaluate(view)
+
+    def _evaluate(self, view: View) -> str:
+        shown = self._picture.shown
+        evaluated = set()
+        for layer in shown:
+            for key in _layer_keys(layer):
+                evaluated.add(self.renderers[key].evaluate(view))
+        if self._composed_view != view or evaluated - {"none"}:
+            self._compose(view, shown)
+        return "none" if evaluated <= {"none"} else "fields"
+
+    def _compose(self, view: View, shown: tuple[LayerFields, ...]) -> None:
+        if self._program is None:
+            self._program = Program(shader_source("window.vert"), shader_source("compose.frag"), label="compose shader")
+            self._vao = VertexArray()
+        self._composed.bind(view.width, view.height)
+        GL.glClearColor(0.0, 0.0, 0.0, 1.0)
+        GL.glClear(GL.GL_COLOR_BUFFER_BIT)
+        program = self._program
+        program.use()
+        program.set(u_image=0, u_mask=1, u_origin=(-view.offset_x / view.scale,
+                    -view.offset_y / view.scale), u_step=1.0 / view.scale, u_window_height=view.height,
+                    u_canvas=(self._picture.width, self._picture.height))
+        self._vao.bind()
+        with over():
+            for layer in shown:
+                self._layer_pass(program, layer)
+        GL.glBindVertexArray(0)
+        GL.glUseProgram(0)
+        for unit in (1, 0):
+            GL.glActiveTexture(GL.GL_TEXTURE0 + unit)
+            GL.glBindTexture(GL.GL_TEXTURE_2D, 0)
+        self._composed.touch((0, 0, view.width, view.height))
+        self._composed_view = view
+        self.composed += 1
+
+    def _layer_pass(self, program: Program, layer: LayerFields) -> None:
+        """Blend ``layer`` over the composed image (bound)."""
+        masked = layer.masked
+        for unit, key in enumerate(_layer_keys(layer)):
+            GL.glActiveTexture(GL.GL_TEXTURE0 + unit)
+            GL.glBindTexture(GL.GL_TEXTURE_2D, self.renderers[key].image_texture)
+        enabled = layer.mask_enabled
+        program.set(u_masked=int(masked), u_mask_base=layer.mask_base if enabled else 1.0,
+                    u_inverted=int(enabled and layer.mask_inverted), u_opacity=layer.opacity,
+                    u_matrix=layer.transform.matrix, u_offset=layer.transform.offset)
+        GL.glDrawArrays(GL.GL_TRIANGLE_STRIP, 0, 4)
+
+    def read(self) -> np.ndarray:
+        """The drawn image ``(height, width, 4)`` float32, top row first (a one-layer picture: its field's)."""
+        single = self._single()
+        return single.read() if single is not None else self._composed.read()
+
+    def release(self) -> None:
+        """Free the GL objects (with the context current); the renderer is unusable afterwards."""
+        self.forget()
+        for item in (self._program, self._vao, self._composed):
+            if item is not None:
+                item.delete()
+        if self._background is not None:
+            self._background.release()
+        self._program = self._vao = self._background = None
+
+
+def _layer_keys(layer: LayerFields) -> list[FieldKey]:
+    return [(layer.id, "image")] + ([(layer.id, "mask")] if layer.masked else [])
+
+
+def _fields(picture: Composite) -> dict[FieldKey, Representation]:
+    """Every field the picture's layers hold (hidden layers' too: showing them again costs no upload)."""
+    fields = {}
+    for layer in picture.layers:
+        fields[layer.id, "image"] = layer.image
+        if layer.mask is not None:
+            fields[layer.id, "mask"] = layer.mask
+    return fields

@@ -1,0 +1,42 @@
+#version 410 core
+// One layer of a layered picture drawn over what lies below (fmr_editor/render/picture_renderer.py):
+//     out = m T(V) + (1 - m) below,  m = opacity * clamp(M, 0, 1),  M = base + luma . mask colour (or 1 - that),
+// as fmr_editor/engine/composite.py computes it on the CPU.  V and the mask colour are the layer's and its mask's
+// evaluated window images (float, unclamped); the blend unit does the mixing (SRC_ALPHA, ONE_MINUS_SRC_ALPHA),
+// so this writes (T(V), m).  Outside the canvas the images hold the checkerboard, which is kept as it is.
+
+uniform sampler2D u_image;
+uniform sampler2D u_mask;
+uniform int u_masked;          // 1: read u_mask
+uniform float u_mask_base;
+uniform int u_inverted;
+uniform float u_opacity;
+uniform mat3 u_matrix;         // the colour transform T(v) = u_matrix v + u_offset
+uniform vec3 u_offset;
+uniform dvec2 u_origin;        // as canvas.frag: the same test of which pixels lie on the canvas
+uniform double u_step;
+uniform float u_window_height;
+uniform vec2 u_canvas;
+
+const vec3 LUMA = vec3(0.2126, 0.7152, 0.0722);
+
+out vec4 colour;
+
+void main() {
+    ivec2 texel = ivec2(gl_FragCoord.xy);
+    vec3 value = texelFetch(u_image, texel, 0).rgb;
+    vec2 window = vec2(gl_FragCoord.x, u_window_height - gl_FragCoord.y);
+    dvec2 position = u_origin + dvec2(window) * u_step;
+    if (position.x < 0.0 || position.y < 0.0 || position.x > double(u_canvas.x) || position.y > double(u_canvas.y)) {
+        colour = vec4(value, 1.0);
+        return;
+    }
+    float m = u_mask_base;
+    if (u_masked != 0) {
+        m += dot(texelFetch(u_mask, texel, 0).rgb, LUMA);
+    }
+    if (u_inverted != 0) {
+        m = 1.0 - m;
+    }
+    colour = vec4(u_matrix * value + u_offset, u_opacity * clamp(m, 0.0, 1.0));
+}

@@ -1,0 +1,89 @@
+"""A layered picture on the canvas against the CPU composite, under Xvfb (OpenGL through Mesa).
+
+The canvas composes each layer's and mask's evaluated window image
+(``render.PictureRenderer``); what it shows must be ``engine.evaluate_points``
+of the composite at the pixel centres to one 8-bit level, after edits to one
+layer, a mask dab and a hue change as well, and each of those must redraw only
+what it changed.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from canvas_oracle import CHECKER, error_levels, window_samples
+from layered import three_layers
+
+pytest.importorskip("pytestqt", reason="pytest-qt is in the [test] extra")
+
+from fmr_editor.engine import LiveStack, evaluate_points  # noqa: E402
+from fmr_editor.model import DiffusionPoint, edits, layer_edits  # noqa: E402
+from fmr_editor.model.color_transform import hue_rotation  # noqa: E402
+from fmr_editor.render import View  # noqa: E402
+
+pytestmark = pytest.mark.gui
+
+VIEW = View(1.7, 15.0, 10.0, 250, 240)  # the 128 px canvas and a margin of checkerboard
+
+
+@pytest.fixture
+def canvas(gl_display, qtbot):
+    from fmr_editor.ui.canvas import Canvas
+
+    widget = Canvas()
+    qtbot.addWidget(widget)
+    widget.resize(VIEW.width, VIEW.height)
+    widget.show()
+    qtbot.waitExposed(widget)
+    return widget
+
+
+def check(canvas, picture) -> None:
+    """The canvas shows ``picture``: the composite inside the canvas, the checkerboard outside."""
+    shown = canvas.grab_image()
+    if canvas.renderer is None:
+        pytest.skip(f"no usable OpenGL context: {canvas.error or 'the widget did not initialise'}")
+    samples = window_samples(VIEW)
+    inside = ((samples >= 0) & (samples <= [picture.width, picture.height])).all(axis=1)
+    expected = evaluate_points(picture, samples[inside])
+    assert error_levels(shown.reshape(-1, 3)[inside], expected) <= 1.0
+    assert set(np.unique(shown.reshape(-1, 3)[~inside])) == CHECKER
+    canvas.makeCurrent()
+    drawn = canvas.renderer.read()[..., :3].reshape(-1, 3)[inside].astype(np.float64)
+    canvas.doneCurrent()
+    assert np.abs(drawn - expected).max() < 0.1 / 255  # the float image, before 8-bit rounding
+
+
+def test_the_canvas_shows_the_composite_and_follows_edits_of_one_layer(canvas, qtbot):
+    document = three_layers()
+    stack = LiveStack(document)
+    canvas.set_representation(stack.composite, fit=False)
+    canvas.set_view(VIEW)
+    check(canvas, stack.composite)
+    renderers = canvas.renderer.renderers
+    assert len(renderers) == 5  # three images, two masks
+
+    middle = document.layers[1]
+    dabbed = edits.add_points(layer_edits.select_layer(document, 1, mask=True),
+                              [DiffusionPoint((50.0, 40.0), 9.0, (1.0, 1.0, 1.0), -1.0)])
+    update = stack.update(dabbed)
+    before = {key: renderer.evaluations.copy() for key, renderer in renderers.items()}
+    canvas.update_representation(stack.composite, {key: u.changed for key, u in update.fields.items()})
+    check(canvas, stack.composite)
+    since = {key: renderers[key].evaluations - before[key] for key in before}
+    assert since.pop((middle.id, "mask")) == {"cells": 1}  # the dab's cells only
+    assert all(set(counts) <= {"none"} for counts in since.values())  # the others evaluated nothing
+
+    recoloured = layer_edits.set_transform(dabbed, 0, hue_rotation(200))
+    assert stack.update(recoloured).fields == {}
+    composed = canvas.renderer.composed
+    before = canvas.renderer.evaluations.copy()
+    canvas.update_representation(stack.composite, {})
+    check(canvas, stack.composite)
+    assert set(canvas.renderer.evaluations - before) <= {"none"}  # no field evaluated anything
+    assert canvas.renderer.composed == composed + 1
+
+    hidden = layer_edits.set_visible(layer_edits.set_opacity(recoloured, 2, 0.4), 1, False)
+    stack.update(hidden)
+    canvas.update_representation(stack.composite, {})
+    check(canvas, stack.composite)
