@@ -4,6 +4,7 @@
 // as fmr_editor/engine/composite.py computes it on the CPU.  V and the mask colour are the layer's and its mask's
 // evaluated window images (float, unclamped); the blend unit does the mixing (SRC_ALPHA, ONE_MINUS_SRC_ALPHA),
 // so this writes (T(V), m).  Outside the canvas the images hold the checkerboard, which is kept as it is.
+// u_tint = 1 draws the tint of a mask being edited over the result: red, half strength where it hides all.
 
 uniform sampler2D u_image;
 uniform sampler2D u_mask;
@@ -17,6 +18,7 @@ uniform dvec2 u_origin;        // as canvas.frag: the same test of which pixels 
 uniform double u_step;
 uniform float u_window_height;
 uniform vec2 u_canvas;
+uniform int u_tint;            // 1: instead, tint red what the mask hides (the mask being edited)
 
 const vec3 LUMA = vec3(0.2126, 0.7152, 0.0722);
 
@@ -37,6 +39,10 @@ void main() {
     }
     if (u_inverted != 0) {
         m = 1.0 - m;
+    }
+    if (u_tint != 0) {
+        colour = vec4(1.0, 0.1, 0.1, 0.5 * (1.0 - clamp(m, 0.0, 1.0)));
+        return;
     }
     colour = vec4(u_matrix * value + u_offset, u_opacity * clamp(m, 0.0, 1.0));
 }

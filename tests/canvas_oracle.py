@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from fmr_editor.engine import Representation, evaluate_points
+from fmr_editor.engine import Composite, Representation, evaluate_points
 from fmr_editor.render import View
 
 #: Checkerboard grey levels outside the canvas (shaders/canvas.frag), in 8 bits.
@@ -34,8 +34,9 @@ def distance_to_segments(points: np.ndarray, p: np.ndarray, q: np.ndarray) -> np
     return out
 
 
-def mismatches(shown: np.ndarray, rep: Representation, view: View, levels: float) -> dict[str, int]:
-    """Where the 8-bit ``shown`` window differs from ``rep`` seen through ``view`` by more than ``levels``.
+def mismatches(shown: np.ndarray, rep: Representation | Composite, view: View, levels: float) -> dict[str, int]:
+    """Where the 8-bit ``shown`` window differs from ``rep`` (or a composite) seen through ``view`` by more than
+    ``levels``.
 
     Inside the canvas a pixel is compared with the field at its centre, one
     sample per pixel; a pixel whose centre lies on a curve (to 1e-9 px) is
@@ -53,7 +54,10 @@ def mismatches(shown: np.ndarray, rep: Representation, view: View, levels: float
     expected = np.clip(evaluate_points(rep, samples[inside]), 0, 1) * 255
     off = np.abs(flat[inside].astype(np.float64) - expected).max(axis=1) > levels
     suspects = samples[inside][off]
-    on_curves = distance_to_segments(suspects, rep.segments.p, rep.segments.q) < 1e-9 if len(suspects) else off[:0]
+    sources = rep.representations if isinstance(rep, Composite) else (rep,)
+    p = np.concatenate([source.segments.p for source in sources])
+    q = np.concatenate([source.segments.q for source in sources])
+    on_curves = distance_to_segments(suspects, p, q) < 1e-9 if len(suspects) else off[:0]
     outside = flat[~inside]
     checker = np.isin(outside, list(CHECKER)).all(axis=1)
     return {"inside": int((~on_curves).sum()), "outside": int((~checker).sum()), "on_curves": int(on_curves.sum())}

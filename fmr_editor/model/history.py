@@ -96,6 +96,21 @@ class History:
         if notify:
             self._steps_changed()
 
+    def retarget(self, document: Document) -> None:
+        """Make ``document`` current in place of the current step's, without a step.
+
+        For what the tools act on (the active layer, mask editing): choosing
+        a layer is no edit, as in Krita.  ``document`` must hold the same
+        canvas and layers as the current one.
+        """
+        if self._pending is not None:
+            raise RuntimeError("finish the open transaction before choosing another layer")
+        before = self.document
+        if (document.width, document.height, document.layers) != (before.width, before.height, before.layers):
+            raise ValueError("retarget changes only the active layer and mask editing")
+        self._documents[self._index] = document
+        self._show(before)
+
     def begin(self, label: str) -> None:
         """Open a transaction (a drag) that ``commit`` records as one step named ``label``."""
         if self._pending is not None:

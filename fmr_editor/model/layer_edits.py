@@ -9,8 +9,11 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+import numpy as np
+
 from .color_transform import IDENTITY, ColorTransform
 from .document import Document
+from .curve import ColorStop
 from .layer import Layer, Mask
 
 
@@ -116,6 +119,89 @@ def invert_mask(document: Document, index: int | None = None) -> Document:
 
 def set_mask_enabled(document: Document, index: int | None, enabled: bool) -> Document:
     return _mask_changed(document, index, enabled=enabled)
+
+
+def baked(layer: Layer) -> Layer:
+    """``layer`` with its colour transform applied to its items' colours (the same image) and none left.
+
+    Exact: the image is linear in the colours and a constant diffuses to
+    itself, so ``T`` of every curve's stops (a side without stops is black)
+    gives ``T(V)`` of the curves, and ``A`` of every point's colour adds ``A``
+    of its blob.
+    """
+    transform = layer.transform
+    if transform.is_identity:
+        return layer
+
+    def stops(side: tuple[ColorStop, ...]) -> tuple[ColorStop, ...]:
+        side = side or (ColorStop(0.0, (0.0, 0.0, 0.0)),)
+        return tuple(replace(stop, color=tuple(transform.apply(stop.color))) for stop in side)
+
+    curves = tuple(replace(curve, left=stops(curve.left), right=stops(curve.right)) for curve in layer.curves)
+    points = tuple(replace(point, color=tuple(transform.matrix @ point.color)) for point in layer.points)
+    if not layer.curves and transform.offset.any():  # no curve to carry the offset: the layer stays as it is
+        return layer
+    return replace(layer, curves=curves, points=points, transform=IDENTITY)
+
+
+def merge_down(document: Document, index: int | None = None) -> Document:
+    """Layer ``index`` (the active one) and the one below it made one layer, named as the lower one.
+
+    The items of both are kept, colour transforms applied to them
+    (``baked``); the upper layer's opacity and mask are let go.  The
+    curves of both then diffuse together, so the picture changes where the
+    two layers' images met: merging is a change of the drawing, not of pixels.
+
+    Raises
+    ------
+    ValueError
+        For the bottom layer (nothing below), or a layer whose transform cannot
+        be applied to its items (a colour offset with no curve to carry it).
+    """
+    index = _index(document, index)
+    if index == 0:
+        raise ValueError("the bottom layer has no layer below to merge into")
+    upper, lower = baked(document.layers[index]), baked(document.layers[index - 1])
+    for layer in (upper, lower):
+        if not layer.transform.is_identity:
+            raise ValueError(f"{layer.name}'s colour transform shifts colours but it has no curve to carry the shift")
+    merged = replace(lower, curves=lower.curves + upper.curves, points=lower.points + upper.points)
+    layers = document.layers[: index - 1] + (merged,) + document.layers[index + 1 :]
+    active = document.active - (document.active >= index)
+    return replace(document, layers=layers, active=active, editing_mask=False)
+
+
+def fill_color(layer: Layer) -> tuple[float, float, float] | None:
+    """The colour of a fill layer (no items, a transform to one constant colour, a mask); None for others."""
+    if layer.curves or layer.points or layer.mask is None or np.any(layer.transform.matrix):
+        return None
+    return tuple(float(v) for v in layer.transform.offset)
+
+
+def with_fill_layer(document: Document, color: tuple[float, float, float]) -> tuple[Document, int]:
+    """``document`` with a fill layer of ``color`` just above the active layer, and its index.
+
+    A fill layer shows one colour through its mask (``T(v) = color``, mask
+    base 0): paint dabs go into the mask, so colour covers what lies below
+    rather than adding up.  The one already above the active layer is taken
+    when it has this colour; the active layer stays active.
+    """
+    color = tuple(float(v) for v in color)
+    above = document.active + 1
+    if above < len(document.layers) and fill_color(document.layers[above]) == color:
+        return document, above
+    fill = Layer(name=f"Paint #{''.join(f'{round(min(max(v, 0.0), 1.0) * 255):02x}' for v in color)}",
+                 mask=Mask(base=0.0), transform=ColorTransform(np.zeros((3, 3)), color))
+    layers = document.layers[:above] + (fill,) + document.layers[above:]
+    return replace(document, layers=layers), above
+
+
+def add_mask_points(document: Document, index: int, points) -> Document:
+    """``points`` added to the mask of layer ``index`` (which must have one)."""
+    mask = document.layers[_index(document, index)].mask
+    if mask is None:
+        raise ValueError("the layer has no mask")
+    return _changed(document, index, mask=mask.with_points(mask.points + tuple(points)))
 
 
 def stacked(bottom: Document, top: Document, mask: Document | None = None, opacity: float = 1.0,

@@ -71,6 +71,9 @@ class PictureRenderer:
         ``CanvasRenderer`` by ``FieldKey``.
     composed : int
         How many draws composed the layers (a redraw of an unchanged picture does not).
+    mask_overlay : int or None
+        The id of a layer whose mask is tinted over the picture (red where it
+        hides the layer), while the user edits it; None for none.
     """
 
     def __init__(self, cache_format: int = GL.GL_RGBA32F, checker: float = 8.0, tolerance: float = TOLERANCE) -> None:
@@ -83,7 +86,17 @@ class PictureRenderer:
         self._vao: VertexArray | None = None
         self._last_key: FieldKey | None = None
         self._background: CanvasRenderer | None = None  # draws the plain background when there is no picture
+        self._overlay: int | None = None
         self.composed = 0
+
+    @property
+    def mask_overlay(self) -> int | None:
+        return self._overlay
+
+    @mask_overlay.setter
+    def mask_overlay(self, layer_id: int | None) -> None:
+        self._overlay = layer_id
+        self._composed_view = None
 
     # -- data ---------------------------------------------------------------------------------
     @property
@@ -155,7 +168,7 @@ class PictureRenderer:
     def _single(self) -> CanvasRenderer | None:
         """The renderer that draws the picture by itself: one plain layer shown; else None."""
         shown = self._picture.shown if self._picture is not None else ()
-        if len(shown) == 1 and shown[0].covers and shown[0].transform.is_identity:
+        if len(shown) == 1 and shown[0].covers and shown[0].transform.is_identity and self._overlay is None:
             return self.renderers[shown[0].id, "image"]
         return None
 
@@ -196,15 +209,16 @@ class PictureRenderer:
 
     def _evaluate(self, view: View) -> str:
         shown = self._picture.shown
-        evaluated = set()
-        for layer in shown:
-            for key in _layer_keys(layer):
-                evaluated.add(self.renderers[key].evaluate(view))
+        tinted = next((layer for layer in self._picture.layers if layer.id == self._overlay), None)
+        keys = {key for layer in shown for key in _layer_keys(layer)}
+        if tinted is not None:
+            keys |= {(tinted.id, "image")} | ({(tinted.id, "mask")} if tinted.mask is not None else set())
+        evaluated = {self.renderers[key].evaluate(view) for key in keys}
         if self._composed_view != view or evaluated - {"none"}:
-            self._compose(view, shown)
+            self._compose(view, shown, tinted)
         return "none" if evaluated <= {"none"} else "fields"
 
-    def _compose(self, view: View, shown: tuple[LayerFields, ...]) -> None:
+    def _compose(self, view: View, shown: tuple[LayerFields, ...], tinted: LayerFields | None) -> None:
         if self._program is None:
             self._program = Program(shader_source("window.vert"), shader_source("compose.frag"), label="compose shader")
             self._vao = VertexArray()
@@ -213,13 +227,15 @@ class PictureRenderer:
         GL.glClear(GL.GL_COLOR_BUFFER_BIT)
         program = self._program
         program.use()
-        program.set(u_image=0, u_mask=1, u_origin=(-view.offset_x / view.scale,
-                    -view.offset_y / view.scale), u_step=1.0 / view.scale, u_window_height=view.height,
+        program.set(u_image=0, u_mask=1, u_origin=(-view.offset_x / view.scale, -view.offset_y / view.scale),
+                    u_step=1.0 / view.scale, u_window_height=view.height,
                     u_canvas=(self._picture.width, self._picture.height))
         self._vao.bind()
         with over():
             for layer in shown:
                 self._layer_pass(program, layer)
+            if tinted is not None:
+                self._layer_pass(program, tinted, tint=True)
         GL.glBindVertexArray(0)
         GL.glUseProgram(0)
         for unit in (1, 0):
@@ -229,16 +245,17 @@ class PictureRenderer:
         self._composed_view = view
         self.composed += 1
 
-    def _layer_pass(self, program: Program, layer: LayerFields) -> None:
-        """Blend ``layer`` over the composed image (bound)."""
-        masked = layer.masked
-        for unit, key in enumerate(_layer_keys(layer)):
+    def _layer_pass(self, program: Program, layer: LayerFields, tint: bool = False) -> None:
+        """Blend ``layer`` over the composed image (bound); ``tint``: its mask's tint, enabled or not."""
+        reads_mask = layer.mask is not None and (tint or layer.masked)
+        enabled = tint or layer.mask_enabled
+        textures = [(0, (layer.id, "image"))] + ([(1, (layer.id, "mask"))] if reads_mask else [])
+        for unit, key in textures:
             GL.glActiveTexture(GL.GL_TEXTURE0 + unit)
             GL.glBindTexture(GL.GL_TEXTURE_2D, self.renderers[key].image_texture)
-        enabled = layer.mask_enabled
-        program.set(u_masked=int(masked), u_mask_base=layer.mask_base if enabled else 1.0,
+        program.set(u_masked=int(reads_mask), u_mask_base=layer.mask_base if enabled else 1.0,
                     u_inverted=int(enabled and layer.mask_inverted), u_opacity=layer.opacity,
-                    u_matrix=layer.transform.matrix, u_offset=layer.transform.offset)
+                    u_matrix=layer.transform.matrix, u_offset=layer.transform.offset, u_tint=int(tint))
         GL.glDrawArrays(GL.GL_TRIANGLE_STRIP, 0, 4)
 
     def read(self) -> np.ndarray:

@@ -3,16 +3,27 @@
 A press places a dab; dragging places further dabs every ``brush_spacing``
 document pixels along the pointer's path (spacing carries over between
 pointer moves, so dabs stay evenly spaced however the events arrive).  Each
-dab is a ``DiffusionPoint`` with the options' brush colour, radius and amplitude,
-fixed at the press.  The whole stroke is one undo step "Paint"; Esc during
-it removes the stroke.
+dab is a ``DiffusionPoint`` of the options' radius and amplitude, fixed at
+the press.  What a dab does depends on the mode:
+
+- **Glow** (``brush_mode = "glow"``): the dab adds ``amplitude x colour`` to
+  the active layer, so overlapping dabs add up towards white;
+- **Paint** (``"paint"``): the dab goes, white, into the mask of a fill layer
+  of the brush colour just above the active layer (``layer_edits.with_fill_layer``,
+  made on demand), so the colour covers what lies below;
+- while the active layer's **mask** is edited, a dab adds to the mask (a light
+  brush colour) or subtracts from it (a dark one), and with Alt the stroke
+  erases the mask's dabs under it.
+
+The whole stroke is one undo step; Esc during it removes the stroke.
 """
 
 from __future__ import annotations
 
 import math
 
-from ..model import DiffusionPoint, Document, edits
+from ..model import DiffusionPoint, Document, edits, layer_edits
+from ..model.layer import MASK_LUMA
 from .base import EditDrag, Tool
 from .context import ToolContext
 from .events import PointerEvent
@@ -23,14 +34,37 @@ class Stroke(EditDrag):
     """The dabs of one drag, shown as they are placed."""
 
     def __init__(self, context: ToolContext, event: PointerEvent) -> None:
-        options = context.options
+        options, document = context.options, context.document
         self.spacing = max(float(options.brush_spacing), 1e-3)
         radius, color, amplitude = options.brush_radius, options.brush_color, options.brush_amplitude
+        self.fill: int | None = None  # the fill layer painted into (Paint mode)
+        self.erasing = document.editing_mask and event.alt
+        if document.editing_mask:
+            label = "Erase Mask" if self.erasing else "Paint Mask"
+            sign = 1.0 if float(MASK_LUMA @ color) >= 0.5 else -1.0
+            color, amplitude = (1.0, 1.0, 1.0), sign * abs(amplitude)
+        elif options.brush_mode == "paint":
+            label = "Paint Over"
+            self.base_document, self.fill = layer_edits.with_fill_layer(document, color)
+            color, amplitude = (1.0, 1.0, 1.0), abs(amplitude)
+        else:
+            label = "Paint"
         self.dab = lambda x, y: DiffusionPoint((x, y), radius, color, amplitude)
         self.dabs = [self.dab(*event.position)]
         self.last = event.position  # the pointer's previous position
         self.travelled = 0.0  # distance along the path since the last dab
-        super().__init__(context, event, "Paint", pressed=edits.add_points(context.document, self.dabs))
+        self.reach = radius  # how near a mask dab's centre an erasing stroke passes to remove it
+        super().__init__(context, event, label, pressed=self._painted(document))
+
+    def _painted(self, start: Document) -> Document:
+        """``start`` with the stroke's dabs in place (or, erasing, without the mask dabs they reach)."""
+        if self.fill is not None:
+            return layer_edits.add_mask_points(self.base_document, self.fill, self.dabs)
+        if self.erasing:
+            hit = {point.id for point in start.points for dab in self.dabs
+                   if math.dist(point.position, dab.position) <= self.reach}
+            return edits.remove_points(start, hit)
+        return edits.add_points(start, self.dabs)
 
     def move(self, event: PointerEvent) -> None:
         self.position = event.position
@@ -50,7 +84,7 @@ class Stroke(EditDrag):
             self.context.history.preview(self.edited(event))
 
     def edited(self, event: PointerEvent) -> Document:
-        return edits.add_points(self.start, self.dabs)
+        return self._painted(self.start)
 
 
 class BrushTool(Tool):
@@ -58,7 +92,8 @@ class BrushTool(Tool):
 
     name = "brush"
     title = "Point Brush"
-    hint = "Drag to paint dabs: each adds amplitude x brush colour, so overlapping dabs add up (towards white); a negative amplitude takes colour away"
+    hint = ("Drag to paint dabs. Glow: each adds amplitude x brush colour, so overlapping dabs add up (towards "
+            "white). Paint: the colour covers what is below. On a mask: light adds, dark subtracts, Alt erases")
     shortcut = "B"
     cursor = "crosshair"
 

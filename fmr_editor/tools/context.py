@@ -39,6 +39,9 @@ class ToolOptions:
         Amplitude of each dab (negative subtracts colour).
     brush_spacing : float
         Distance between dabs along a stroke, document pixels.
+    brush_mode : str
+        ``"glow"`` (dabs add colour) or ``"paint"`` (dabs cover, through a
+        fill layer's mask; see ``brush``).
     """
 
     color: Color = (0.0, 0.0, 0.0)
@@ -47,6 +50,7 @@ class ToolOptions:
     brush_radius: float = 20.0
     brush_amplitude: float = 0.3
     brush_spacing: float = 10.0
+    brush_mode: str = "glow"
 
 
 def _set(items) -> frozenset:

@@ -74,6 +74,7 @@ class Canvas(QOpenGLWidget):
         self._rep: Picture | None = None
         self._full_upload = False
         self._changed: dict | None = None  # changed cells by field since the last paint
+        self._mask_overlay: int | None = None
         self._view = View(width=max(self.width(), 1), height=max(self.height(), 1))
         self._fitted = True  # the view follows the widget's size until the user pans or zooms
         self._pan_from: QPointF | None = None
@@ -107,6 +108,18 @@ class Canvas(QOpenGLWidget):
         if not self._full_upload:
             self._changed = merge_changes(self._changed or {}, changed)
         self._rep = rep
+        self.update()
+
+    @property
+    def mask_overlay(self) -> int | None:
+        """The id of the layer whose mask is tinted (``set_mask_overlay``)."""
+        return self._mask_overlay
+
+    def set_mask_overlay(self, layer_id: int | None) -> None:
+        """Tint what the mask of layer ``layer_id`` hides (while it is edited); None: no tint."""
+        self._mask_overlay = layer_id
+        if self.renderer is not None and self.renderer.mask_overlay != layer_id:
+            self.renderer.mask_overlay = layer_id
         self.update()
 
     # -- view ---------------------------------------------------------------------------------
@@ -170,6 +183,7 @@ class Canvas(QOpenGLWidget):
             self.error = f"the canvas needs OpenGL 4.1 core; got {fmt.majorVersion()}.{fmt.minorVersion()}"
             return
         self.renderer = PictureRenderer()
+        self.renderer.mask_overlay = self._mask_overlay
         self._full_upload = self._rep is not None
         self.context().aboutToBeDestroyed.connect(self._release)
 

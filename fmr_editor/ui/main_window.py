@@ -23,6 +23,8 @@ from .file_commands import FileCommands
 from .files import RecentFiles
 from .history_panel import HistoryPanel
 from .jobs import Job
+from .layer_commands import LayerCommands
+from .layers_panel import LayersPanel
 from .menus import build_actions, build_menus
 from .options_panel import OptionsPanel
 from .overlay import Overlay
@@ -38,8 +40,8 @@ CURSORS = {
 }
 
 
-class MainWindow(FileCommands, QMainWindow):
-    """The editor window (its file commands: ``file_commands.FileCommands``).
+class MainWindow(FileCommands, LayerCommands, QMainWindow):
+    """The editor window (its file and layer commands: ``file_commands``, ``layer_commands``).
 
     Parameters
     ----------
@@ -86,8 +88,11 @@ class MainWindow(FileCommands, QMainWindow):
         self.stops_panel = StopsPanel()
         self.stops_panel.changed.connect(self._after_tool)
         self.history_panel = HistoryPanel()
+        self.layers_panel = LayersPanel(self.actions)
+        self.layers_panel.failed.connect(lambda message: self.status_label.setText(message))
         docks = [
             self._dock("Tool Options", "options", self.options_panel, Qt.DockWidgetArea.LeftDockWidgetArea),
+            self._dock("Layers", "layers", self.layers_panel, Qt.DockWidgetArea.RightDockWidgetArea),
             self._dock("Colour Stops", "stops", self.stops_panel, Qt.DockWidgetArea.RightDockWidgetArea),
             self._dock("History", "history", self.history_panel, Qt.DockWidgetArea.RightDockWidgetArea),
         ]
@@ -274,6 +279,7 @@ class MainWindow(FileCommands, QMainWindow):
         workspace.context.zoom = self.canvas.view.scale
         first = f"Open {workspace.name}" if workspace.path is not None else "New Document"
         self.history_panel.bind(workspace.history, first)
+        self.layers_panel.bind(workspace.history)
         self.stops_panel.bind(workspace.context)
         if workspace.path is not None:
             self.recent.add(workspace.path)
@@ -293,6 +299,13 @@ class MainWindow(FileCommands, QMainWindow):
 
     def _document_changed(self) -> None:
         self.history_panel.refresh()
+        self.layers_panel.refresh()
+        document = self.workspace.history.document
+        overlay = document.layer.id if document.editing_mask else None
+        if overlay != self.canvas.mask_overlay:
+            self.canvas.set_mask_overlay(overlay)
+            self.status_label.setText(f"Editing the mask of {document.layer.name} (red: hidden); "
+                                      "Ctrl+Shift+M goes back to the layer" if overlay is not None else "")
         self._after_tool()
         self._update_title()
 
@@ -336,18 +349,20 @@ class MainWindow(FileCommands, QMainWindow):
             actions[name].setEnabled(free)
         for name in ("save", "save_as", "export", "delete", "select_all", "deselect"):
             actions[name].setEnabled(free and workspace is not None)
+        self._update_layer_actions()
 
     def _update_state(self) -> None:
         self._update_title()
         self._update_actions()
         self.history_panel.refresh()
+        self.layers_panel.refresh()
         self.stops_panel.refresh()
         self.overlay.update()
 
     def _set_busy(self, message: str | None) -> None:
         """Pause editing while a job runs (``message`` says what it does), or resume it (None)."""
         self._busy = message is not None
-        for widget in (self.canvas, self.stops_panel, self.history_panel):
+        for widget in (self.canvas, self.stops_panel, self.history_panel, self.layers_panel):
             widget.setEnabled(not self._busy)
         self.status_label.setText(message or "")
         if self._busy:

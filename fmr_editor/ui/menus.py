@@ -30,13 +30,33 @@ ACTIONS = {
     "fit": ("&Fit Canvas", ["Ctrl+0"], "fit", "Show the whole canvas"),
     "swap_colors": ("&Swap Colours", ["X"], "swap_colors", "Swap the foreground and background colours"),
     "default_colors": ("&Default Colours", ["D"], "default_colors", "Black foreground, white background"),
+    "new_layer": ("&New Layer", ["Ctrl+Shift+N"], "new_layer", "Add an empty layer above the active one"),
+    "duplicate_layer": ("&Duplicate Layer", ["Ctrl+J"], "duplicate_layer", "Copy the active layer above it"),
+    "delete_layer": ("De&lete Layer", [], "delete_layer", "Delete the active layer"),
+    "merge_down": ("&Merge Down", [], "merge_down",
+                   "Join the active layer's curves and points into the layer below (they then diffuse together)"),
+    "add_mask": ("Add &Mask", [], "add_mask", "Give the active layer a mask that shows all of it"),
+    "delete_mask": ("Delete Mas&k", [], "delete_mask", "Remove the active layer's mask"),
+    "invert_mask": ("&Invert Mask", [], "invert_mask", "Show what the mask hid and hide what it showed"),
+    "disable_mask": ("Disa&ble Mask", [], "toggle_mask", "Draw the layer as if it had no mask (the mask is kept)"),
+    "edit_mask": ("&Edit Mask", ["Ctrl+Shift+M"], "edit_mask",
+                  "Tools act on the mask: the brush paints it (light adds, dark subtracts, Alt erases), "
+                  "the pen draws its sharp edges"),
+    "adjust_colors": ("&Colour Adjust\u2026", ["Ctrl+U"], "adjust_colors",
+                      "Hue, saturation, brightness, contrast and invert of the active layer"),
     "about": ("&About", [], "about", "About the editor"),
 }
+
+#: Actions that only make sense with a document open.
+LAYER_ACTIONS = ("new_layer", "duplicate_layer", "delete_layer", "merge_down", "add_mask", "delete_mask",
+                 "invert_mask", "disable_mask", "edit_mask", "adjust_colors")
 
 MENUS = (
     ("&File", ("new", "open", "recent", None, "save", "save_as", "export", None, "quit")),
     ("&Edit", ("undo", "redo", None, "delete", None, "select_all", "deselect")),
     ("&View", ("zoom_in", "zoom_out", "fit", None, "panels")),
+    ("&Layer", ("new_layer", "duplicate_layer", "delete_layer", None, "merge_down", None, "add_mask",
+                "delete_mask", "invert_mask", "disable_mask", "edit_mask", None, "adjust_colors")),
     ("&Tools", ("tools", None, "swap_colors", "default_colors")),
     ("&Help", ("about",)),
 )
@@ -51,6 +71,7 @@ def build_actions(window) -> dict[str, QAction]:
         action.setStatusTip(tip)
         action.triggered.connect(lambda _=False, method=method: getattr(window, method)())
         actions[name] = action
+    actions["edit_mask"].setCheckable(True)
     group = QActionGroup(window)
     group.setExclusive(True)
     for cls in TOOLS:

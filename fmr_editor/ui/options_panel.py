@@ -7,7 +7,7 @@ from collections.abc import Iterable
 from PySide6.QtCore import QSize, Qt, Signal
 from PySide6.QtGui import QAction
 from PySide6.QtWidgets import (
-    QDoubleSpinBox, QFormLayout, QGridLayout, QGroupBox, QHBoxLayout, QToolButton, QVBoxLayout, QWidget,
+    QComboBox, QDoubleSpinBox, QFormLayout, QGridLayout, QGroupBox, QHBoxLayout, QToolButton, QVBoxLayout, QWidget,
 )
 
 from ..tools import ToolOptions
@@ -72,6 +72,13 @@ class OptionsPanel(QWidget):
         form = QFormLayout(brush)
         self.brush_swatch = self._swatch_button("Brush colour: each dab adds amplitude x this colour", "brush_color")
         form.addRow("Colour", self.brush_swatch)
+        self.brush_mode = QComboBox(self)
+        self.brush_mode.addItem("Glow", "glow")
+        self.brush_mode.addItem("Paint", "paint")
+        self.brush_mode.setToolTip("Glow: dabs add colour and overlapping dabs brighten towards white. "
+                                   "Paint: dabs cover what is below with the brush colour (a fill layer's mask)")
+        self.brush_mode.currentIndexChanged.connect(self._set_mode)
+        form.addRow("Mode", self.brush_mode)
         self.spins: dict[str, QDoubleSpinBox] = {}
         for name, label, low, high, step, decimals, tip in BRUSH_FIELDS:
             spin = QDoubleSpinBox(self)
@@ -100,6 +107,10 @@ class OptionsPanel(QWidget):
         button.setIconSize(QSize(28, 20))
         button.clicked.connect(lambda _=False: self.choose(attribute))
         return button
+
+    def _set_mode(self, index: int) -> None:
+        self.options.brush_mode = self.brush_mode.itemData(index)
+        self.changed.emit()
 
     def _set(self, name: str, value: float) -> None:
         setattr(self.options, name, float(value))
@@ -131,6 +142,11 @@ class OptionsPanel(QWidget):
         for button, color in ((self.foreground, options.color), (self.background, options.secondary_color),
                               (self.brush_swatch, options.brush_color)):
             button.setIcon(swatch(qcolor(color), 28))
+        mode = self.brush_mode.findData(options.brush_mode)
+        if mode != self.brush_mode.currentIndex():
+            self.brush_mode.blockSignals(True)
+            self.brush_mode.setCurrentIndex(mode)
+            self.brush_mode.blockSignals(False)
         for name, spin in self.spins.items():
             value = float(getattr(options, name))
             if spin.value() != value:

@@ -1,0 +1,141 @@
+"""Layers in the editor window, driven through the Layers panel, the Layer menu and the tools under Xvfb.
+
+Two layers, a painted mask, a hue shift, opacity, a rename and a hidden layer, each one named step; the
+canvas shows the CPU composite after each; undo all and redo all give back every document; save and
+reopen give the same document and the same pixels.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from canvas_oracle import mismatches
+from test_ui_tools import line  # noqa: F401 - the fixture
+
+pytest.importorskip("pytestqt", reason="pytest-qt is in the [test] extra")
+
+from PySide6.QtCore import QModelIndex, Qt  # noqa: E402
+
+from fmr_editor.engine import LiveStack, rasterise  # noqa: E402
+from fmr_editor.io import load_fmr  # noqa: E402
+from fmr_editor.io.png import to_rgb8  # noqa: E402
+from fmr_editor.model.color_transform import hue_rotation  # noqa: E402
+
+pytestmark = pytest.mark.gui
+
+
+def shows_the_composite(editor) -> None:
+    """The canvas shows, to one 8-bit level, the composite of a fresh build of the current document."""
+    editor.wait_idle()
+    shown = editor.canvas.grab_image()
+    off = mismatches(shown, LiveStack(editor.document).composite, editor.canvas.device_view(), 1.0)
+    assert off["inside"] == 0 and off["outside"] == 0, off
+
+
+def test_layers_panel_mask_hue_undo_redo_save_and_reopen(line, tmp_path, qtbot):
+    editor = line
+    window, panel = editor.window, editor.window.layers_panel
+    steps = [editor.document]
+
+    def step(label: str) -> None:
+        editor.wait_idle()
+        assert editor.history.labels[-1] == label and editor.history.index == len(steps)
+        steps.append(editor.document)
+
+    qtbot.mouseClick(panel.buttons["new_layer"], Qt.MouseButton.LeftButton)
+    step("New Layer")
+    assert len(editor.document.layers) == 2 and editor.document.active == 1 and panel.list.count() == 2
+
+    editor.key(Qt.Key.Key_B)  # Glow dabs on the new layer
+    window.options.brush_color, window.options.brush_radius, window.options.brush_amplitude = (0.2, 0.9, 0.3), 14, 0.8
+    editor.drag([(30, 30), (90, 40)])
+    step("Paint")
+    assert editor.document.layers[0].points == () and len(editor.document.layers[1].points) > 3
+
+    window.actions["add_mask"].trigger()
+    step("Add Mask")
+    editor.key(Qt.Key.Key_M, Qt.KeyboardModifier.ControlModifier | Qt.KeyboardModifier.ShiftModifier)
+    assert editor.document.editing_mask and editor.history.index == len(steps) - 1  # no step
+    steps[-1] = editor.document
+    window.options.brush_color = (0.0, 0.0, 0.0)  # dark subtracts from the mask
+    editor.drag([(40, 30), (60, 40)])
+    step("Paint Mask")
+    mask = editor.document.layers[1].mask
+    assert mask.base == 1.0 and {p.amplitude for p in mask.points} == {-0.8}
+    editor.wait_idle()
+    tinted = mismatches(editor.canvas.grab_image(), LiveStack(editor.document).composite,
+                        editor.canvas.device_view(), 1.0)
+    assert tinted["inside"] > 100  # while the mask is edited, what it hides is tinted red
+    window.edit_mask()
+    assert not editor.document.editing_mask
+    steps[-1] = editor.document  # choosing the target changes the current step's document, adds none
+    shows_the_composite(editor)
+
+    window.adjust_colors()
+    dialog = window.color_dialog
+    dialog.set_values(hue=120)
+    dialog.accept()
+    step("Colour Adjust")
+    assert editor.document.layers[1].transform == hue_rotation(120)
+
+    panel.opacity.setValue(60)
+    panel.opacity.setValue(70)  # one drag of the slider: one step
+    step("Layer Opacity")
+    assert editor.document.layers[1].opacity == 0.7
+
+    panel.list.item(0).setText("glow")  # the top row, renamed as the editor would after a double click
+    step("Rename Layer")
+    panel.list.model().moveRow(QModelIndex(), 0, QModelIndex(), 2)  # drag the top row below the other
+    qtbot.waitUntil(lambda: editor.history.labels[-1] == "Move Layer", timeout=5000)  # once the view is done
+    step("Move Layer")
+    assert [layer.name for layer in editor.document.layers] == ["glow", "Layer 1"] and editor.document.active == 0
+    shows_the_composite(editor)
+
+    panel.list.item(0).setCheckState(Qt.CheckState.Unchecked)  # the eye of the top row
+    step("Hide Layer")
+    assert not editor.document.layers[1].visible
+    shows_the_composite(editor)
+
+    for expected in reversed(steps[:-1]):
+        window.undo()
+        assert editor.document == expected
+    shows_the_composite(editor)
+    for expected in steps[1:]:
+        window.redo()
+        assert editor.document == expected
+    shows_the_composite(editor)
+    # Opening builds the points' polynomials afresh (dabs were added one by one, to within the points' tolerance),
+    # so the reopened pixels are those of a fresh build of the document, shown and rendered here for comparison.
+    fresh = LiveStack(editor.document).composite
+    editor.canvas.set_representation(fresh, fit=False)
+    shown = editor.canvas.grab_image()
+    pixels = rasterise(fresh, 64, 64, samples=1)
+
+    target = tmp_path / "layers.fmr"
+    editor.answers["save"] = target
+    window.save_as()
+    qtbot.waitUntil(lambda: window.job is None and not editor.history.modified, timeout=30_000)
+    assert load_fmr(target).document == editor.document
+    editor.open(target)
+    assert editor.document == steps[-1] and editor.workspace.frame.kind == "build"
+    reopened = rasterise(editor.workspace.frame.picture, 64, 64, samples=1)
+    assert np.abs(reopened - pixels).max() < 1e-9  # the points' polynomials are summed again: rounding apart
+    assert np.array_equal(to_rgb8(reopened), to_rgb8(pixels))
+    assert np.array_equal(editor.canvas.grab_image(), shown)
+
+
+def test_paint_mode_covers_with_a_fill_layer_instead_of_adding_up(line, qtbot):
+    editor = line
+    window = editor.window
+    editor.key(Qt.Key.Key_B)
+    window.options.brush_mode, window.options.brush_color = "paint", (0.1, 0.2, 0.9)
+    window.options.brush_amplitude, window.options.brush_radius, window.options.brush_spacing = 1.0, 12.0, 4.0
+    for y in (50, 54):  # two overlapping strokes: one fill layer, covering, not adding up
+        editor.drag([(30, y), (100, y)])
+    editor.wait_idle()
+    document = editor.document
+    assert [label for label in editor.history.labels[1:]] == ["Paint Over", "Paint Over"]
+    assert len(document.layers) == 2 and document.active == 0 and document.layers[1].name == "Paint #1a33e6"
+    colour = editor.workspace.sample(60.0, 52.0)
+    np.testing.assert_allclose(colour, (0.1, 0.2, 0.9), atol=1e-3)  # covered: the brush colour, not more
+    shows_the_composite(editor)
