@@ -186,3 +186,28 @@ def test_undoing_a_deletion_takes_the_layer_back_without_a_solve():
     stack.update(layer_edits.remove_layer(document, 1))
     assert stack.update(document).fields == {}
     assert representations(stack) == kept
+
+
+# -- baking transforms, merging ------------------------------------------------------------------------------------
+
+
+def test_a_baked_transform_gives_the_same_image_without_a_transform():
+    layer = Layer(scattered_document(SIZE, seed=5).curves, transform=hue_rotation(70).then(inversion()),
+                  points=[DiffusionPoint((40, 50), 15, (0.2, 0.5, 0.9), 0.7)])
+    document = Document(SIZE, SIZE, layers=(layer,))
+    baked = layer_edits.baked(layer)
+    assert baked.transform.is_identity and baked != layer
+    transformed = rasterise(LiveStack(document).composite, PIXELS, PIXELS, samples=1)
+    np.testing.assert_allclose(rasterise(LiveStack(document.with_layer(0, baked)).composite, PIXELS, PIXELS,
+                                         samples=1), transformed, atol=1e-6)
+
+
+def test_merge_down_joins_the_items_with_transforms_applied_and_keeps_the_lower_layer():
+    document = three_layers()
+    merged = layer_edits.merge_down(document, 2)
+    assert [layer.name for layer in merged.layers] == ["bottom", "middle"] and merged.active == 1
+    middle, top = document.layers[1], layer_edits.baked(document.layers[2])
+    assert merged.layers[1].curves == middle.curves + top.curves
+    assert merged.layers[1].mask == middle.mask and merged.layers[1].opacity == middle.opacity
+    with pytest.raises(ValueError, match="no layer below"):
+        layer_edits.merge_down(document, 0)

@@ -461,6 +461,46 @@ def test_a_brush_click_paints_one_dab():
     assert context.history.labels == ("", "Paint")
 
 
+def test_on_a_mask_light_dabs_add_dark_dabs_subtract_and_alt_erases():
+    from fmr_editor.model import layer_edits
+
+    document = layer_edits.select_layer(layer_edits.add_mask(Document(100, 100)), 0, mask=True)
+    context = make_context(document)
+    options = context.options
+    options.brush_amplitude, options.brush_spacing, options.brush_radius = 0.5, 10.0, 6.0
+    brush = BrushTool(context)
+    options.brush_color = (0.9, 0.8, 0.7)
+    drag(brush, [(10, 10), (30, 10)])
+    options.brush_color = (0.1, 0.0, 0.2)
+    drag(brush, [(10, 50), (30, 50)])
+    mask = context.document.layer.mask
+    assert context.document.layer.points == ()  # the layer itself is untouched
+    assert [(p.color, p.amplitude) for p in mask.points] == [((1.0, 1.0, 1.0), 0.5)] * 3 + [((1.0, 1.0, 1.0), -0.5)] * 3
+    drag(brush, [(12, 48), (22, 48)], "alt")  # erases the dabs within the radius of its path
+    assert [p.position for p in context.document.layer.mask.points] == [(10, 10), (20, 10), (30, 10), (30, 50)]
+    assert context.history.labels == ("", "Paint Mask", "Paint Mask", "Erase Mask")
+
+
+def test_paint_mode_dabs_go_into_one_fill_layer_above_the_active_layer():
+    from fmr_editor.model import layer_edits
+
+    context = make_context(Document(100, 100))
+    options = context.options
+    options.brush_mode, options.brush_color, options.brush_amplitude = "paint", BLUE, 0.8
+    brush = BrushTool(context)
+    drag(brush, [(10, 10), (30, 10)])
+    drag(brush, [(10, 20), (30, 20)])
+    document = context.document
+    assert len(document.layers) == 2 and document.active == 0 and document.layers[0].points == ()
+    fill = document.layers[1]
+    assert layer_edits.fill_color(fill) == BLUE and fill.mask.base == 0.0 and len(fill.mask.points) == 6
+    assert {(p.color, p.amplitude) for p in fill.mask.points} == {((1.0, 1.0, 1.0), 0.8)}
+    options.brush_color = RED  # another colour: another fill layer, right above the active one
+    click(brush, 50, 50)
+    assert [layer_edits.fill_color(layer) for layer in context.document.layers[1:]] == [RED, BLUE]
+    assert context.history.labels == ("", "Paint Over", "Paint Over", "Paint Over")
+
+
 # -- escape during any drag ----------------------------------------------------------------------
 def _select_curve_then_drag(context):
     tool = SelectTool(context)
