@@ -26,6 +26,7 @@ class CachedImage:
         self.additive = cache_format == GL.GL_RGBA32F
         self._display = Framebuffer(GL.GL_RGBA8) if self.additive else None
         self._stale: tuple[int, int, int, int] | None = None  # GL pixels of the image not yet in the copy
+        self._changed: tuple[int, int, int, int] | None = None  # GL pixels changed since take_changed
 
     @property
     def size(self) -> tuple[int, int]:
@@ -39,9 +40,13 @@ class CachedImage:
 
     def touch(self, rect: tuple[int, int, int, int]) -> None:
         """Note that the GL pixels ``(x0, y0, x1, y1)`` of the image changed."""
-        if self._stale is not None:
-            rect = tuple(f(a, b) for f, a, b in zip((min, min, max, max), self._stale, rect))
-        self._stale = rect
+        self._stale = union(self._stale, rect)
+        self._changed = union(self._changed, rect)
+
+    def take_changed(self) -> tuple[int, int, int, int] | None:
+        """The GL pixels changed since the last call (None: none), for a reader of the image."""
+        changed, self._changed = self._changed, None
+        return changed
 
     def shown(self) -> Framebuffer:
         """The image as the window shows it (its 8-bit copy, brought up to date, for a float image)."""
@@ -74,6 +79,13 @@ class CachedImage:
         for item in (self.image, self._spare, self._display):
             if item is not None:
                 item.delete()
+
+
+def union(a: tuple[int, int, int, int] | None, b: tuple[int, int, int, int] | None) -> tuple | None:
+    """The smallest rectangle ``(x0, y0, x1, y1)`` holding both (None is empty)."""
+    if a is None or b is None:
+        return a if b is None else b
+    return (min(a[0], b[0]), min(a[1], b[1]), max(a[2], b[2]), max(a[3], b[3]))
 
 
 def show_scaled(source: Framebuffer, cached: View, view: View, target: int) -> None:

@@ -115,6 +115,10 @@ class CanvasRenderer:
         """The GL texture of the cached float image (what ``evaluate`` brings up to date)."""
         return self._cache.image.texture
 
+    def take_changed(self) -> tuple[int, int, int, int] | None:
+        """GL pixels ``(x0, y0, x1, y1)`` of the cached image changed since the last call; None: none."""
+        return self._cache.take_changed()
+
     def upload(self, rep: Representation) -> None:
         """Upload all of ``rep``; the next ``draw`` evaluates the whole window."""
         self._data.upload(rep)

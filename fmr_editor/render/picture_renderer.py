@@ -4,9 +4,12 @@ Each field (a layer's image, a mask) keeps its own cached window image and
 re-evaluates only its changed cells, so an edit to one layer costs what it
 costs in a one-layer document.  Drawing brings every shown field's image up
 to date and, when any of them or the layers' settings changed, composes them
-bottom up into a float image with ``shaders/compose.frag`` (the blend unit
-does ``m T(V) + (1 - m) below``, as ``engine.composite.compose`` on the CPU);
-a redraw with nothing changed copies that image.  A picture of one plain
+bottom up into a float image with ``shaders/compose.frag`` (a pass a layer,
+the blend unit doing ``m T(V) + (1 - m) below``, as ``engine.composite.compose``
+on the CPU; one pass for all layers, with sampler arrays, was twice as slow
+under llvmpipe), over the whole window after a change of the layers' settings,
+else over the rectangle whose fields changed; a redraw with nothing changed
+copies that image.  A picture of one plain
 layer is drawn by its field's renderer alone, exactly as before layers.
 """
 
@@ -19,7 +22,7 @@ import numpy as np
 from OpenGL import GL
 
 from ..engine import Composite, LayerFields, Representation
-from .cached_image import CachedImage, show_scaled
+from .cached_image import CachedImage, show_scaled, union
 from .canvas_renderer import TOLERANCE, CanvasRenderer
 from .gl import Program, VertexArray, over, plain_state, shader_source
 from .view import View
@@ -81,7 +84,8 @@ class PictureRenderer:
         self.renderers: dict[FieldKey, CanvasRenderer] = {}
         self._picture: Composite | None = None
         self._composed = CachedImage(GL.GL_RGBA32F)
-        self._composed_view: View | None = None  # what the composed image shows; None: compose again
+        self._composed_view: View | None = None  # what the composed image shows; None: compose it all again
+        self._pending = False  # fields may have something to evaluate (an update since the last draw)
         self._program: Program | None = None
         self._vao: VertexArray | None = None
         self._last_key: FieldKey | None = None
@@ -97,6 +101,7 @@ class PictureRenderer:
     def mask_overlay(self, layer_id: int | None) -> None:
         self._overlay = layer_id
         self._composed_view = None
+        self._pending = True
 
     # -- data ---------------------------------------------------------------------------------
     @property
@@ -108,12 +113,16 @@ class PictureRenderer:
         picture = picture_of(picture)
         self.update(picture, {key: WHOLE for key in _fields(picture)})
 
-    def update(self, picture: Representation | Composite, changed: dict[FieldKey, np.ndarray | None]) -> None:
+    def update(self, picture: Representation | Composite,
+               changed: dict[FieldKey, np.ndarray | None] | np.ndarray) -> None:
         """Go over to ``picture``, whose fields differ from the uploaded ones only as ``changed`` says.
 
         A field missing from ``changed`` is unchanged; ``WHOLE`` (None) uploads it whole, as does a field
-        not uploaded before.  Fields no layer reads any more are released.
+        not uploaded before.  Fields no layer reads any more are released.  For a representation,
+        ``changed`` may be its ``Update.changed``.
         """
+        if isinstance(changed, np.ndarray):
+            changed = {(0, "image"): changed}
         picture = picture_of(picture)
         fields = _fields(picture)
         for key in [key for key in self.renderers if key not in fields]:
@@ -130,8 +139,10 @@ class PictureRenderer:
             else:
                 continue
             self._last_key = key
+        if self._picture is None or _settings(self._picture) != _settings(picture):
+            self._composed_view = None  # layers' opacity, masks, transforms or order: compose everything again
         self._picture = picture
-        self._composed_view = None
+        self._pending = True
 
     def forget(self) -> None:
         """Drop the picture: ``draw`` shows a plain background until the next ``upload``."""
@@ -146,6 +157,7 @@ class PictureRenderer:
         for renderer in self.renderers.values():
             renderer.invalidate()
         self._composed_view = None
+        self._pending = True
 
     # -- what the tests and the window read ----------------------------------------------------
     @property
@@ -208,31 +220,49 @@ class PictureRenderer:
             return self._evaluate(view)
 
     def _evaluate(self, view: View) -> str:
+        if not self._pending and self._composed_view == view:  # a redraw: the composed image is current
+            return "none"
         shown = self._picture.shown
         tinted = next((layer for layer in self._picture.layers if layer.id == self._overlay), None)
         keys = {key for layer in shown for key in _layer_keys(layer)}
         if tinted is not None:
             keys |= {(tinted.id, "image")} | ({(tinted.id, "mask")} if tinted.mask is not None else set())
         evaluated = {self.renderers[key].evaluate(view) for key in keys}
-        if self._composed_view != view or evaluated - {"none"}:
+        changed = None
+        for renderer in self.renderers.values():  # every field's, so that none carries old changes over
+            changed = union(changed, renderer.take_changed())
+        if self._composed_view != view:
             self._compose(view, shown, tinted)
+        elif changed is not None:
+            self._compose(view, shown, tinted, changed)
+        self._pending = False
         return "none" if evaluated <= {"none"} else "fields"
 
-    def _compose(self, view: View, shown: tuple[LayerFields, ...], tinted: LayerFields | None) -> None:
+    def _compose(self, view: View, shown: tuple[LayerFields, ...], tinted: LayerFields | None,
+                 rect: tuple[int, int, int, int] | None = None) -> None:
+        """Compose the layers into the composed image: all of it, or the GL pixels ``rect`` of it."""
         if self._program is None:
             self._program = Program(shader_source("window.vert"), shader_source("compose.frag"), label="compose shader")
             self._vao = VertexArray()
         self._composed.bind(view.width, view.height)
-        GL.glClearColor(0.0, 0.0, 0.0, 1.0)
-        GL.glClear(GL.GL_COLOR_BUFFER_BIT)
+        if rect is not None:
+            x0, y0, x1, y1 = rect
+            GL.glEnable(GL.GL_SCISSOR_TEST)
+            GL.glScissor(x0, y0, max(x1 - x0, 0), max(y1 - y0, 0))
+        covering = bool(shown) and shown[0].covers  # the bottom layer is drawn as it is: no clear, no blending
+        if not covering:
+            GL.glClearColor(0.0, 0.0, 0.0, 1.0)
+            GL.glClear(GL.GL_COLOR_BUFFER_BIT)
         program = self._program
         program.use()
         program.set(u_image=0, u_mask=1, u_origin=(-view.offset_x / view.scale, -view.offset_y / view.scale),
                     u_step=1.0 / view.scale, u_window_height=view.height,
                     u_canvas=(self._picture.width, self._picture.height))
         self._vao.bind()
+        if covering:
+            self._layer_pass(program, shown[0])
         with over():
-            for layer in shown:
+            for layer in shown[covering:]:
                 self._layer_pass(program, layer)
             if tinted is not None:
                 self._layer_pass(program, tinted, tint=True)
@@ -241,12 +271,13 @@ class PictureRenderer:
         for unit in (1, 0):
             GL.glActiveTexture(GL.GL_TEXTURE0 + unit)
             GL.glBindTexture(GL.GL_TEXTURE_2D, 0)
-        self._composed.touch((0, 0, view.width, view.height))
+        GL.glDisable(GL.GL_SCISSOR_TEST)
+        self._composed.touch(rect or (0, 0, view.width, view.height))
         self._composed_view = view
         self.composed += 1
 
     def _layer_pass(self, program: Program, layer: LayerFields, tint: bool = False) -> None:
-        """Blend ``layer`` over the composed image (bound); ``tint``: its mask's tint, enabled or not."""
+        """Blend ``layer`` over the composed image (bound); ``tint``: its mask's tint instead, enabled or not."""
         reads_mask = layer.mask is not None and (tint or layer.masked)
         enabled = tint or layer.mask_enabled
         textures = [(0, (layer.id, "image"))] + ([(1, (layer.id, "mask"))] if reads_mask else [])
@@ -276,6 +307,12 @@ class PictureRenderer:
 
 def _layer_keys(layer: LayerFields) -> list[FieldKey]:
     return [(layer.id, "image")] + ([(layer.id, "mask")] if layer.masked else [])
+
+
+def _settings(picture: Composite) -> tuple:
+    """How ``picture``'s layers are composed (everything but their representations)."""
+    return tuple((layer.id, layer.visible, layer.opacity, layer.transform, layer.mask_base, layer.mask_inverted,
+                  layer.mask_enabled, layer.mask is None) for layer in picture.layers)
 
 
 def _fields(picture: Composite) -> dict[FieldKey, Representation]:

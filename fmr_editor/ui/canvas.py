@@ -104,7 +104,7 @@ class Canvas(QOpenGLWidget):
         or of a composite a dict of them by field (a field left out is unchanged).
         """
         if isinstance(changed, np.ndarray):
-            changed = {(0, "image"): changed}
+            changed = {(0, "image"): changed}  # a representation is a picture of one layer of id 0
         if not self._full_upload:
             self._changed = merge_changes(self._changed or {}, changed)
         self._rep = rep

@@ -1,0 +1,169 @@
+"""Layers benchmark: a 3-layer document with masks against the same curves in one layer (issue 13).
+
+    python bench/bench_layers.py [FILE] [--size S] [--repeat N]
+
+FILE (default lady_bug.xml from ../shared/data) is split into three layers by
+curve order (its curves, a third each): the middle one masked by a closed
+circle (a sharp curve mask) and hue-rotated, the top one masked by diffusion
+points (a soft mask) at 80% opacity.  The flat document is FILE itself: the
+same curves in one layer.  Side by side, in one run, best of N (the machine
+is shared and noisy):
+
+- **canvas redraw**: ``PictureRenderer.draw`` with nothing changed (a copy of
+  the composed image), and the **full evaluation** (every window pixel of every
+  layer and mask evaluated and composed: a zoom or a resize), S x S window;
+- **CPU raster**: ``engine.rasterise`` of the composite and of the flat
+  document at the canvas size, one sample a pixel;
+- **mask dab**: one diffusion point into the top layer's mask, from the edit
+  to the finished frame (engine update, renderer update, draw, ``glFinish``);
+- **hue change**: the middle layer's hue turned, edit to frame (no solve: the
+  transform applies at composition).
+
+Targets: composite redraw within 1.5x the flat document's, mask dab <= 10 ms,
+hue change <= 30 ms.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+from bench_canvas import DEFAULT_FILE, best, full_evaluations, start_xvfb
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO / "tests"))
+
+
+def layered(document):
+    """FILE's curves in three layers, with a curve mask, a points mask, a hue rotation and an opacity."""
+    from shapes import circle_points, uniform_curve
+
+    from fmr_editor.model import DiffusionPoint, Document, Layer, Mask
+    from fmr_editor.model.color_transform import hue_rotation
+
+    w, h = document.width, document.height
+    thirds = np.array_split(np.arange(len(document.curves)), 3)
+    curves = [tuple(document.curves[i] for i in part) for part in thirds]
+    rng = np.random.default_rng(3)
+    circle = Mask(curves=[uniform_curve(circle_points(0.55 * w, 0.45 * h, 0.3 * min(w, h)), 1.0, 0.0)])
+    soft = Mask(points=[DiffusionPoint((float(x), float(y)), float(r), (1.0, 1.0, 1.0), 0.8)
+                        for x, y, r in zip(rng.uniform(0, w, 40), rng.uniform(0, h, 40), rng.uniform(15, 60, 40))])
+    layers = (Layer(curves[0], name="bottom"),
+              Layer(curves[1], name="middle", mask=circle, transform=hue_rotation(120)),
+              Layer(curves[2], name="top", mask=soft, opacity=0.8))
+    return Document(w, h, layers=layers, active=2)
+
+
+def gl_rows(args, flat_picture, stack, fields_count) -> list[tuple]:
+    """Redraw and full evaluation of both pictures in a S x S canvas; the edits' frames."""
+    from OpenGL import GL
+    from PySide6.QtTest import QTest
+
+    from fmr_editor.model import DiffusionPoint, layer_edits
+    from fmr_editor.model.color_transform import hue_rotation
+    from fmr_editor.render import View
+    from fmr_editor.ui.canvas import Canvas
+
+    size = args.size
+    view = View(size / max(flat_picture.width, flat_picture.height), 0.0, 0.0, size, size)
+    canvas = Canvas()
+    canvas.resize(size, size)
+    canvas.show()
+    QTest.qWaitForWindowExposed(canvas)
+    canvas.repaint()
+    if canvas.renderer is None:
+        sys.exit(f"bench_layers: no OpenGL canvas: {canvas.error}")
+    canvas.makeCurrent()
+    renderer, fbo = canvas.renderer, canvas.defaultFramebufferObject()
+    results = {}
+    for name, picture in (("flat", flat_picture), ("layers", stack.composite)):
+        renderer.upload(picture)
+        renderer.draw(view, fbo)
+        GL.glFinish()
+        runs = []
+        for _ in range(args.repeat):
+            start = time.perf_counter()
+            for _ in range(args.frames):
+                renderer.draw(view, fbo)
+            GL.glFinish()
+            runs.append((time.perf_counter() - start) / args.frames)
+        results[name] = (best(runs), best(full_evaluations(renderer, view, fbo, args.repeat)))
+    rows = [("canvas redraw, nothing changed (ms)", results["flat"][0], results["layers"][0]),
+            (f"canvas full evaluation, {size}x{size} (ms)", results["flat"][1], results["layers"][1])]
+
+    top, middle = stack.document.layers[2], stack.document.layers[1]
+    rng = np.random.default_rng(5)
+    dabs, hues = [], []
+    for i in range(args.repeat):
+        point = DiffusionPoint(tuple(rng.uniform(0, flat_picture.width, 2)), 20.0, (1.0, 1.0, 1.0), -0.5)
+        document = layer_edits.add_mask_points(stack.document, 2, [point])
+        dabs.append(edit_to_frame(stack, document, renderer, view, fbo))
+        document = layer_edits.set_transform(stack.document, 1, hue_rotation(120 + 7 * (i + 1)))
+        hues.append(edit_to_frame(stack, document, renderer, view, fbo))
+    assert stack.document.layers[2].id == top.id and stack.document.layers[1].id == middle.id
+    dab, hue = np.min(dabs, axis=0) * 1e3, np.min(hues, axis=0) * 1e3
+    rows += [("mask dab: engine update (ms)", None, dab[0]), ("mask dab: edit to frame (ms)", None, dab[1]),
+             ("hue change: engine update (ms)", None, hue[0]), ("hue change: edit to frame (ms)", None, hue[1])]
+    canvas.close()
+    return rows
+
+
+def edit_to_frame(stack, document, renderer, view, fbo) -> tuple[float, float]:
+    """Seconds of the engine update and of the whole edit to the finished frame."""
+    from OpenGL import GL
+
+    start = time.perf_counter()
+    update = stack.update(document)
+    engine = time.perf_counter()
+    renderer.update(stack.composite, {key: field.changed for key, field in update.fields.items()})
+    renderer.draw(view, fbo)
+    GL.glFinish()
+    return engine - start, time.perf_counter() - start
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("file", nargs="?", default=str(DEFAULT_FILE))
+    parser.add_argument("--size", type=int, default=1024)
+    parser.add_argument("--repeat", type=int, default=5)
+    parser.add_argument("--frames", type=int, default=30)
+    args = parser.parse_args()
+    xvfb = start_xvfb()
+    os.environ["QT_QPA_PLATFORM"] = "xcb"
+    from PySide6.QtWidgets import QApplication
+
+    from fmr_editor.engine import LiveStack, rasterise
+    from fmr_editor.io import load_document
+
+    app = QApplication([])
+    flat_document = load_document(args.file)
+    flat = LiveStack(flat_document).composite
+    stack = LiveStack(layered(flat_document))
+    fields = len(stack.fields)
+    print(f"# Layers benchmark\n\n{Path(args.file).name} ({flat.width}x{flat.height}, {len(flat_document.curves)} "
+          f"curves): flat = one layer; layers = its curves in 3 layers with a curve mask, a points mask, a hue "
+          f"rotation and an opacity ({fields} fields). {os.cpu_count()} cores; best of {args.repeat} runs.\n")
+    rows = []
+    for name, picture in (("flat", flat), ("layers", stack.composite)):
+        runs = []
+        for _ in range(args.repeat):
+            start = time.perf_counter()
+            rasterise(picture, samples=1)
+            runs.append(time.perf_counter() - start)
+        rows.append((name, best(runs)))
+    raster = ("CPU raster, canvas size, 1 sample (ms)", rows[0][1], rows[1][1])
+    table = [raster, *gl_rows(args, flat, stack, fields)]
+    print("| measure | flat | layers | ratio |\n|---|---:|---:|---:|")
+    for name, one, many in table:
+        ratio = f"{many / one:.2f}x" if one else ""
+        print(f"| {name} | {'' if one is None else f'{one:.1f}'} | {many:.1f} | {ratio} |")
+    app.quit()
+    del xvfb
+
+
+if __name__ == "__main__":
+    main()
