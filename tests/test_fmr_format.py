@@ -39,6 +39,7 @@ from fmr_editor.engine.solve import solver as fast_solve
 from fmr_editor.io import DocumentLoadError, FmrFile, fmr_file, load_document, load_fmr, save_fmr
 from fmr_editor.io.document_json import document_from_data, document_to_data, dumps_document, loads_document
 from fmr_editor.io.png import to_rgb8
+from fmr_editor.io.zip_reading import MAX_ENTRIES
 from fmr_editor.model import BlurStop, ColorStop, DiffusionCurve, DiffusionPoint, Document
 
 # --- fixtures and helpers -----------------------------------------------------------------------
@@ -406,7 +407,7 @@ def valid_document_data() -> dict:
         (lambda d: d["canvas"].update(width=True), "canvas.width must be a whole number"),
         (lambda d: d.pop("canvas"), "canvas is missing"),
         (lambda d: d["layers"][0].update(curves={}), "layers[0].curves must be a list, got an object"),
-        (lambda d: d.update(layers=[]), "layers must hold 1 to 1000 layers, got 0"),
+        (lambda d: d.update(layers=[]), "layers must hold 1 to 200 layers, got 0"),
         (lambda d: d.pop("layers"), "layers is missing"),
         (lambda d: d.update(active=1), "active must be from 0 to 0, got 1"),
         (lambda d: d["layers"][0].update(opacity=1.5), "layers[0].opacity must lie in [0, 1], got 1.5"),
@@ -602,8 +603,9 @@ def test_document_above_the_limit_is_refused(tmp_path, saved, monkeypatch):
 
 def test_too_many_entries_and_duplicates(tmp_path, saved):
     items = list(entries(saved).items())
-    crowded = write_zip(tmp_path / "crowded.fmr", items + [(f"extra/{i}", b"") for i in range(300)], zipfile.ZIP_STORED)
-    assert "lists 312 entries" in load_error(crowded)
+    extra = MAX_ENTRIES + 1 - len(items)
+    crowded = write_zip(tmp_path / "crowded.fmr", items + [(f"extra/{i}", b"") for i in range(extra)], zipfile.ZIP_STORED)
+    assert f"lists {MAX_ENTRIES + 1} entries" in load_error(crowded)
     twice = write_zip(tmp_path / "twice.fmr", items + [("document.json", b"{}")])
     assert "two entries named 'document.json'" in load_error(twice)
 

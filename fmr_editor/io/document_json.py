@@ -50,8 +50,8 @@ FORMAT_NAME = "fmr-editor document"
 SCHEMA_VERSION = 2
 """The version written, and the newest one read (1: one image, 2: layers)."""
 
-MAX_LAYERS = 1000
-"""Most layers read."""
+MAX_LAYERS = 200
+"""Most layers read (each with a mask, their representations stay within ``zip_reading.MAX_ENTRIES``)."""
 
 MAX_CANVAS_SIZE = 32768
 """Largest canvas width or height accepted (as the Orzan reader)."""

@@ -21,8 +21,9 @@ from typing import BinaryIO
 
 import numpy as np
 
-MAX_ENTRIES = 256
-"""More entries than this and the file is refused (an ``.fmr`` file has about a dozen)."""
+MAX_ENTRIES = 4096
+"""More entries than this and the file is refused (an ``.fmr`` file has nine a layer and mask, plus three;
+``document_json.MAX_LAYERS`` layers with masks stay below it)."""
 
 MAX_DIRECTORY_BYTES = 1 << 20
 """Largest central directory accepted."""
