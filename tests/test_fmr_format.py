@@ -654,8 +654,10 @@ def test_the_documented_example_is_a_valid_document():
     text = (Path(__file__).resolve().parents[1] / "docs" / "fmr-format.md").read_text()
     example = text.split("```json\n")[1].split("```")[0]
     document = loads_document(example.encode())
-    assert (document.width, document.height, len(document.curves), len(document.points)) == (96, 64, 1, 1)
-    assert document.curves[0].blur == (BlurStop(0.0, 2.0),)
+    bottom, glow = document.layers
+    assert (document.width, document.height, len(bottom.curves), len(bottom.points)) == (96, 64, 1, 1)
+    assert bottom.curves[0].blur == (BlurStop(0.0, 2.0),) and document.active == 1
+    assert glow.opacity == 0.8 and len(glow.mask.points) == 1 and tuple(glow.transform.offset) == (1.0, 0.6, 0.1)
 
 
 def test_representation_of_an_edited_document_is_skipped(tmp_path, saved, document):
