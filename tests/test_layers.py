@@ -211,3 +211,13 @@ def test_merge_down_joins_the_items_with_transforms_applied_and_keeps_the_lower_
     assert merged.layers[1].mask == middle.mask and merged.layers[1].opacity == middle.opacity
     with pytest.raises(ValueError, match="no layer below"):
         layer_edits.merge_down(document, 0)
+
+
+def test_flatten_merges_the_visible_layers_into_one_and_drops_hidden_ones():
+    document = layer_edits.set_visible(three_layers(), 1, False)
+    flat = layer_edits.flatten(document)
+    bottom, top = document.layers[0], layer_edits.baked(document.layers[2])
+    assert len(flat.layers) == 1 and flat.active == 0 and flat.layers[0].name == "bottom"
+    assert flat.layers[0].curves == bottom.curves + top.curves
+    with pytest.raises(ValueError, match="no layer is visible"):
+        layer_edits.flatten(layer_edits.set_visible(Document(8, 8), 0, False))

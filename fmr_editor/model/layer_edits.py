@@ -171,6 +171,23 @@ def merge_down(document: Document, index: int | None = None) -> Document:
     return replace(document, layers=layers, active=active, editing_mask=False)
 
 
+def flatten(document: Document) -> Document:
+    """The visible layers merged into one (``merge_down`` from the top down); hidden layers are dropped.
+
+    Raises
+    ------
+    ValueError
+        When no layer is visible, or as ``merge_down``.
+    """
+    visible = tuple(layer for layer in document.layers if layer.visible)
+    if not visible:
+        raise ValueError("no layer is visible: there is nothing to flatten")
+    flat = replace(document, layers=visible, active=len(visible) - 1, editing_mask=False)
+    while len(flat.layers) > 1:
+        flat = merge_down(flat, len(flat.layers) - 1)
+    return flat
+
+
 def fill_color(layer: Layer) -> tuple[float, float, float] | None:
     """The colour of a fill layer (no items, a transform to one constant colour, a mask); None for others."""
     if layer.curves or layer.points or layer.mask is None or np.any(layer.transform.matrix):

@@ -39,6 +39,9 @@ class LayerCommands:
     def merge_down(self) -> None:
         self._layer_edit(layer_edits.merge_down, "Merge Down")
 
+    def flatten(self) -> None:
+        self._layer_edit(layer_edits.flatten, "Flatten Image")
+
     def add_mask(self) -> None:
         self._layer_edit(layer_edits.add_mask, "Add Mask")
 
@@ -91,6 +94,7 @@ class LayerCommands:
             return
         actions["delete_layer"].setEnabled(free and len(document.layers) > 1)
         actions["merge_down"].setEnabled(free and document.active > 0)
+        actions["flatten"].setEnabled(free and len(document.layers) > 1)
         actions["add_mask"].setEnabled(free and mask is None)
         for name in ("delete_mask", "invert_mask", "disable_mask", "edit_mask"):
             actions[name].setEnabled(free and mask is not None)
