@@ -87,3 +87,10 @@ def test_the_canvas_shows_the_composite_and_follows_edits_of_one_layer(canvas, q
     stack.update(hidden)
     canvas.update_representation(stack.composite, {})
     check(canvas, stack.composite)
+
+    for index in (0, 2):  # every layer hidden: black on the canvas, the checkerboard around it
+        hidden = layer_edits.set_visible(hidden, index, False)
+    stack.update(hidden)
+    canvas.update_representation(stack.composite, {})
+    check(canvas, stack.composite)
+    assert not evaluate_points(stack.composite, [[10.0, 10.0]]).any()

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import functools
 from collections import Counter
+from dataclasses import replace
 
 import numpy as np
 from OpenGL import GL
@@ -222,7 +223,8 @@ class PictureRenderer:
     def _evaluate(self, view: View) -> str:
         if not self._pending and self._composed_view == view:  # a redraw: the composed image is current
             return "none"
-        shown = self._picture.shown
+        # With every layer hidden the picture is black; a layer at opacity 0 still gives the checkerboard around it.
+        shown = self._picture.shown or (replace(self._picture.layers[0], opacity=0.0),)
         tinted = next((layer for layer in self._picture.layers if layer.id == self._overlay), None)
         keys = {key for layer in shown for key in _layer_keys(layer)}
         if tinted is not None:
