@@ -64,6 +64,13 @@ def _wanted(document: Document) -> dict[FieldKey, Document]:
     return fields
 
 
+def _items_changed(before: Document, after: Document) -> bool:
+    """True unless ``after`` holds the very curves and points of ``before`` on its canvas (a layer's settings
+    changed, or nothing did): only then does the field need an update."""
+    return (before.curves is not after.curves or before.points is not after.points
+            or (before.width, before.height) != (after.width, after.height))
+
+
 class LiveStack:
     """A layered document's representations and their composite.
 
@@ -115,7 +122,7 @@ class LiveStack:
                 live = LiveRepresentation(flat, self.settings, lap, saved.get(key), memory=share)
                 n = live.lattice.cells_per_side
                 updates[key] = Update("rebuild", np.ones((n, n), bool), time.perf_counter() - start)
-            elif live.document.curves is not flat.curves or live.document.points is not flat.points:
+            elif _items_changed(live.document, flat):
                 updates[key] = live.update(flat, lap, exact)
             elif exact and live.approximate:
                 updates[key] = live.refine()
