@@ -63,7 +63,8 @@ def _parser() -> argparse.ArgumentParser:
     compose.add_argument("--mask", metavar="MASK", help="a document whose luminance (0.2126 R + 0.7152 G + "
                          "0.0722 B) masks TOP: white shows it, black hides it")
     compose.add_argument("--opacity", type=_unit, default=1.0, help="TOP's opacity, from 0 to 1 (default 1)")
-    compose.add_argument("--hue", type=_finite, default=0.0, metavar="DEGREES", help="rotate TOP's hues (W3C hueRotate)")
+    compose.add_argument("--hue", type=_finite, default=0.0, metavar="DEGREES",
+                         help="rotate TOP's hues (W3C hueRotate)")
     return parser
 
 
@@ -119,7 +120,9 @@ def render_one(source: str, output: str, args: argparse.Namespace) -> int:
     progress = StderrProgress()
     try:
         if saved is not None and args.order is None and args.method == "fmr":
-            picture = saved.composite or LiveStack(document, saved.settings or Settings(), progress, saved.fields).composite
+            picture = saved.composite  # every representation saved: no solve
+            if picture is None:
+                picture = LiveStack(document, saved.settings or Settings(), progress, saved.fields).composite
             image = rasterise(picture, args.width, args.height, samples=args.samples, progress=progress)
             image = image.clip(0.0, 1.0)
         else:
@@ -205,7 +208,7 @@ def run_compose(args: argparse.Namespace) -> int:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the ``fmr-editor`` command: ``render``/``compose`` work headless, anything else opens the editor."""
+    """Entry point of the ``fmr-editor`` command: ``render`` and ``compose`` work headless, else the editor opens."""
     argv = list(sys.argv[1:] if argv is None else argv)
     if not argv or argv[0] not in ("render", "compose"):
         return run_editor(_editor_parser().parse_args(argv))

@@ -237,14 +237,14 @@ def test_mimetype_is_first_and_stored(saved):
         names = archive.namelist()
     # readable by magic-number sniffing: the content follows the 30-byte header and the name
     assert saved.read_bytes()[38:62] == b"application/x-fmr-editor"
-    assert {"document.json", "layers/0/image/representation.json", "thumbnail.png", "layers/0/image/representation/local.npy"} <= set(names)
+    assert {"document.json", MANIFEST, "thumbnail.png", ARRAYS + "local.npy"} <= set(names)
 
 
 def test_arrays_are_plain_npy_files(saved, built):
     data = entries(saved)
-    local = np.load(io.BytesIO(data["layers/0/image/representation/local.npy"]), allow_pickle=False)
+    local = np.load(io.BytesIO(data[ARRAYS + "local.npy"]), allow_pickle=False)
     np.testing.assert_array_equal(local, built.local)
-    manifest = json.loads(data["layers/0/image/representation.json"])
+    manifest = json.loads(data[MANIFEST])
     assert manifest["version"] == 1 and manifest["segment_count"] == len(built.segments)
 
 
@@ -393,6 +393,15 @@ def valid_document_data() -> dict:
     return document_to_data(rich_document())
 
 
+#: Where a one-layer document's representation is kept.
+MANIFEST, ARRAYS = "layers/0/image/representation.json", "layers/0/image/representation/"
+
+
+def first(data: dict) -> dict:
+    """The first layer of ``document.json`` data."""
+    return data["layers"][0]
+
+
 @pytest.mark.parametrize(
     "edit, message",
     [
@@ -406,31 +415,36 @@ def valid_document_data() -> dict:
         (lambda d: d["canvas"].update(width=12.5), "canvas.width must be a whole number"),
         (lambda d: d["canvas"].update(width=True), "canvas.width must be a whole number"),
         (lambda d: d.pop("canvas"), "canvas is missing"),
-        (lambda d: d["layers"][0].update(curves={}), "layers[0].curves must be a list, got an object"),
+        (lambda d: first(d).update(curves={}), "layers[0].curves must be a list, got an object"),
         (lambda d: d.update(layers=[]), "layers must hold 1 to 200 layers, got 0"),
         (lambda d: d.pop("layers"), "layers is missing"),
         (lambda d: d.update(active=1), "active must be from 0 to 0, got 1"),
-        (lambda d: d["layers"][0].update(opacity=1.5), "layers[0].opacity must lie in [0, 1], got 1.5"),
-        (lambda d: d["layers"][0].update(visible="yes"), "layers[0].visible must be true or false"),
-        (lambda d: d["layers"][0].update(transform={"matrix": [[1, 0, 0]]}), "layers[0].transform.matrix must have 3 rows"),
-        (lambda d: d["layers"][0].update(mask={"base": "1"}), "layers[0].mask.base must be a number"),
-        (lambda d: d["layers"][0].update(mask={"points": [{"position": [1, 2]}]}),
+        (lambda d: first(d).update(opacity=1.5), "layers[0].opacity must lie in [0, 1], got 1.5"),
+        (lambda d: first(d).update(visible="yes"), "layers[0].visible must be true or false"),
+        (lambda d: first(d).update(transform={"matrix": [[1, 0, 0]]}), "layers[0].transform.matrix must have 3 rows"),
+        (lambda d: first(d).update(mask={"base": "1"}), "layers[0].mask.base must be a number"),
+        (lambda d: first(d).update(mask={"points": [{"position": [1, 2]}]}),
          "layers[0].mask.points[0]: radius is missing"),
-        (lambda d: d["layers"][0]["curves"][1].update(control_points=[[0, 0]] * 5), "layers[0].curves[1].control_points has 5 points"),
-        (lambda d: d["layers"][0]["curves"][1]["control_points"][2].__setitem__(1, "3"),
+        (lambda d: first(d)["curves"][1].update(control_points=[[0, 0]] * 5),
+         "layers[0].curves[1].control_points has 5 points"),
+        (lambda d: first(d)["curves"][1]["control_points"][2].__setitem__(1, "3"),
          "layers[0].curves[1].control_points[2][1] must be a number, got a string"),
-        (lambda d: d["layers"][0]["curves"][1]["control_points"][2].append(1.0), "layers[0].curves[1].control_points[2] must be 2 numbers"),
-        (lambda d: d["layers"][0]["curves"][0]["left"][1].update(color=[1, 2]), "layers[0].curves[0].left[1].color must be 3 numbers, got 2"),
-        (lambda d: d["layers"][0]["curves"][0]["left"][1].update(color=[1, None, 2]),
+        (lambda d: first(d)["curves"][1]["control_points"][2].append(1.0),
+         "layers[0].curves[1].control_points[2] must be 2 numbers"),
+        (lambda d: first(d)["curves"][0]["left"][1].update(color=[1, 2]),
+         "layers[0].curves[0].left[1].color must be 3 numbers, got 2"),
+        (lambda d: first(d)["curves"][0]["left"][1].update(color=[1, None, 2]),
          "layers[0].curves[0].left[1].color[1] must be a number, got null"),
-        (lambda d: d["layers"][0]["curves"][0]["right"][0].pop("position"), "layers[0].curves[0].right[0]: position is missing"),
-        (lambda d: d["layers"][0]["curves"][3]["blur"][0].update(blur=False),
+        (lambda d: first(d)["curves"][0]["right"][0].pop("position"),
+         "layers[0].curves[0].right[0]: position is missing"),
+        (lambda d: first(d)["curves"][3]["blur"][0].update(blur=False),
          "layers[0].curves[3].blur[0].blur must be a number, got a boolean"),
-        (lambda d: d["layers"][0]["points"][0].update(radius=-2.0), "layers[0].points[0].radius must be positive"),
-        (lambda d: d["layers"][0]["points"][0].update(radius=0), "layers[0].points[0].radius must be positive"),
-        (lambda d: d["layers"][0]["points"][1].update(position=[1.0]), "layers[0].points[1].position must be 2 numbers"),
-        (lambda d: d["layers"][0]["points"][1].update(amplitude=10**400), "layers[0].points[1].amplitude must be a finite number"),
-        (lambda d: d["layers"][0].update(points=[3]), "layers[0].points[0] must be an object, got a number"),
+        (lambda d: first(d)["points"][0].update(radius=-2.0), "layers[0].points[0].radius must be positive"),
+        (lambda d: first(d)["points"][0].update(radius=0), "layers[0].points[0].radius must be positive"),
+        (lambda d: first(d)["points"][1].update(position=[1.0]), "layers[0].points[1].position must be 2 numbers"),
+        (lambda d: first(d)["points"][1].update(amplitude=10**400),
+         "layers[0].points[1].amplitude must be a finite number"),
+        (lambda d: first(d).update(points=[3]), "layers[0].points[0] must be an object, got a number"),
     ],
 )
 def test_document_json_with_wrong_content(tmp_path, saved, edit, message):
@@ -463,7 +477,7 @@ def test_unknown_keys_and_entries_are_ignored(tmp_path, saved, document):
 
 
 def with_array(tmp_path: Path, saved: Path, name: str, content: bytes) -> Path:
-    return rewritten(saved, tmp_path / f"{name}.fmr", {f"layers/0/image/representation/{name}.npy": content})
+    return rewritten(saved, tmp_path / f"{name}.fmr", {f"{ARRAYS}{name}.npy": content})
 
 
 def test_pickled_objects_are_never_loaded(tmp_path, saved):
@@ -511,15 +525,15 @@ def test_array_checks(tmp_path, saved, built):
     for (name, content), message in cases.items():
         problem = load_error(with_array(tmp_path, saved, name, content))
         assert message in problem, (name, message, problem)
-    missing = rewritten(saved, tmp_path / "missing.fmr", {"layers/0/image/representation/flux.npy": None})
-    assert "layers/0/image/representation/flux.npy is missing" in load_error(missing)
+    missing = rewritten(saved, tmp_path / "missing.fmr", {ARRAYS + "flux.npy": None})
+    assert ARRAYS + "flux.npy is missing" in load_error(missing)
     # the document alone still opens from any of these files
     assert load_fmr(missing, representation=False).representation is None
     assert load_document(missing) == load_fmr(saved).document
 
 
 def manifest_of(saved: Path) -> dict:
-    return json.loads(entries(saved)["layers/0/image/representation.json"])
+    return json.loads(entries(saved)[MANIFEST])
 
 
 @pytest.mark.parametrize(
@@ -541,22 +555,22 @@ def manifest_of(saved: Path) -> dict:
 def test_representation_json_with_wrong_content(tmp_path, saved, edit, message):
     manifest = manifest_of(saved)
     edit(manifest)
-    path = rewritten(saved, tmp_path / "m.fmr", {"layers/0/image/representation.json": json.dumps(manifest).encode()})
+    path = rewritten(saved, tmp_path / "m.fmr", {MANIFEST: json.dumps(manifest).encode()})
     problem = load_error(path)
-    assert problem.startswith("layers/0/image/representation.json: ") and message in problem, problem
+    assert problem.startswith(MANIFEST + ": ") and message in problem, problem
 
 
 def test_segment_count_that_disagrees_with_the_arrays(tmp_path, saved):
     manifest = manifest_of(saved)
     manifest["segment_count"] -= 1
-    path = rewritten(saved, tmp_path / "m.fmr", {"layers/0/image/representation.json": json.dumps(manifest).encode()})
-    assert "layers/0/image/representation/p.npy" in load_error(path)
+    path = rewritten(saved, tmp_path / "m.fmr", {MANIFEST: json.dumps(manifest).encode()})
+    assert ARRAYS + "p.npy" in load_error(path)
 
 
 def test_newer_representation_is_skipped_and_the_document_opens(tmp_path, saved, document):
     manifest = manifest_of(saved)
     manifest["version"] = 2
-    path = rewritten(saved, tmp_path / "newer.fmr", {"layers/0/image/representation.json": json.dumps(manifest).encode()})
+    path = rewritten(saved, tmp_path / "newer.fmr", {MANIFEST: json.dumps(manifest).encode()})
     opened = load_fmr(path)
     assert opened.document == document and opened.representation is None
     assert len(opened.notes) == 1 and "representation format version 2" in opened.notes[0]
@@ -570,7 +584,7 @@ def test_zip_bomb_entry_is_refused_from_its_declared_size(tmp_path, saved):
     path = with_array(tmp_path, saved, "p", bomb)
     assert path.stat().st_size < saved.stat().st_size + (1 << 20)
     problem = load_error(path)
-    assert "unpacks to 64.0 MiB" in problem and "layers/0/image/representation/p.npy" in problem
+    assert "unpacks to 64.0 MiB" in problem and ARRAYS + "p.npy" in problem
 
 
 def set_declared_size(blob: bytes, name: str, size: int) -> bytes:
@@ -604,7 +618,8 @@ def test_document_above_the_limit_is_refused(tmp_path, saved, monkeypatch):
 def test_too_many_entries_and_duplicates(tmp_path, saved):
     items = list(entries(saved).items())
     extra = MAX_ENTRIES + 1 - len(items)
-    crowded = write_zip(tmp_path / "crowded.fmr", items + [(f"extra/{i}", b"") for i in range(extra)], zipfile.ZIP_STORED)
+    crowded = write_zip(tmp_path / "crowded.fmr", items + [(f"extra/{i}", b"") for i in range(extra)],
+                        zipfile.ZIP_STORED)
     assert f"lists {MAX_ENTRIES + 1} entries" in load_error(crowded)
     twice = write_zip(tmp_path / "twice.fmr", items + [("document.json", b"{}")])
     assert "two entries named 'document.json'" in load_error(twice)

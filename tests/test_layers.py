@@ -118,7 +118,8 @@ def test_the_composite_at_any_points_equals_the_composite_image(stack):
 
 def test_a_covering_layer_hides_everything_below_and_hidden_layers_do_not_show():
     document = three_layers()
-    covered = layer_edits.add_layer(layer_edits.select_layer(document, 2), Layer(scattered_document(SIZE, seed=9).curves))
+    on_top = Layer(scattered_document(SIZE, seed=9).curves)
+    covered = layer_edits.add_layer(layer_edits.select_layer(document, 2), on_top)
     stack = LiveStack(covered)
     alone = rasterise(stack.image(covered.layers[3]), PIXELS, PIXELS, samples=1)
     np.testing.assert_array_equal(rasterise(stack.composite, PIXELS, PIXELS, samples=1), alone)

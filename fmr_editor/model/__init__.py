@@ -5,4 +5,6 @@ from .document import Document
 from .layer import Layer, Mask
 from .point import DiffusionPoint
 
-__all__ = ["BlurStop", "ColorStop", "DiffusionCurve", "DiffusionPoint", "Document", "Layer", "Mask", "interpolate_stops"]
+__all__ = [
+    "BlurStop", "ColorStop", "DiffusionCurve", "DiffusionPoint", "Document", "Layer", "Mask", "interpolate_stops",
+]

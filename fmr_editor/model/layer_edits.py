@@ -12,8 +12,8 @@ from dataclasses import replace
 import numpy as np
 
 from .color_transform import IDENTITY, ColorTransform
-from .document import Document
 from .curve import ColorStop
+from .document import Document
 from .layer import Layer, Mask
 
 

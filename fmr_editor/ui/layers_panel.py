@@ -221,7 +221,8 @@ class LayersPanel(QWidget):
 def _summary(document: Document) -> tuple:
     """What the panel shows of ``document``: it is rebuilt only when this changes (not on every dab)."""
     layers = tuple((layer.id, layer.name, layer.visible, layer.opacity, layer.transform.is_identity,
-                    None if layer.mask is None else (layer.mask.enabled, layer.mask.inverted)) for layer in document.layers)
+                    None if layer.mask is None else (layer.mask.enabled, layer.mask.inverted))
+                   for layer in document.layers)
     return layers, document.active, document.editing_mask
 
 
