@@ -165,8 +165,9 @@ def run_render(args: argparse.Namespace) -> int:
 def run_compose(args: argparse.Namespace) -> int:
     """Write TOP over BOTTOM (masked, faded, hue-rotated) as a two-layer ``.fmr``; 0, or 2 after one line on stderr.
 
-    Saved representations of ``.fmr`` inputs are taken as they are; the
-    others are solved.  Nothing is written when anything fails.
+    Saved representations of ``.fmr`` inputs built with the first one's
+    settings are taken as they are; the others are solved.  Nothing is
+    written when anything fails.
     """
     from .engine import LiveStack, Settings
     from .io import DocumentLoadError, load_fmr, save_fmr
@@ -177,13 +178,15 @@ def run_compose(args: argparse.Namespace) -> int:
         print(f"fmr-editor: compose writes an .fmr document, not {args.output}", file=sys.stderr)
         return 2
     sources = {"bottom": args.bottom, "top": args.top} | ({"mask": args.mask} if args.mask else {})
-    documents, saved, settings = {}, {}, Settings()
+    documents, saved, settings = {}, {}, None
     try:
         for role, source in sources.items():
             if Path(source).suffix.lower() == ".fmr":
                 opened = load_fmr(source)
-                documents[role], saved[role] = opened.document, opened.representation
-                settings = opened.settings or settings
+                documents[role] = opened.document
+                settings = settings or opened.settings  # the first file's settings: another file's representation
+                if opened.settings is not None and opened.settings == settings:  # is taken when built with them
+                    saved[role] = opened.representation
             else:
                 from . import load
 
@@ -194,6 +197,7 @@ def run_compose(args: argparse.Namespace) -> int:
     try:
         document = layer_edits.stacked(documents["bottom"], documents["top"], documents.get("mask"), args.opacity,
                                        hue_rotation(args.hue) if args.hue else None)
+        settings = settings or Settings()
         stack = LiveStack(document, settings, StderrProgress(),
                           [(saved.get("bottom"), None), (saved.get("top"), saved.get("mask"))])
         written = save_fmr(args.output, document, stack.composite, settings=settings)

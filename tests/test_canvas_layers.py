@@ -87,6 +87,7 @@ def test_the_canvas_shows_the_composite_and_follows_edits_of_one_layer(canvas, q
     stack.update(hidden)
     canvas.update_representation(stack.composite, {})
     check(canvas, stack.composite)
+    assert set(renderers) == set(stack.fields) - {(middle.id, "image"), (middle.id, "mask")}  # hidden: released
 
     for index in (0, 2):  # every layer hidden: black on the canvas, the checkerboard around it
         hidden = layer_edits.set_visible(hidden, index, False)

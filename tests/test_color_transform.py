@@ -51,7 +51,8 @@ def test_then_is_applying_one_after_the_other():
 
 
 @pytest.mark.parametrize("matrix, offset", [(np.eye(2), np.zeros(3)), (np.eye(3), np.zeros(4)),
-                                            (np.full((3, 3), np.nan), np.zeros(3)), (np.eye(3), [0, np.inf, 0])])
+                                            (np.full((3, 3), np.nan), np.zeros(3)), (np.eye(3), [0, np.inf, 0]),
+                                            (np.eye(3) * 1e308, np.zeros(3)), (np.eye(3), [0, 0, -2e6])])
 def test_malformed_transforms_are_refused(matrix, offset):
     with pytest.raises(ValueError, match="colour transform"):
         ColorTransform(matrix, offset)

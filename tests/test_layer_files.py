@@ -124,6 +124,18 @@ def test_compose_refuses_bad_input_with_one_line_and_writes_nothing(tmp_path, in
     assert "Traceback" not in err and not out.exists()
 
 
+def test_compose_takes_only_representations_built_with_the_same_settings(tmp_path, inputs):
+    other = Settings(propagation_order=10)
+    document = load_fmr(inputs["top"]).document
+    top = tmp_path / "top_p10.fmr"
+    save_fmr(top, document, build(document, other), settings=other)
+    out = tmp_path / "out.fmr"
+    code, _, err = run("compose", str(inputs["bottom"]), str(top), "-o", str(out))
+    assert code == 0, err
+    composed = load_fmr(out)
+    assert composed.settings == Settings() and composed.composite is not None  # the top layer solved again
+
+
 def test_compose_refuses_documents_of_different_sizes(tmp_path, inputs):
     out = tmp_path / "out.fmr"
     code, _, err = run("compose", str(inputs["small"]), str(inputs["top"]), "-o", str(out))

@@ -54,6 +54,15 @@ def test_opacity_outside_the_unit_interval_is_refused(opacity):
         layer_edits.set_opacity(Document(8, 8), 0, opacity)
 
 
+def test_a_document_holds_at_most_200_layers_of_names_up_to_1000_characters():
+    full = Document(8, 8, layers=[Layer(name=str(i)) for i in range(200)], active=199)
+    with pytest.raises(ValueError, match="at most 200 layers"):
+        layer_edits.add_layer(full)
+    with pytest.raises(ValueError, match="at most 1000 characters"):
+        layer_edits.rename_layer(full, 0, "x" * 1001)
+    assert layer_edits.rename_layer(full, 0, "x" * 1000).layers[0].name == "x" * 1000
+
+
 def test_undo_and_redo_of_every_layer_action_restore_the_document_exactly():
     actions = [
         ("Add Layer", layer_edits.add_layer),
@@ -114,6 +123,12 @@ def test_the_composite_at_any_points_equals_the_composite_image(stack):
     grid = np.stack(np.meshgrid(xs, xs), axis=-1).reshape(-1, 2)
     image = rasterise(stack.composite, PIXELS, PIXELS, samples=1)
     np.testing.assert_allclose(evaluate_points(stack.composite, grid).reshape(PIXELS, PIXELS, 3), image, atol=1e-9)
+
+
+def test_a_composite_is_black_off_the_canvas_whatever_its_transforms():
+    inverted = layer_edits.set_transform(Document(SIZE, SIZE, scattered_document(SIZE).curves), 0, inversion())
+    outside = np.array([[-3.0, 5.0], [SIZE + 1.0, 7.0], [4.0, SIZE + 0.5]])
+    assert not evaluate_points(LiveStack(inverted).composite, outside).any()
 
 
 def test_a_covering_layer_hides_everything_below_and_hidden_layers_do_not_show():
@@ -204,7 +219,12 @@ def test_a_baked_transform_gives_the_same_image_without_a_transform():
 
 
 def test_merge_down_joins_the_items_with_transforms_applied_and_keeps_the_lower_layer():
-    document = three_layers()
+    masked = three_layers()
+    with pytest.raises(ValueError, match="mask and opacity cannot be kept"):
+        layer_edits.merge_down(masked, 2)
+    document = layer_edits.remove_mask(masked, 2)
+    with pytest.raises(ValueError, match="show both layers"):
+        layer_edits.merge_down(layer_edits.set_visible(document, 1, False), 2)
     merged = layer_edits.merge_down(document, 2)
     assert [layer.name for layer in merged.layers] == ["bottom", "middle"] and merged.active == 1
     middle, top = document.layers[1], layer_edits.baked(document.layers[2])
@@ -215,7 +235,7 @@ def test_merge_down_joins_the_items_with_transforms_applied_and_keeps_the_lower_
 
 
 def test_flatten_merges_the_visible_layers_into_one_and_drops_hidden_ones():
-    document = layer_edits.set_visible(three_layers(), 1, False)
+    document = layer_edits.set_visible(layer_edits.remove_mask(three_layers(), 2), 1, False)
     flat = layer_edits.flatten(document)
     bottom, top = document.layers[0], layer_edits.baked(document.layers[2])
     assert len(flat.layers) == 1 and flat.active == 0 and flat.layers[0].name == "bottom"

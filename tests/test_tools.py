@@ -495,10 +495,15 @@ def test_paint_mode_dabs_go_into_one_fill_layer_above_the_active_layer():
     fill = document.layers[1]
     assert layer_edits.fill_color(fill) == BLUE and fill.mask.base == 0.0 and len(fill.mask.points) == 6
     assert {(p.color, p.amplitude) for p in fill.mask.points} == {((1.0, 1.0, 1.0), 0.8)}
-    options.brush_color = RED  # another colour: another fill layer, right above the active one
+    options.brush_color = RED  # another colour: another fill layer, over the first, as paint goes on
     click(brush, 50, 50)
-    assert [layer_edits.fill_color(layer) for layer in context.document.layers[1:]] == [RED, BLUE]
-    assert context.history.labels == ("", "Paint Over", "Paint Over", "Paint Over")
+    click(brush, 55, 50)  # the same colour again: the same layer
+    assert [layer_edits.fill_color(layer) for layer in context.document.layers[1:]] == [BLUE, RED]
+    options.brush_color = BLUE  # blue over the red: a third fill layer on top
+    click(brush, 60, 50)
+    assert [layer_edits.fill_color(layer) for layer in context.document.layers[1:]] == [BLUE, RED, BLUE]
+    assert context.document.active == 0 and len(context.document.layers[2].mask.points) == 2
+    assert context.history.labels == ("",) + ("Paint Over",) * 5
 
 
 # -- escape during any drag ----------------------------------------------------------------------

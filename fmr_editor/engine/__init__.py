@@ -18,12 +18,12 @@ from .composite import Composite, LayerFields  # noqa: E402
 from .fmm.expansions import local_polynomials  # noqa: E402
 from .fmm.lattice import Lattice  # noqa: E402
 from .geometry.segments import Segments  # noqa: E402
-from .live import LiveRepresentation, Progress, Update, build  # noqa: E402
+from .live import LiveRepresentation, Progress, Update  # noqa: E402
 from .points.field import PointField  # noqa: E402
 from .points.gauss import GaussPoints  # noqa: E402
 from .raster import evaluate_points, output_size, rasterise  # noqa: E402
 from .representation import MAX_LEVELS, Representation, Settings  # noqa: E402
-from .stack import LiveStack, StackUpdate, composite_of  # noqa: E402
+from .stack import LiveStack, StackUpdate, build, composite_of  # noqa: E402
 
 __all__ = [
     "MAX_LEVELS", "Composite", "GaussPoints", "LayerFields", "Lattice", "LiveRepresentation", "LiveStack",

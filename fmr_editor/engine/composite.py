@@ -121,7 +121,7 @@ def compose(composite: Composite, values: Callable[[Representation], np.ndarray]
         if not layer.transform.is_identity:
             colour = layer.transform.apply(colour)
         if layer.covers:
-            out = colour
+            out = np.array(colour)  # a copy: the next layers blend into it in place
             continue
         weight = layer.weight(values(layer.mask) if layer.masked else None)
         out += np.asarray(weight)[..., None] * (colour - out)

@@ -130,6 +130,15 @@ class LiveRepresentation:
         self._kept.keep(self._state())
 
     @property
+    def memory(self) -> int:
+        """Bytes the states of recent steps may take (``kept_states``)."""
+        return self._kept.memory
+
+    @memory.setter
+    def memory(self, memory: int) -> None:
+        self._kept.memory = int(memory)
+
+    @property
     def solver(self) -> BoundarySolver | UpdatedSolver:
         """The current geometry's solver: the factorisation, or an update of it; made when first needed."""
         return self._solvers.current
@@ -376,21 +385,3 @@ class LiveRepresentation:
         self._solvers.move_to(state.boundary)
         self.approximate = False
         self._kept.keep(state)
-
-
-
-def build(document: Document, settings: Settings = Settings(), progress: Progress | None = None) -> Representation:
-    """Discretise, solve and propagate ``document`` into its FMR.
-
-    Parameters
-    ----------
-    document : Document
-    settings : Settings
-    progress : callable, optional
-        Called as ``progress(stage, fraction)`` as the build advances.
-
-    Returns
-    -------
-    Representation
-    """
-    return LiveRepresentation(document, settings, progress).representation

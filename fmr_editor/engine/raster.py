@@ -207,7 +207,9 @@ def evaluate_points(rep: Representation | Composite, points: np.ndarray, order: 
     """
     points = np.asarray(points, dtype=np.float64).reshape(-1, 2)
     if isinstance(rep, Composite):
-        return compose(rep, lambda source: evaluate_points(source, points, order), (len(points), 3))
+        values = compose(rep, lambda source: evaluate_points(source, points, order), (len(points), 3))
+        inside = (points >= 0).all(axis=1) & (points[:, 0] <= rep.width) & (points[:, 1] <= rep.height)
+        return np.where(inside[:, None], values, 0.0)  # transforms and mask bases make no colour out there
     lattice, seg = rep.lattice, rep.segments
     poly = rep.polynomials(order)
     cells = lattice.cell_of(points)

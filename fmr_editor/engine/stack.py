@@ -110,6 +110,8 @@ class LiveStack:
                 exact: bool) -> dict[FieldKey, Update]:
         wanted = _wanted(document)
         share = self._memory // max(1, len(wanted))
+        for live in self.fields.values():
+            live.memory = share
         updates = {}
         for number, (key, flat) in enumerate(wanted.items()):
             def lap(stage: str, fraction: float, number=number) -> None:
@@ -185,3 +187,28 @@ def composite_of(document: Document,
             mask is None or mask.enabled, layer.opacity, layer.transform, layer.visible, layer.id,
         ))
     return Composite(document.width, document.height, tuple(layers))
+
+
+def build(document: Document, settings: Settings = Settings(), progress: Progress | None = None) -> Representation:
+    """Discretise, solve and propagate a one-layer ``document`` into its FMR.
+
+    Parameters
+    ----------
+    document : Document
+        One plain layer (``Document.is_flat``); ``LiveStack(document).composite`` draws any other.
+    settings : Settings
+    progress : callable, optional
+        Called as ``progress(stage, fraction)`` as the build advances.
+
+    Returns
+    -------
+    Representation
+
+    Raises
+    ------
+    ValueError
+        For a document of layers, whose picture no single representation is.
+    """
+    if not document.is_flat:
+        raise ValueError("build takes a document of one plain layer; LiveStack(document).composite draws layers")
+    return LiveRepresentation(document, settings, progress).representation

@@ -30,6 +30,7 @@ from __future__ import annotations
 import json
 
 from ..model import BlurStop, ColorStop, DiffusionCurve, DiffusionPoint, Document, Layer, Mask
+from ..model.layer import MAX_LAYERS, MAX_NAME
 from ..model.color_transform import ColorTransform
 from .json_checks import (
     SchemaError,
@@ -50,8 +51,6 @@ FORMAT_NAME = "fmr-editor document"
 SCHEMA_VERSION = 2
 """The version written, and the newest one read (1: one image, 2: layers)."""
 
-MAX_LAYERS = 200
-"""Most layers read (each with a mask, their representations stay within ``zip_reading.MAX_ENTRIES``)."""
 
 MAX_CANVAS_SIZE = 32768
 """Largest canvas width or height accepted (as the Orzan reader)."""
@@ -198,8 +197,8 @@ def _flag(item: dict, key: str, default: bool, where: str) -> bool:
 def _layer(value: object, where: str) -> Layer:
     item = as_object(value, where)
     name = item.get("name", "Layer")
-    if not isinstance(name, str) or len(name) > 1000:
-        raise SchemaError(f"{where}.name must be text of at most 1000 characters")
+    if not isinstance(name, str) or len(name) > MAX_NAME:
+        raise SchemaError(f"{where}.name must be text of at most {MAX_NAME} characters")
     opacity = finite(item.get("opacity", 1.0), f"{where}.opacity")
     if not 0.0 <= opacity <= 1.0:
         raise SchemaError(f"{where}.opacity must lie in [0, 1], got {opacity!r}")

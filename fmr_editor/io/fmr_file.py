@@ -319,12 +319,11 @@ def _read_field(archive: zipfile.ZipFile, prefix: str, document_bytes: bytes,
         manifest = as_object(parse_json(read_entry(archive, entry, MAX_MANIFEST_BYTES)), "the top level")
         check_version(manifest, "version", REPRESENTATION_VERSION, "representation format")
     except NewerVersionError as error:  # derived data a newer engine wrote: the document still opens
-        return None, None, f"{REPRESENTATION_ENTRY}: {error}; the representation must be rebuilt"
+        return None, None, f"{entry}: {error}; the representation must be rebuilt"
     except SchemaError as error:
         raise _prefixed(error, entry) from None
     if manifest.get("document_sha256") != _digest(document_bytes):  # document.json edited after saving
-        return None, None, (f"{REPRESENTATION_ENTRY}: it was saved with another {DOCUMENT_ENTRY}; "
-                            "the representation must be rebuilt")
+        return None, None, f"{entry}: it was saved with another {DOCUMENT_ENTRY}; the representation must be rebuilt"
     try:
         layout = parse_manifest(manifest, target)
     except SchemaError as error:

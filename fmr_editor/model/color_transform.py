@@ -17,6 +17,8 @@ import numpy as np
 
 #: Luminance weights of the W3C filter-effects matrices.
 LUMA = np.array([0.213, 0.715, 0.072])
+#: Largest magnitude of a matrix or offset entry: far beyond any adjustment, and safe in the shader's float32.
+LIMIT = 1e6
 
 
 @dataclass(frozen=True, eq=False)
@@ -37,8 +39,8 @@ class ColorTransform:
     def __post_init__(self) -> None:
         for name, shape in (("matrix", (3, 3)), ("offset", (3,))):
             value = np.array(getattr(self, name), dtype=np.float64, copy=True)
-            if value.shape != shape or not np.all(np.isfinite(value)):
-                raise ValueError(f"a colour transform's {name} must be finite numbers of shape {shape}")
+            if value.shape != shape or not np.all(np.abs(value) <= LIMIT):  # NaN fails too
+                raise ValueError(f"a colour transform's {name} must be {shape} numbers within +-{LIMIT:g}")
             value.flags.writeable = False
             object.__setattr__(self, name, value)
 

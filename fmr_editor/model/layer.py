@@ -26,6 +26,10 @@ from .point import DiffusionPoint
 
 #: Luminance weights (Rec. 709) by which a mask's colour field becomes its value.
 MASK_LUMA = np.array([0.2126, 0.7152, 0.0722])
+#: Most layers a document holds (files keep each layer's and mask's representation: see ``io.zip_reading``).
+MAX_LAYERS = 200
+#: Longest layer name, in characters.
+MAX_NAME = 1000
 
 
 def _items(owner, name: str, kind: type) -> None:
@@ -120,6 +124,8 @@ class Layer:
         _items(self, "points", DiffusionPoint)
         if not isinstance(self.name, str):
             raise TypeError(f"a layer's name must be text, got {self.name!r}")
+        if len(self.name) > MAX_NAME:
+            raise ValueError(f"a layer's name may have at most {MAX_NAME} characters, not {len(self.name)}")
         opacity = _number(self.opacity, "opacity")
         if not 0.0 <= opacity <= 1.0:
             raise ValueError(f"opacity must lie in [0, 1], got {self.opacity!r}")

@@ -148,23 +148,31 @@ def merge_down(document: Document, index: int | None = None) -> Document:
     """Layer ``index`` (the active one) and the one below it made one layer, named as the lower one.
 
     The items of both are kept, colour transforms applied to them
-    (``baked``); the upper layer's opacity and mask are let go.  The
-    curves of both then diffuse together, so the picture changes where the
-    two layers' images met: merging is a change of the drawing, not of pixels.
+    (``baked``).  The curves of both then diffuse together, so the picture
+    changes where the two layers' images met: merging is a change of the
+    drawing, not of pixels.
 
     Raises
     ------
     ValueError
-        For the bottom layer (nothing below), or a layer whose transform cannot
-        be applied to its items (a colour offset with no curve to carry it).
+        For the bottom layer (nothing below), a hidden layer, an upper layer
+        with a mask or an opacity below 1 (which merged items cannot keep), or
+        a layer whose transform cannot be applied to its items (a colour
+        offset with no curve to carry it, as a Paint layer's).
     """
     index = _index(document, index)
     if index == 0:
         raise ValueError("the bottom layer has no layer below to merge into")
     upper, lower = baked(document.layers[index]), baked(document.layers[index - 1])
+    if not (upper.visible and lower.visible):
+        raise ValueError("show both layers to merge them (a hidden layer's items would appear or vanish)")
+    if upper.active_mask is not None or upper.opacity < 1.0:
+        raise ValueError(f"{upper.name}'s mask and opacity cannot be kept by merging its items: "
+                         "delete or disable the mask and set the opacity to 100% first")
     for layer in (upper, lower):
         if not layer.transform.is_identity:
-            raise ValueError(f"{layer.name}'s colour transform shifts colours but it has no curve to carry the shift")
+            raise ValueError(f"{layer.name}'s colour transform shifts colours but it has no curve to carry the shift "
+                             "(a Paint layer, say): it cannot be merged")
     merged = replace(lower, curves=lower.curves + upper.curves, points=lower.points + upper.points)
     layers = document.layers[: index - 1] + (merged,) + document.layers[index + 1 :]
     active = document.active - (document.active >= index)
@@ -172,7 +180,8 @@ def merge_down(document: Document, index: int | None = None) -> Document:
 
 
 def flatten(document: Document) -> Document:
-    """The visible layers merged into one (``merge_down`` from the top down); hidden layers are dropped.
+    """The visible layers merged into one (``merge_down`` from the top down, refusing as it does); hidden
+    layers are dropped.
 
     Raises
     ------
@@ -200,13 +209,17 @@ def with_fill_layer(document: Document, color: tuple[float, float, float]) -> tu
 
     A fill layer shows one colour through its mask (``T(v) = color``, mask
     base 0): paint dabs go into the mask, so colour covers what lies below
-    rather than adding up.  The one already above the active layer is taken
-    when it has this colour; the active layer stays active.
+    rather than adding up.  Strokes of one colour after another stack up
+    as paint does: the topmost of the fill layers just above the active
+    layer is taken when it has this colour, else a new one goes above them
+    all.  The active layer stays active.
     """
     color = tuple(float(v) for v in color)
     above = document.active + 1
-    if above < len(document.layers) and fill_color(document.layers[above]) == color:
-        return document, above
+    while above < len(document.layers) and fill_color(document.layers[above]) is not None:
+        above += 1  # past the run of fill layers painted from the active layer
+    if above > document.active + 1 and fill_color(document.layers[above - 1]) == color:
+        return document, above - 1
     fill = Layer(name=f"Paint #{''.join(f'{round(min(max(v, 0.0), 1.0) * 255):02x}' for v in color)}",
                  mask=Mask(base=0.0), transform=ColorTransform(np.zeros((3, 3)), color))
     layers = document.layers[:above] + (fill,) + document.layers[above:]

@@ -92,6 +92,7 @@ class PictureRenderer:
         self._last_key: FieldKey | None = None
         self._background: CanvasRenderer | None = None  # draws the plain background when there is no picture
         self._overlay: int | None = None
+        self._overlay_fields = False
         self.composed = 0
 
     @property
@@ -101,6 +102,7 @@ class PictureRenderer:
     @mask_overlay.setter
     def mask_overlay(self, layer_id: int | None) -> None:
         self._overlay = layer_id
+        self._overlay_fields = True  # the tinted layer's fields (hidden or not) are uploaded at the next draw
         self._composed_view = None
         self._pending = True
 
@@ -112,7 +114,7 @@ class PictureRenderer:
     def upload(self, picture: Representation | Composite) -> None:
         """Upload every field of ``picture``; the next ``draw`` evaluates them all."""
         picture = picture_of(picture)
-        self.update(picture, {key: WHOLE for key in _fields(picture)})
+        self.update(picture, {key: WHOLE for key in _fields(picture, self._overlay)})
 
     def update(self, picture: Representation | Composite,
                changed: dict[FieldKey, np.ndarray | None] | np.ndarray) -> None:
@@ -125,7 +127,7 @@ class PictureRenderer:
         if isinstance(changed, np.ndarray):
             changed = {(0, "image"): changed}
         picture = picture_of(picture)
-        fields = _fields(picture)
+        fields = _fields(picture, self._overlay)
         for key in [key for key in self.renderers if key not in fields]:
             self.renderers.pop(key).release()
         for key, rep in fields.items():
@@ -191,6 +193,9 @@ class PictureRenderer:
 
         ``preview`` as ``CanvasRenderer.draw``: while zooming, the last composed image is shown scaled.
         """
+        if self._overlay_fields and self._picture is not None:
+            self.update(self._picture, {})
+        self._overlay_fields = False
         single = self._single() if self._picture is not None else None
         if single is not None or self._picture is None:
             (single or self._blank()).draw(view, target, preview)
@@ -214,6 +219,8 @@ class PictureRenderer:
 
     def evaluate(self, view: View) -> str:
         """Bring the image for ``view`` up to date without drawing it anywhere; what the fields evaluated."""
+        if self._picture is None:
+            return self._blank().evaluate(view)
         single = self._single()
         if single is not None:
             return single.evaluate(view)
@@ -317,10 +324,14 @@ def _settings(picture: Composite) -> tuple:
                   layer.mask_enabled, layer.mask is None) for layer in picture.layers)
 
 
-def _fields(picture: Composite) -> dict[FieldKey, Representation]:
-    """Every field the picture's layers hold (hidden layers' too: showing them again costs no upload)."""
-    fields = {}
+def _fields(picture: Composite, overlay: int | None) -> dict[FieldKey, Representation]:
+    """The fields of the visible layers, of the tinted one and the bottom layer's image (the checkerboard when
+    all are hidden): each costs GPU memory of a window image or two, so a hidden layer's are released (showing
+    it again uploads them)."""
+    fields = {(picture.layers[0].id, "image"): picture.layers[0].image}
     for layer in picture.layers:
+        if not layer.visible and layer.id != overlay:
+            continue
         fields[layer.id, "image"] = layer.image
         if layer.mask is not None:
             fields[layer.id, "mask"] = layer.mask

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from ..model import Document, layer_edits
+from ..model import Document, Mask, layer_edits
 from ..tools import Selection
 from .color_adjust import ColorAdjustDialog
 from .menus import LAYER_ACTIONS
@@ -44,6 +44,9 @@ class LayerCommands:
 
     def add_mask(self) -> None:
         self._layer_edit(layer_edits.add_mask, "Add Mask")
+
+    def add_hiding_mask(self) -> None:
+        self._layer_edit(lambda d: layer_edits.add_mask(d, None, Mask(base=0.0)), "Add Mask")
 
     def delete_mask(self) -> None:
         self._layer_edit(layer_edits.remove_mask, "Delete Mask")
@@ -96,6 +99,7 @@ class LayerCommands:
         actions["merge_down"].setEnabled(free and document.active > 0)
         actions["flatten"].setEnabled(free and len(document.layers) > 1)
         actions["add_mask"].setEnabled(free and mask is None)
+        actions["add_hiding_mask"].setEnabled(free and mask is None)
         for name in ("delete_mask", "invert_mask", "disable_mask", "edit_mask"):
             actions[name].setEnabled(free and mask is not None)
         actions["disable_mask"].setText("Ena&ble Mask" if mask is not None and not mask.enabled else "Disa&ble Mask")

@@ -24,7 +24,8 @@ from ..model.history import History
 #: Buttons under the list: (window action, short text); the mask button's menu holds MASK_ACTIONS.
 BUTTONS = (("new_layer", "+"), ("duplicate_layer", "Dup"), ("delete_layer", "\u2212"), ("mask", "Mask"),
            ("adjust_colors", "Adjust\u2026"))
-MASK_ACTIONS = ("add_mask", "delete_mask", "invert_mask", "disable_mask", "edit_mask", None, "merge_down")
+MASK_ACTIONS = ("add_mask", "add_hiding_mask", "delete_mask", "invert_mask", "disable_mask", "edit_mask", None,
+                "merge_down", "flatten")
 
 
 class LayersPanel(QWidget):

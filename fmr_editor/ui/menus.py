@@ -37,7 +37,10 @@ ACTIONS = {
                    "Join the active layer's curves and points into the layer below (they then diffuse together)"),
     "flatten": ("&Flatten Image", [], "flatten",
                 "Join the curves and points of every visible layer into one layer (hidden layers are dropped)"),
-    "add_mask": ("Add &Mask", [], "add_mask", "Give the active layer a mask that shows all of it"),
+    "add_mask": ("Add &Mask", [], "add_mask",
+                 "Give the active layer a mask that shows all of it (paint dark or draw dark shapes to hide)"),
+    "add_hiding_mask": ("Add Mask: &Hide All", [], "add_hiding_mask",
+                        "Give the active layer a mask that hides all of it (paint light or draw light shapes to show)"),
     "delete_mask": ("Delete Mas&k", [], "delete_mask", "Remove the active layer's mask"),
     "invert_mask": ("&Invert Mask", [], "invert_mask", "Show what the mask hid and hide what it showed"),
     "disable_mask": ("Disa&ble Mask", [], "toggle_mask", "Draw the layer as if it had no mask (the mask is kept)"),
@@ -50,15 +53,15 @@ ACTIONS = {
 }
 
 #: Actions that only make sense with a document open.
-LAYER_ACTIONS = ("new_layer", "duplicate_layer", "delete_layer", "merge_down", "flatten", "add_mask", "delete_mask",
-                 "invert_mask", "disable_mask", "edit_mask", "adjust_colors")
+LAYER_ACTIONS = ("new_layer", "duplicate_layer", "delete_layer", "merge_down", "flatten", "add_mask",
+                 "add_hiding_mask", "delete_mask", "invert_mask", "disable_mask", "edit_mask", "adjust_colors")
 
 MENUS = (
     ("&File", ("new", "open", "recent", None, "save", "save_as", "export", None, "quit")),
     ("&Edit", ("undo", "redo", None, "delete", None, "select_all", "deselect")),
     ("&View", ("zoom_in", "zoom_out", "fit", None, "panels")),
     ("&Layer", ("new_layer", "duplicate_layer", "delete_layer", None, "merge_down", "flatten", None, "add_mask",
-                "delete_mask", "invert_mask", "disable_mask", "edit_mask", None, "adjust_colors")),
+                "add_hiding_mask", "delete_mask", "invert_mask", "disable_mask", "edit_mask", None, "adjust_colors")),
     ("&Tools", ("tools", None, "swap_colors", "default_colors")),
     ("&Help", ("about",)),
 )
