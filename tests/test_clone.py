@@ -1,0 +1,162 @@
+"""Exact seamless cloning (``engine.solve.clone``) against an independent raster oracle.
+
+The oracle is Perez et al.'s discrete Poisson clone: a 5-point finite-difference solve (scipy) on a grid of
+half a pixel, with the guidance ``g`` sampled exactly at the grid points from the source (random access) and
+the target ``f_t`` around the region.  The clone layer's field, evaluated by the direct sum, must match it
+inside the region (3 px from the boundary: mean <= 1/255, p99 <= 4/255) and be 0 outside.  The paper's
+approximation (C = f_t - g on the boundary, E = 0, no solve) is computed as a contrast and printed.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.sparse
+import scipy.sparse.linalg
+import shapely
+from shapes import scattered_document
+
+from fmr_editor.engine import build, evaluate_points
+from fmr_editor.engine.geometry.segments import Segments, empty_segments
+from fmr_editor.engine.kernels.segment_sums import direct_sum
+from fmr_editor.engine.solve.clone import SeamlessClone, Similarity, boundary, clipped_to, paper_segments
+
+SIZE = 128
+STEP = 0.5  # the oracle's grid, pixels
+LEVEL = 1 / 255
+
+
+@pytest.fixture(scope="module")
+def images():
+    return build(scattered_document(SIZE, seed=3)), build(scattered_document(SIZE, seed=8))
+
+
+def hexagon(cx: float, cy: float, rx: float, ry: float) -> np.ndarray:
+    angles = np.linspace(0, 2 * np.pi, 7)[:-1] + 0.2
+    return np.stack([cx + rx * np.cos(angles), cy + ry * np.sin(angles)], axis=1)
+
+
+def about_centre(region: np.ndarray, scale: float, degrees: float, offset) -> Similarity:
+    """Rotate and scale about the region's centroid, then move by ``offset`` (the CLI's convention)."""
+    centre = region.mean(axis=0)
+    turned = Similarity(scale, degrees)
+    return Similarity(scale, degrees, tuple(centre - turned.apply(centre[None])[0] + np.asarray(offset)))
+
+
+def oracle(inside: np.ndarray, guide: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """The discrete Poisson clone at the ``inside`` grid points: ``4u_i - sum u_j = sum (g_i - g_j)`` with
+    ``u_j = f_t`` at neighbours outside."""
+    index = -np.ones(inside.shape, int)
+    index[inside] = np.arange(inside.sum())
+    rows, columns = np.nonzero(inside)
+    own = index[inside]
+    entries = [(own, own, np.full(len(own), 4.0))]
+    rhs = np.zeros((len(own), 3))
+    for dr, dc in ((1, 0), (-1, 0), (0, 1), (0, -1)):
+        r, c = rows + dr, columns + dc
+        rhs += guide[rows, columns] - guide[r, c]
+        within = inside[r, c]
+        entries.append((own[within], index[r, c][within], -np.ones(within.sum())))
+        rhs[~within] += target[r, c][~within]
+    i, j, v = (np.concatenate(parts) for parts in zip(*entries))
+    matrix = scipy.sparse.csc_matrix((v, (i, j)), shape=(len(own), len(own)))
+    return scipy.sparse.linalg.splu(matrix).solve(rhs)
+
+
+def errors(source, target, clone: SeamlessClone) -> dict[str, float]:
+    """Ours and the paper's against the oracle, in 8-bit levels; and the largest value of ours outside."""
+    target_at_gamma = evaluate_points(target, clone.midpoints)
+    layer = clone.segments(target_at_gamma)
+    region = shapely.Polygon(clone.region)
+    x0, y0, x1, y1 = region.bounds
+    xs = np.arange(np.floor(x0) - 2, np.ceil(x1) + 2, STEP)
+    ys = np.arange(np.floor(y0) - 2, np.ceil(y1) + 2, STEP)
+    grid = np.stack(np.meshgrid(xs, ys), axis=-1)
+    points = grid.reshape(-1, 2)
+    inside = shapely.contains_xy(region, points[:, 0], points[:, 1]).reshape(grid.shape[:2])
+    guide = evaluate_points(source, clone.similarity.inverse(points)).reshape(grid.shape[:2] + (3,))
+    fields = evaluate_points(target, points).reshape(grid.shape[:2] + (3,))
+    expected = oracle(inside, guide, fields)
+    distance = shapely.distance(shapely.LinearRing(clone.region), shapely.points(points))
+    far_in = (distance >= 3)[inside.ravel()]
+    ours = direct_sum(points[inside.ravel()], layer.p, layer.q, layer.flux, layer.jump)
+    off = np.abs(ours - expected)[far_in] / LEVEL
+    paper = paper_segments(clone, target_at_gamma, evaluate_points(source, clone.similarity.inverse(clone.midpoints)))
+    theirs = guide[inside] + direct_sum(points[inside.ravel()], paper.p, paper.q, paper.flux, paper.jump)
+    paper_off = np.abs(theirs - expected)[far_in] / LEVEL
+    far_out = (distance >= 3) & ~inside.ravel()
+    outside = direct_sum(points[far_out], layer.p, layer.q, layer.flux, layer.jump)
+    result = {"mean": off.mean(), "p99": np.percentile(off, 99), "outside": np.abs(outside).max() / LEVEL,
+              "paper mean": paper_off.mean(), "paper p99": np.percentile(paper_off, 99)}
+    print({key: round(float(value), 3) for key, value in result.items()})
+    return result
+
+
+@pytest.mark.parametrize("region, similarity", [
+    (hexagon(60, 62, 30, 26), Similarity(offset=(8.0, -6.0))),  # a translation
+    (hexagon(60, 62, 30, 26), None),  # rotated by 30 degrees and scaled by 1.3 about its centre
+    (hexagon(45, 80, 34, 30), Similarity(offset=(30.0, -20.0))),  # across other curves of both images
+])
+def test_the_clone_is_the_raster_poisson_clone(images, region, similarity):
+    source, target = images
+    similarity = similarity or about_centre(region, 1.3, 30.0, (4.0, 3.0))
+    clone = SeamlessClone(source.segments, region, similarity)
+    assert np.any(~clone.copied.on_border)  # source curves inside the region, cut at its boundary
+    curves = target.segments.take(~target.segments.on_border)
+    lines = shapely.linestrings(np.stack([curves.p, curves.q], axis=1))
+    assert shapely.intersects(shapely.LinearRing(clone.region), lines).any()  # target curves cross the boundary
+    found = errors(source, target, clone)
+    assert found["mean"] <= 1.0 and found["p99"] <= 4.0
+    assert found["outside"] <= 0.5  # the layer is 0 outside its region
+    assert found["paper mean"] > 3 * found["mean"]  # the approximation is visibly worse
+
+
+def test_a_region_cloned_within_one_image(images):
+    source, _ = images
+    clone = SeamlessClone(source.segments, hexagon(40, 40, 22, 22), Similarity(offset=(50.0, 45.0)))
+    found = errors(source, source, clone)
+    assert found["mean"] <= 1.0 and found["p99"] <= 4.0 and found["outside"] <= 0.5
+
+
+def test_moving_a_clone_keeps_its_factorisation_and_gives_the_clone_built_there(images):
+    source, target = images
+    region = hexagon(60, 62, 30, 26)
+    clone = SeamlessClone(source.segments, region, Similarity(offset=(2.0, 1.0)))
+    moved = clone.placed(6.0, -7.0)
+    fresh = SeamlessClone(source.segments, region, Similarity(offset=(8.0, -6.0)))
+    assert moved._factors is clone._factors
+    a = moved.segments(evaluate_points(target, moved.midpoints))
+    b = fresh.segments(evaluate_points(target, fresh.midpoints))
+    np.testing.assert_allclose(a.p, b.p, atol=1e-9)
+    np.testing.assert_allclose(a.flux, b.flux, atol=1e-7)
+
+
+def test_a_constant_target_gives_the_indicator_of_the_region():
+    region = hexagon(60, 62, 28, 24)
+    clone = SeamlessClone(empty_segments(), region)
+    layer = clone.segments(np.ones((len(clone.midpoints), 3)))
+    values = direct_sum(np.array([[60.0, 62.0], [70.0, 55.0], [200.0, 200.0], [60.0, 90.0]]),
+                        layer.p, layer.q, layer.flux, layer.jump)
+    np.testing.assert_allclose(values[:, 0], [1.0, 1.0, 0.0, 0.0], atol=1e-12)
+    assert np.abs(layer.flux).max() < 1e-10  # a pure double layer: nothing to solve
+
+
+def test_clipping_keeps_exactly_the_parts_inside_and_the_boundary_turns_the_inside_left():
+    square = np.array([[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 10.0]])
+    colours = np.arange(9.0).reshape(3, 3)
+    crossing = Segments(np.array([[-5.0, 5.0], [2.0, 2.0], [20.0, 20.0]]), np.array([[15.0, 5.0], [3.0, 3.0], [30.0, 30.0]]),
+                        colours, colours, np.zeros(3, bool), -colours)
+    inside = clipped_to(crossing, square)
+    np.testing.assert_allclose(inside.p, [[0.0, 5.0], [2.0, 2.0]])
+    np.testing.assert_allclose(inside.q, [[10.0, 5.0], [3.0, 3.0]])
+    np.testing.assert_array_equal(inside.jump, colours[:2])  # each piece keeps its segment's C and E
+    p, q = boundary(square, 1.0)
+    tangent = (q - p) / np.hypot(*(q - p).T)[:, None]
+    left = 0.5 * (p + q) + 0.01 * np.stack([tangent[:, 1], -tangent[:, 0]], axis=1)
+    assert len(p) == 40 and shapely.contains_xy(shapely.Polygon(square), left[:, 0], left[:, 1]).all()
+
+
+@pytest.mark.parametrize("region", [np.zeros((2, 2)), np.array([[0, 0], [10, 10], [10, 0], [0, 10.0]])])
+def test_a_region_that_is_no_simple_polygon_is_refused(region):
+    with pytest.raises(ValueError, match="simple polygon"):
+        SeamlessClone(empty_segments(), region)
