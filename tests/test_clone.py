@@ -16,7 +16,8 @@ import scipy.sparse.linalg
 import shapely
 from shapes import scattered_document
 
-from fmr_editor.engine import build, evaluate_points
+from fmr_editor.engine import Composite, LiveStack, build, evaluate_points
+from fmr_editor.engine.cloning import clone_layer
 from fmr_editor.engine.geometry.segments import Segments, empty_segments
 from fmr_editor.engine.kernels.segment_sums import direct_sum
 from fmr_editor.engine.solve.clone import SeamlessClone, Similarity, boundary, clipped_to, paper_segments
@@ -160,3 +161,66 @@ def test_clipping_keeps_exactly_the_parts_inside_and_the_boundary_turns_the_insi
 def test_a_region_that_is_no_simple_polygon_is_refused(region):
     with pytest.raises(ValueError, match="simple polygon"):
         SeamlessClone(empty_segments(), region)
+
+
+# -- the clone as a layer of a composite ---------------------------------------------------------------------------
+
+
+def layered_errors(source, below, clone: SeamlessClone) -> dict[str, float]:
+    """The composite with the clone layer on top against the oracle inside, the target outside, and the step
+    across the boundary, in 8-bit levels."""
+    picture = Composite(below.width, below.height, below.layers + (clone_layer(clone, below),))
+    region = shapely.Polygon(clone.region)
+    x0, y0, x1, y1 = region.bounds
+    xs = np.arange(np.floor(x0) - 2, np.ceil(x1) + 2, STEP)
+    ys = np.arange(np.floor(y0) - 2, np.ceil(y1) + 2, STEP)
+    grid = np.stack(np.meshgrid(xs, ys), axis=-1)
+    points = grid.reshape(-1, 2)
+    inside = shapely.contains_xy(region, points[:, 0], points[:, 1]).reshape(grid.shape[:2])
+    guide = evaluate_points(source, clone.similarity.inverse(points)).reshape(grid.shape[:2] + (3,))
+    fields = evaluate_points(below, points).reshape(grid.shape[:2] + (3,))
+    expected = oracle(inside, guide, fields)
+    shown = evaluate_points(picture, points)
+    distance = shapely.distance(shapely.LinearRing(clone.region), shapely.points(points))
+    on_canvas = ((points >= 0) & (points <= [below.width, below.height])).all(axis=1)
+    far_in = (distance >= 3)[inside.ravel()]
+    off = np.abs(shown[inside.ravel()] - expected)[far_in] / LEVEL
+    out = ~inside.ravel() & (distance >= 1) & on_canvas
+    mids, normal = clone.midpoints, np.stack([clone.gamma_q[:, 1] - clone.gamma_p[:, 1],
+                                              clone.gamma_p[:, 0] - clone.gamma_q[:, 0]], axis=1)
+    normal /= np.hypot(*normal.T)[:, None]
+    sides = [mids + 0.25 * normal, mids - 0.25 * normal]
+    seam = np.all([((side > 0) & (side < [below.width, below.height])).all(axis=1) for side in sides], axis=0)
+    step = np.abs(evaluate_points(picture, sides[0][seam]) - evaluate_points(picture, sides[1][seam]))  # not along
+    # the canvas edge, where the clone meets the outside of the canvas
+    result = {"mean": off.mean(), "p99": np.percentile(off, 99),
+              "outside": np.abs(shown[out] - fields.reshape(-1, 3)[out]).max() / LEVEL,
+              "step median": np.median(step) / LEVEL}
+    print({key: round(float(value), 3) for key, value in result.items()})
+    return result
+
+
+@pytest.fixture(scope="module")
+def below():
+    return LiveStack(scattered_document(SIZE, seed=8)).composite
+
+
+@pytest.mark.parametrize("region, similarity", [
+    (hexagon(60, 62, 30, 26), Similarity(offset=(8.0, -6.0))),
+    (hexagon(60, 62, 30, 26), None),
+    (hexagon(60, 40, 30, 26), Similarity(offset=(50.0, -30.0))),  # over the canvas's top and right edges
+])
+def test_the_clone_layer_composed_over_the_target_is_the_poisson_clone(images, below, region, similarity):
+    source, _ = images
+    similarity = similarity or about_centre(region, 1.3, 30.0, (4.0, 3.0))
+    clone = SeamlessClone(source.segments, region, similarity, canvas=(below.width, below.height))
+    found = layered_errors(source, below, clone)
+    assert found["mean"] <= 1.0 and found["p99"] <= 4.0
+    assert found["outside"] <= 0.5  # the target, untouched
+    assert found["step median"] <= 1.0  # no seam
+
+
+def test_a_region_off_the_canvas_is_refused(images):
+    source, _ = images
+    with pytest.raises(ValueError, match="wholly outside"):
+        SeamlessClone(source.segments, hexagon(60, 62, 20, 20), Similarity(offset=(300.0, 0.0)), canvas=(SIZE, SIZE))

@@ -23,7 +23,8 @@ ROOT = "fmr_editor"
 FAKE_ROOT = "fakeeditor"
 SUBPACKAGES = ("model", "engine", "io", "tools", "render", "ui")
 ENGINE_PACKAGES = ("geometry", "kernels", "fmm", "solve", "points")
-ENGINE_MODULES = ("representation", "composite", "live", "raster", "kept_states", "cells", "threads", "stack")
+ENGINE_MODULES = ("representation", "composite", "live", "raster", "kept_states", "cells", "threads", "stack",
+                  "cloning")
 
 pytest.importorskip("importlinter", reason="import-linter is in the [test] extra")
 

@@ -3,7 +3,7 @@
 Synchronous and free of Qt and OpenGL.  The sub-packages build on each
 other from the bottom up (an import-linter contract keeps that order)::
 
-    geometry -> kernels -> fmm -> solve | points -> representation -> composite -> live | raster -> stack
+    geometry -> kernels -> fmm -> solve | points -> representation -> composite -> raster -> live | cloning -> stack
 
 ``docs/architecture.md`` draws the data flow.  What the rest of the program
 uses is exported here; everything else is the engine's own.  Every fast path

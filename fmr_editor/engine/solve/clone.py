@@ -116,14 +116,28 @@ class SeamlessClone:
         Where the region goes in the target.
     spacing : float
         Length of ``Gamma``'s segments in target pixels.
+    canvas : tuple of float, optional
+        The target's ``(width, height)``: the placed region is cut to it, so that
+        the clone also blends into the target along the canvas edge.
+
+    Raises
+    ------
+    ValueError
+        For a region that is not a simple polygon of positive area, or that
+        lands wholly outside the canvas or is split in two by its edge.
     """
 
     def __init__(self, source: Segments, region: np.ndarray, similarity: Similarity = Similarity(),
-                 spacing: float = 1.0) -> None:
+                 spacing: float = 1.0, canvas: tuple[float, float] | None = None) -> None:
         region = np.asarray(region, dtype=np.float64)
         if len(region) < 3 or not shapely.Polygon(region).is_valid or shapely.Polygon(region).area <= 0:
             raise ValueError("a clone region must be a simple polygon of positive area")
-        self.similarity = similarity
+        placed = similarity.apply(region)
+        on_canvas = _on_canvas(placed, canvas) if canvas is not None else placed
+        self._cut = on_canvas is not placed  # the canvas edge took a part of the region
+        if self._cut:
+            region = similarity.inverse(on_canvas)
+        self.similarity, self.canvas = similarity, canvas
         copied = clipped_to(source, region)
         gp, gq = boundary(region, spacing / similarity.scale)
         p, q = similarity.apply(copied.p), similarity.apply(copied.q)
@@ -167,7 +181,13 @@ class SeamlessClone:
         return concatenate([self.copied, gamma])
 
     def placed(self, dx: float, dy: float) -> SeamlessClone:
-        """The same clone moved by ``(dx, dy)``: its factorisation and copied sums are kept."""
+        """The same clone moved by ``(dx, dy)``: its factorisation and copied sums are kept (unless the canvas
+        edge cuts the region, which changes its shape)."""
+        if self.canvas is not None:
+            moved = self.gamma_p + np.array([dx, dy])
+            w, h = self.canvas
+            if moved.min() < 0 or moved[:, 0].max() > w or moved[:, 1].max() > h or self._cut:
+                raise ValueError("a clone cut by the canvas edge is placed anew, not moved")
         twin = object.__new__(SeamlessClone)
         twin.__dict__.update(self.__dict__)
         shift = np.array([dx, dy])
@@ -175,6 +195,22 @@ class SeamlessClone:
         twin.copied = replace(self.copied, p=self.copied.p + shift, q=self.copied.q + shift)
         twin.gamma_p, twin.gamma_q = self.gamma_p + shift, self.gamma_q + shift
         return twin
+
+
+def _on_canvas(region: np.ndarray, canvas: tuple[float, float]) -> np.ndarray:
+    """The part of the placed ``region`` on the canvas, as one polygon's vertices (``region`` itself when all of
+    it is)."""
+    polygon = shapely.Polygon(region)
+    width, height = canvas
+    frame = shapely.box(0.0, 0.0, width, height)
+    if polygon.within(frame):
+        return region
+    part = shapely.intersection(polygon, frame)
+    if part.is_empty or part.area <= 0:
+        raise ValueError("the clone region lands wholly outside the target canvas")
+    if part.geom_type != "Polygon":
+        raise ValueError("the canvas edge splits the clone region in two; move it further in or out")
+    return np.asarray(part.exterior.coords)[:-1]
 
 
 def paper_segments(clone: SeamlessClone, target: np.ndarray, source_at_gamma: np.ndarray) -> Segments:

@@ -1,0 +1,47 @@
+"""A seamless clone as a layer of a composite: its image and its mask as representations, no solve of either.
+
+``clone_layer`` places a region of a source image into the picture below it
+(``solve.clone.SeamlessClone``, with the target's colours read from that
+picture at the region's boundary) and hands back the ``LayerFields`` to put
+on top: the image is the clone layer's segments (the copied source segments
+and the boundary with its solved ``E``), the mask the indicator of the region
+(its boundary with ``C = 1`` and ``E = 0``, a sharp mask).  Both are expanded
+into cells like any solved image (``explicit_representation``); composed, the
+picture is the target outside the region and ``g + h`` inside.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .cells import Cells
+from .composite import Composite, LayerFields
+from .fmm.lattice import Lattice
+from .geometry.discretise import cut_at_cells
+from .geometry.segments import Segments
+from .raster import evaluate_points
+from .representation import Representation, Settings, choose_levels
+from .solve.clone import SeamlessClone
+
+
+def explicit_representation(width: int, height: int, segments: Segments, settings: Settings = Settings()) -> Representation:
+    """The FMR of segments whose ``C`` and ``E`` are known (no solve), on a ``width x height`` canvas.
+
+    The segments must lie on the canvas: the lattice covers it.
+    """
+    side = float(max(width, height))
+    lattice = Lattice(settings.levels or choose_levels(segments, side), side)
+    cells = Cells.build(cut_at_cells(segments, lattice.cell_size), lattice, settings.propagation_order)
+    return Representation(width, height, lattice, cells.segments, cells.cell_start, cells.local, settings.order, {})
+
+
+def clone_layer(clone: SeamlessClone, below: Composite, settings: Settings = Settings(), layer_id: int = 0
+                ) -> LayerFields:
+    """The layer that puts ``clone`` seamlessly over ``below`` (its region cut to ``below``'s canvas)."""
+    target = evaluate_points(below, clone.midpoints)
+    image = explicit_representation(below.width, below.height, clone.segments(target), settings)
+    n = len(clone.gamma_p)
+    white = np.ones((n, 3))
+    edge = Segments(clone.gamma_p, clone.gamma_q, white, 0.5 * white, np.zeros(n, bool), np.zeros((n, 3)))
+    mask = explicit_representation(below.width, below.height, edge, settings)
+    return LayerFields(image, mask, mask_base=0.0, id=layer_id)
