@@ -24,13 +24,17 @@ from .representation import Representation, Settings, choose_levels
 from .solve.clone import SeamlessClone
 
 
-def explicit_representation(width: int, height: int, segments: Segments, settings: Settings = Settings()) -> Representation:
+def explicit_representation(width: int, height: int, segments: Segments, settings: Settings = Settings(),
+                            deepest: int | None = None) -> Representation:
     """The FMR of segments whose ``C`` and ``E`` are known (no solve), on a ``width x height`` canvas.
 
-    The segments must lie on the canvas: the lattice covers it.
+    The segments must lie on the canvas: the lattice covers it, at most
+    ``deepest`` levels deep (a clone's segments crowd into its region, where
+    a finer lattice would cost more in the downward pass than it saves).
     """
     side = float(max(width, height))
-    lattice = Lattice(settings.levels or choose_levels(segments, side), side)
+    levels = settings.levels or choose_levels(segments, side)
+    lattice = Lattice(min(levels, deepest or levels), side)
     cells = Cells.build(cut_at_cells(segments, lattice.cell_size), lattice, settings.propagation_order)
     return Representation(width, height, lattice, cells.segments, cells.cell_start, cells.local, settings.order, {})
 
@@ -39,9 +43,10 @@ def clone_layer(clone: SeamlessClone, below: Composite, settings: Settings = Set
                 ) -> LayerFields:
     """The layer that puts ``clone`` seamlessly over ``below`` (its region cut to ``below``'s canvas)."""
     target = evaluate_points(below, clone.midpoints)
-    image = explicit_representation(below.width, below.height, clone.segments(target), settings)
+    deepest = max((layer.image.lattice.levels for layer in below.layers), default=None)
+    image = explicit_representation(below.width, below.height, clone.segments(target), settings, deepest)
     n = len(clone.gamma_p)
     white = np.ones((n, 3))
     edge = Segments(clone.gamma_p, clone.gamma_q, white, 0.5 * white, np.zeros(n, bool), np.zeros((n, 3)))
-    mask = explicit_representation(below.width, below.height, edge, settings)
+    mask = explicit_representation(below.width, below.height, edge, settings, deepest)
     return LayerFields(image, mask, mask_base=0.0, id=layer_id)
