@@ -14,9 +14,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .cells import Cells
 from .composite import Composite, LayerFields
-from .fmm.lattice import Lattice
+from .fmm.lattice import Lattice, fine_multipoles, sort_into_cells
+from .fmm.sparse_downward import delta_local
 from .geometry.discretise import cut_at_cells
 from .geometry.segments import Segments
 from .raster import evaluate_points
@@ -35,8 +35,11 @@ def explicit_representation(width: int, height: int, segments: Segments, setting
     side = float(max(width, height))
     levels = settings.levels or choose_levels(segments, side)
     lattice = Lattice(min(levels, deepest or levels), side)
-    cells = Cells.build(cut_at_cells(segments, lattice.cell_size), lattice, settings.propagation_order)
-    return Representation(width, height, lattice, cells.segments, cells.cell_start, cells.local, settings.order, {})
+    order = settings.propagation_order
+    sorted_segments, cell_start = sort_into_cells(cut_at_cells(segments, lattice.cell_size), lattice)
+    local = delta_local(fine_multipoles(sorted_segments, cell_start, lattice, order), lattice, order)  # from the
+    # occupied cells only: a clone's segments, and its mask's boundary even more, leave most cells empty
+    return Representation(width, height, lattice, sorted_segments, cell_start, local, settings.order, {})
 
 
 def clone_layer(clone: SeamlessClone, below: Composite, settings: Settings = Settings(), layer_id: int = 0
