@@ -224,3 +224,13 @@ def test_a_region_off_the_canvas_is_refused(images):
     source, _ = images
     with pytest.raises(ValueError, match="wholly outside"):
         SeamlessClone(source.segments, hexagon(60, 62, 20, 20), Similarity(offset=(300.0, 0.0)), canvas=(SIZE, SIZE))
+
+
+def test_the_compiled_pair_matrices_equal_the_numpy_reference():
+    from fmr_editor.engine.kernels.potentials import pair_integrals
+    from fmr_editor.engine.kernels.segment_sums import pair_matrices
+
+    rng = np.random.default_rng(4)
+    p, q, targets = rng.uniform(0, 20, (7, 2)), rng.uniform(0, 20, (7, 2)), rng.uniform(-5, 25, (30, 2))
+    for ours, reference in zip(pair_matrices(targets, p, q), pair_integrals(targets, p, q)):
+        np.testing.assert_allclose(ours, reference, rtol=1e-12, atol=1e-12)

@@ -122,6 +122,27 @@ def _direct_sum(targets, table, weights, out):
             out[i, 0], out[i, 1], out[i, 2] = r, g, b
 
 
+@numba.njit(parallel=True, cache=True, fastmath=POLY_MATH, error_model="numpy")
+def _pair_matrices(targets, table, single, double):
+    for i in numba.prange(len(targets)):
+        x, y = targets[i, 0], targets[i, 1]
+        for j in range(table.shape[1]):
+            single[i, j], double[i, j] = segment_potentials(
+                x, y, table[0, j], table[1, j], table[2, j], table[3, j], table[4, j], table[5, j], table[6, j])
+
+
+def pair_matrices(targets: np.ndarray, p: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``S`` and ``D`` ``(m, n)`` of every segment at every target: the compiled ``potentials.pair_integrals``.
+
+    Inside a segment the rounded cross product picks a side for ``D`` (see ``segment_potentials``): a caller
+    wanting the principal value at a segment's own midpoint sets it to 0.
+    """
+    targets = np.ascontiguousarray(targets, dtype=np.float64)
+    single, double = np.empty((len(targets), len(p))), np.empty((len(targets), len(p)))
+    _pair_matrices(targets, segment_table(p, q), single, double)
+    return single, double
+
+
 def direct_sum(targets: np.ndarray, p: np.ndarray, q: np.ndarray, flux: np.ndarray, jump: np.ndarray) -> np.ndarray:
     """``sum_j E_j S_j(x) - C_j D_j(x)`` over every segment, ``(m, 3)``.
 

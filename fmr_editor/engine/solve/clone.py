@@ -29,8 +29,7 @@ import scipy.linalg
 import shapely
 
 from ..geometry.segments import Segments, concatenate
-from ..kernels.potentials import pair_integrals
-from ..kernels.segment_sums import direct_sum
+from ..kernels.segment_sums import direct_sum, pair_matrices
 
 
 @dataclass(frozen=True)
@@ -146,7 +145,7 @@ class SeamlessClone:
             p, q, gp, gq = q, p, gq, gp
         self.copied = replace(copied, p=p, q=q, flux=copied.flux / similarity.scale)
         self.gamma_p, self.gamma_q = gp, gq
-        single, double = pair_integrals(self.midpoints, gp, gq)
+        single, double = pair_matrices(self.midpoints, gp, gq)
         n = len(gp)
         double[np.arange(n), np.arange(n)] = 0.0  # a principal value: rounding must not put the midpoint to a side
         lengths = np.hypot(*(gq - gp).T)
