@@ -17,7 +17,8 @@ import shapely
 from shapes import scattered_document
 
 from fmr_editor.engine import Composite, LiveStack, build, evaluate_points
-from fmr_editor.engine.cloning import clone_layer
+from fmr_editor.engine.cloning import clone_layer, placed_points
+from fmr_editor.model import DiffusionPoint
 from fmr_editor.engine.geometry.segments import Segments, empty_segments
 from fmr_editor.engine.kernels.segment_sums import direct_sum
 from fmr_editor.engine.solve.clone import SeamlessClone, Similarity, boundary, clipped_to, paper_segments
@@ -169,7 +170,8 @@ def test_a_region_that_is_no_simple_polygon_is_refused(region):
 def layered_errors(source, below, clone: SeamlessClone) -> dict[str, float]:
     """The composite with the clone layer on top against the oracle inside, the target outside, and the step
     across the boundary, in 8-bit levels."""
-    picture = Composite(below.width, below.height, below.layers + (clone_layer(clone, below),))
+    points = source.points.source if source.points is not None else ()
+    picture = Composite(below.width, below.height, below.layers + (clone_layer(clone, below, points=points),))
     region = shapely.Polygon(clone.region)
     x0, y0, x1, y1 = region.bounds
     xs = np.arange(np.floor(x0) - 2, np.ceil(x1) + 2, STEP)
@@ -218,6 +220,18 @@ def test_the_clone_layer_composed_over_the_target_is_the_poisson_clone(images, b
     assert found["mean"] <= 1.0 and found["p99"] <= 4.0
     assert found["outside"] <= 0.5  # the target, untouched
     assert found["step median"] <= 1.0  # no seam
+
+
+def test_a_source_with_diffusion_points_clones_them_too(below):
+    rng = np.random.default_rng(9)
+    dabs = [DiffusionPoint(tuple(rng.uniform(30, 95, 2)), float(rng.uniform(2, 14)), tuple(rng.random(3)), 0.7)
+            for _ in range(12)]
+    source = build(scattered_document(SIZE, seed=3).with_points(dabs))
+    clone = SeamlessClone(source.segments, hexagon(60, 62, 30, 26), about_centre(hexagon(60, 62, 30, 26), 1.2, -20.0,
+                          (3.0, -4.0)), canvas=(below.width, below.height))
+    assert len(placed_points(source.points.source, clone)) >= 6  # copied: inside, and reaching in from outside
+    found = layered_errors(source, below, clone)
+    assert found["mean"] <= 1.0 and found["p99"] <= 4.0 and found["outside"] <= 0.5 and found["step median"] <= 1.0
 
 
 def test_a_region_off_the_canvas_is_refused(images):

@@ -4,7 +4,8 @@
 (``solve.clone.SeamlessClone``, with the target's colours read from that
 picture at the region's boundary) and hands back the ``LayerFields`` to put
 on top: the image is the clone layer's segments (the copied source segments
-and the boundary with its solved ``E``), the mask the indicator of the region
+and the boundary with its solved ``E``, and the source's diffusion points
+that reach the region), the mask the indicator of the region
 (its boundary with ``C = 1`` and ``E = 0``, a sharp mask).  Both are expanded
 into cells like any solved image (``explicit_representation``); composed, the
 picture is the target outside the region and ``g + h`` inside.
@@ -12,25 +13,32 @@ picture is the target outside the region and ``g + h`` inside.
 
 from __future__ import annotations
 
-import numpy as np
+from dataclasses import replace
 
+import numpy as np
+import shapely
+
+from ..model import DiffusionPoint
 from .composite import Composite, LayerFields
 from .fmm.lattice import Lattice, fine_multipoles, sort_into_cells
 from .fmm.sparse_downward import delta_local
 from .geometry.discretise import cut_at_cells
 from .geometry.segments import Segments
+from .points.field import PointField
+from .points.gauss import GaussPoints, gaussian_sum_reference
 from .raster import evaluate_points
 from .representation import Representation, Settings, choose_levels
 from .solve.clone import SeamlessClone
 
 
 def explicit_representation(width: int, height: int, segments: Segments, settings: Settings = Settings(),
-                            deepest: int | None = None) -> Representation:
+                            deepest: int | None = None, points: tuple[DiffusionPoint, ...] = ()) -> Representation:
     """The FMR of segments whose ``C`` and ``E`` are known (no solve), on a ``width x height`` canvas.
 
     The segments must lie on the canvas: the lattice covers it, at most
     ``deepest`` levels deep (a clone's segments crowd into its region, where
     a finer lattice would cost more in the downward pass than it saves).
+    ``points`` are added to the field as in any representation.
     """
     side = float(max(width, height))
     levels = settings.levels or choose_levels(segments, side)
@@ -39,15 +47,37 @@ def explicit_representation(width: int, height: int, segments: Segments, setting
     sorted_segments, cell_start = sort_into_cells(cut_at_cells(segments, lattice.cell_size), lattice)
     local = delta_local(fine_multipoles(sorted_segments, cell_start, lattice, order), lattice, order)  # from the
     # occupied cells only: a clone's segments, and its mask's boundary even more, leave most cells empty
-    return Representation(width, height, lattice, sorted_segments, cell_start, local, settings.order, {})
+    field = PointField.build(tuple(points), lattice, settings.order) if points else None
+    return Representation(width, height, lattice, sorted_segments, cell_start, local, settings.order, {}, field)
 
 
-def clone_layer(clone: SeamlessClone, below: Composite, settings: Settings = Settings(), layer_id: int = 0
-                ) -> LayerFields:
-    """The layer that puts ``clone`` seamlessly over ``below`` (its region cut to ``below``'s canvas)."""
+def placed_points(points: tuple[DiffusionPoint, ...], clone: SeamlessClone) -> tuple[DiffusionPoint, ...]:
+    """The source ``points`` placed by the clone's similarity whose blobs reach its region (to ``exp(-16)``)."""
+    if not points:
+        return ()
+    similarity = clone.similarity
+    packed = GaussPoints.from_points(points)
+    positions, radii = similarity.apply(packed.positions), packed.radii * similarity.scale
+    near = shapely.distance(shapely.Polygon(clone.region), shapely.points(positions)) <= 4.0 * radii
+    return tuple(replace(point, position=tuple(position), radius=float(radius), id=None)
+                 for point, position, radius, keep in zip(points, positions, radii, near) if keep)
+
+
+def clone_layer(clone: SeamlessClone, below: Composite, settings: Settings = Settings(), layer_id: int = 0,
+                points: tuple[DiffusionPoint, ...] = ()) -> LayerFields:
+    """The layer that puts ``clone`` seamlessly over ``below`` (its region cut to ``below``'s canvas).
+
+    ``points`` are the source's diffusion points: those reaching the region are
+    copied into the layer (placed, their radii scaled), their sum at the
+    boundary taken off what the segments there must make.
+    """
+    placed = placed_points(points, clone)
     target = evaluate_points(below, clone.midpoints)
+    if placed:
+        packed = GaussPoints.from_points(placed)
+        target = target - gaussian_sum_reference(clone.midpoints, packed.positions, packed.radii, packed.weights)
     deepest = max((layer.image.lattice.levels for layer in below.layers), default=None)
-    image = explicit_representation(below.width, below.height, clone.segments(target), settings, deepest)
+    image = explicit_representation(below.width, below.height, clone.segments(target), settings, deepest, placed)
     n = len(clone.gamma_p)
     white = np.ones((n, 3))
     edge = Segments(clone.gamma_p, clone.gamma_q, white, 0.5 * white, np.zeros(n, bool), np.zeros((n, 3)))

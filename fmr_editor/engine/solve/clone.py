@@ -168,7 +168,12 @@ class SeamlessClone:
         return self.gamma_p
 
     def segments(self, target: np.ndarray) -> Segments:
-        """The clone layer's segments for the target's colours ``(n, 3)`` at ``midpoints``."""
+        """The clone layer's segments for the target's colours ``(n, 3)`` at ``midpoints``.
+
+        With diffusion points copied into the layer as well, ``target`` is the
+        target's colours minus the points' sum there (``cloning.clone_layer``):
+        the segments then make the rest, and are 0 outside as without points.
+        """
         target = np.asarray(target, dtype=np.float64)
         n = len(self.gamma_p)
         rhs = np.zeros((n + 1, 3))
