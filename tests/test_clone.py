@@ -248,3 +248,15 @@ def test_the_compiled_pair_matrices_equal_the_numpy_reference():
     p, q, targets = rng.uniform(0, 20, (7, 2)), rng.uniform(0, 20, (7, 2)), rng.uniform(-5, 25, (30, 2))
     for ours, reference in zip(pair_matrices(targets, p, q), pair_integrals(targets, p, q)):
         np.testing.assert_allclose(ours, reference, rtol=1e-12, atol=1e-12)
+
+
+def test_a_second_clone_over_the_first_blends_into_the_picture_with_it(images, below):
+    source, _ = images
+    first = SeamlessClone(source.segments, hexagon(60, 62, 30, 26), Similarity(offset=(-10.0, 0.0)),
+                          canvas=(below.width, below.height))
+    with_first = Composite(below.width, below.height, below.layers + (clone_layer(first, below, layer_id=1),))
+    second = SeamlessClone(source.segments, hexagon(40, 40, 22, 22), Similarity(offset=(45.0, 30.0)),
+                           canvas=(below.width, below.height))
+    assert shapely.Polygon(first.region).intersects(shapely.Polygon(second.region))  # they overlap
+    found = layered_errors(source, with_first, second)  # the oracle's target is the picture with the first clone
+    assert found["mean"] <= 1.0 and found["p99"] <= 4.0 and found["outside"] <= 0.5 and found["step median"] <= 1.0
