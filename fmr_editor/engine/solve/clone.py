@@ -64,9 +64,12 @@ class Similarity:
 
 def clipped_to(segments: Segments, polygon: np.ndarray) -> Segments:
     """The parts of ``segments`` inside the simple ``polygon`` ``(k, 2)`` (its edges cut them)."""
+    a = np.asarray(polygon, dtype=np.float64)
+    low, high = a.min(axis=0), a.max(axis=0)
+    near = ((np.minimum(segments.p, segments.q) <= high) & (np.maximum(segments.p, segments.q) >= low)).all(axis=1)
+    segments = segments.take(near)  # the others lie wholly outside the polygon's bounding box
     if len(segments) == 0:
         return segments
-    a = np.asarray(polygon, dtype=np.float64)
     e = np.roll(a, -1, axis=0) - a
     p, d = segments.p, segments.q - segments.p
     w = a[None, :, :] - p[:, None, :]
