@@ -32,7 +32,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from bench_canvas import DEFAULT_FILE, best, full_evaluations, start_xvfb
+from bench_canvas import DEFAULT_FILE, best, full_evaluations, redraws, start_xvfb
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "tests"))
@@ -84,14 +84,8 @@ def gl_rows(args, flat_picture, stack, fields_count) -> list[tuple]:
         renderer.upload(picture)
         renderer.draw(view, fbo)
         GL.glFinish()
-        runs = []
-        for _ in range(args.repeat):
-            start = time.perf_counter()
-            for _ in range(args.frames):
-                renderer.draw(view, fbo)
-            GL.glFinish()
-            runs.append((time.perf_counter() - start) / args.frames)
-        results[name] = (best(runs), best(full_evaluations(renderer, view, fbo, args.repeat)))
+        results[name] = (best(redraws(renderer, view, fbo, args.repeat, args.frames)),
+                         best(full_evaluations(renderer, view, fbo, args.repeat)))
     rows = [("canvas redraw, nothing changed (ms)", results["flat"][0], results["layers"][0]),
             (f"canvas full evaluation, {size}x{size} (ms)", results["flat"][1], results["layers"][1])]
 

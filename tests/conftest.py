@@ -272,3 +272,16 @@ def editor(gl_display, qtbot, tmp_path, monkeypatch):
     window._close_now = True  # noqa: SLF001 - no question at teardown
     window.close()
     window.deleteLater()
+
+
+@pytest.fixture
+def line(editor, tmp_path):
+    """The editor on ``shapes.line_document`` (saved without its representation, so opening builds it)."""
+    from shapes import line_document
+
+    from fmr_editor.io import save_fmr
+
+    path = tmp_path / "line.fmr"
+    save_fmr(path, line_document())
+    editor.open(path)
+    return editor

@@ -57,3 +57,14 @@ def scattered_document(size: int = 128, circles: int = 5, seed: int = 2) -> Docu
     chain = [(0.04 * size, 0.94 * size), (0.47 * size, 0.7 * size), (0.96 * size, 0.86 * size)]
     curves.append(DiffusionCurve(straight_chain(chain), left=stops, right=stops))
     return Document(size, size, curves)
+
+
+RED, BLUE = (1.0, 0.0, 0.0), (0.0, 0.0, 1.0)
+
+
+def line_document() -> Document:
+    """A 128x128 canvas with one straight, linearly parametrised curve from (16, 64) to (112, 64): red on its
+    left (above), blue on its right."""
+    curve = DiffusionCurve(straight_chain([(16.0, 64.0), (112.0, 64.0)]),
+                           left=(ColorStop(0.0, RED),), right=(ColorStop(0.0, BLUE),))
+    return Document(128, 128, (curve,))

@@ -18,10 +18,10 @@ from shapes import scattered_document
 
 from fmr_editor.engine import Composite, LiveStack, build, evaluate_points
 from fmr_editor.engine.cloning import clone_layer, placed_points
-from fmr_editor.model import DiffusionPoint
 from fmr_editor.engine.geometry.segments import Segments, empty_segments
 from fmr_editor.engine.kernels.segment_sums import direct_sum
 from fmr_editor.engine.solve.clone import SeamlessClone, Similarity, boundary, clipped_to, paper_segments
+from fmr_editor.model import DiffusionPoint
 
 SIZE = 128
 STEP = 0.5  # the oracle's grid, pixels
@@ -65,10 +65,9 @@ def oracle(inside: np.ndarray, guide: np.ndarray, target: np.ndarray) -> np.ndar
     return scipy.sparse.linalg.splu(matrix).solve(rhs)
 
 
-def errors(source, target, clone: SeamlessClone) -> dict[str, float]:
-    """Ours and the paper's against the oracle, in 8-bit levels; and the largest value of ours outside."""
-    target_at_gamma = evaluate_points(target, clone.midpoints)
-    layer = clone.segments(target_at_gamma)
+def oracle_grid(source, target, clone: SeamlessClone):
+    """The oracle on a grid of ``STEP`` over the clone's region: the grid's points, which lie inside, the
+    guide ``g`` and target there, the oracle's values inside and each point's distance to the boundary."""
     region = shapely.Polygon(clone.region)
     x0, y0, x1, y1 = region.bounds
     xs = np.arange(np.floor(x0) - 2, np.ceil(x1) + 2, STEP)
@@ -78,8 +77,15 @@ def errors(source, target, clone: SeamlessClone) -> dict[str, float]:
     inside = shapely.contains_xy(region, points[:, 0], points[:, 1]).reshape(grid.shape[:2])
     guide = evaluate_points(source, clone.similarity.inverse(points)).reshape(grid.shape[:2] + (3,))
     fields = evaluate_points(target, points).reshape(grid.shape[:2] + (3,))
-    expected = oracle(inside, guide, fields)
     distance = shapely.distance(shapely.LinearRing(clone.region), shapely.points(points))
+    return points, inside, guide, fields, oracle(inside, guide, fields), distance
+
+
+def errors(source, target, clone: SeamlessClone) -> dict[str, float]:
+    """Ours and the paper's against the oracle, in 8-bit levels; and the largest value of ours outside."""
+    target_at_gamma = evaluate_points(target, clone.midpoints)
+    layer = clone.segments(target_at_gamma)
+    points, inside, guide, fields, expected, distance = oracle_grid(source, target, clone)
     far_in = (distance >= 3)[inside.ravel()]
     ours = direct_sum(points[inside.ravel()], layer.p, layer.q, layer.flux, layer.jump)
     off = np.abs(ours - expected)[far_in] / LEVEL
@@ -146,8 +152,8 @@ def test_a_constant_target_gives_the_indicator_of_the_region():
 def test_clipping_keeps_exactly_the_parts_inside_and_the_boundary_turns_the_inside_left():
     square = np.array([[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 10.0]])
     colours = np.arange(9.0).reshape(3, 3)
-    crossing = Segments(np.array([[-5.0, 5.0], [2.0, 2.0], [20.0, 20.0]]), np.array([[15.0, 5.0], [3.0, 3.0], [30.0, 30.0]]),
-                        colours, colours, np.zeros(3, bool), -colours)
+    starts, ends = np.array([[-5.0, 5.0], [2.0, 2.0], [20.0, 20.0]]), np.array([[15.0, 5.0], [3.0, 3.0], [30.0, 30.0]])
+    crossing = Segments(starts, ends, colours, colours, np.zeros(3, bool), -colours)
     inside = clipped_to(crossing, square)
     np.testing.assert_allclose(inside.p, [[0.0, 5.0], [2.0, 2.0]])
     np.testing.assert_allclose(inside.q, [[10.0, 5.0], [3.0, 3.0]])
@@ -172,18 +178,8 @@ def layered_errors(source, below, clone: SeamlessClone) -> dict[str, float]:
     across the boundary, in 8-bit levels."""
     points = source.points.source if source.points is not None else ()
     picture = Composite(below.width, below.height, below.layers + (clone_layer(clone, below, points=points),))
-    region = shapely.Polygon(clone.region)
-    x0, y0, x1, y1 = region.bounds
-    xs = np.arange(np.floor(x0) - 2, np.ceil(x1) + 2, STEP)
-    ys = np.arange(np.floor(y0) - 2, np.ceil(y1) + 2, STEP)
-    grid = np.stack(np.meshgrid(xs, ys), axis=-1)
-    points = grid.reshape(-1, 2)
-    inside = shapely.contains_xy(region, points[:, 0], points[:, 1]).reshape(grid.shape[:2])
-    guide = evaluate_points(source, clone.similarity.inverse(points)).reshape(grid.shape[:2] + (3,))
-    fields = evaluate_points(below, points).reshape(grid.shape[:2] + (3,))
-    expected = oracle(inside, guide, fields)
+    points, inside, _, fields, expected, distance = oracle_grid(source, below, clone)
     shown = evaluate_points(picture, points)
-    distance = shapely.distance(shapely.LinearRing(clone.region), shapely.points(points))
     on_canvas = ((points >= 0) & (points <= [below.width, below.height])).all(axis=1)
     far_in = (distance >= 3)[inside.ravel()]
     off = np.abs(shown[inside.ravel()] - expected)[far_in] / LEVEL

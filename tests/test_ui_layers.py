@@ -10,7 +10,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from canvas_oracle import mismatches
-from test_ui_tools import line  # noqa: F401 - the fixture
 
 pytest.importorskip("pytestqt", reason="pytest-qt is in the [test] extra")
 

@@ -9,42 +9,23 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from selections import by_index
-from shapes import straight_chain
+from shapes import BLUE, RED, line_document, straight_chain
 
 pytest.importorskip("pytestqt", reason="pytest-qt is in the [test] extra")
 
 from PySide6.QtCore import Qt  # noqa: E402
 
-from fmr_editor.io import save_fmr  # noqa: E402
-from fmr_editor.model import ColorStop, DiffusionCurve, Document  # noqa: E402
+from fmr_editor.model import ColorStop  # noqa: E402
 
 pytestmark = pytest.mark.gui
 
-RED, BLUE = (1.0, 0.0, 0.0), (0.0, 0.0, 1.0)
 CTRL = Qt.KeyboardModifier.ControlModifier
 SHIFT = Qt.KeyboardModifier.ShiftModifier
-
-
-def line_document() -> Document:
-    """A 128x128 canvas with one straight, linearly parametrised curve from (16, 64) to (112, 64): red on its
-    left (above), blue on its right."""
-    curve = DiffusionCurve(straight_chain([(16.0, 64.0), (112.0, 64.0)]),
-                           left=(ColorStop(0.0, RED),), right=(ColorStop(0.0, BLUE),))
-    return Document(128, 128, (curve,))
 
 
 def line_s(x: float) -> float:
     """Position along the line (piece units) of the point above ``x``."""
     return (x - 16.0) / 96.0
-
-
-@pytest.fixture
-def line(editor, tmp_path):
-    """The editor on ``line_document`` (saved without its representation, so opening builds it)."""
-    path = tmp_path / "line.fmr"
-    save_fmr(path, line_document())
-    editor.open(path)
-    return editor
 
 
 def one_step(editor, start: int, label: str) -> None:

@@ -76,6 +76,11 @@ class LayerFields:
         """True when the weight varies over the canvas (an enabled mask with items)."""
         return self.mask_enabled and self.mask is not None
 
+    @property
+    def read(self) -> tuple[tuple[str, Representation], ...]:
+        """What drawing the layer reads: ``("image", image)``, and ``("mask", mask)`` when ``masked``."""
+        return (("image", self.image),) + ((("mask", self.mask),) if self.masked else ())
+
     def weight(self, mask_values: np.ndarray | None) -> np.ndarray | float:
         """``m = opacity * clamp(M, 0, 1)`` from the mask's colour values ``(..., 3)`` (None: constant)."""
         if not self.mask_enabled:
@@ -104,10 +109,7 @@ class Composite:
     @property
     def representations(self) -> tuple[Representation, ...]:
         """Every representation ``shown`` reads: images and masks."""
-        reps = []
-        for layer in self.shown:
-            reps += [layer.image] + ([layer.mask] if layer.masked else [])
-        return tuple(reps)
+        return tuple(rep for layer in self.shown for _, rep in layer.read)
 
 
 def compose(composite: Composite, values: Callable[[Representation], np.ndarray], shape: tuple[int, ...]) -> np.ndarray:

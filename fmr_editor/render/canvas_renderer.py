@@ -24,7 +24,6 @@ current around every call and passes the framebuffer to draw into.
 
 from __future__ import annotations
 
-import functools
 from collections import Counter
 from contextlib import nullcontext
 
@@ -35,7 +34,7 @@ from ..engine import Representation
 from . import bounds, packing
 from .cached_image import CachedImage, show_scaled
 from .canvas_data import UNITS, CanvasData, ShaderLayout
-from .gl import Program, VertexArray, additive, plain_state, shader_source
+from .gl import Program, VertexArray, additive, in_plain_state, shader_source
 from .view import View, integer_shift
 
 #: Default ``CanvasRenderer.tolerance``: a twentieth of an 8-bit step.
@@ -47,15 +46,6 @@ SEGMENT_SHARE = 1 / 64
 DELTA_ROUNDING = 2e-6
 #: Above this share of the window's pixels in cells to evaluate, the whole window is evaluated instead.
 FULL_SHARE = 0.5
-
-
-def _plain(method):
-    """Run a GL-drawing method in ``gl.plain_state``: it sets what its passes need and restores the rest."""
-    @functools.wraps(method)
-    def wrapped(self, *args, **kwargs):
-        with plain_state():
-            return method(self, *args, **kwargs)
-    return wrapped
 
 
 class CanvasRenderer:
@@ -129,7 +119,7 @@ class CanvasRenderer:
         self._dirty = np.zeros((n, n), bool)
         self._cached_view = None
 
-    @_plain
+    @in_plain_state
     def update(self, rep: Representation, changed: np.ndarray) -> None:
         """Go over to ``rep``, whose pixels differ from the uploaded one's only in the ``changed`` cells.
 
@@ -226,7 +216,7 @@ class CanvasRenderer:
                                           label="canvas shader")
         return self._programs[key]
 
-    @_plain
+    @in_plain_state
     def draw(self, view: View, target: int = 0, preview: bool = False) -> None:
         """Bring the cached image up to date for ``view`` and copy it into framebuffer ``target``.
 
@@ -270,7 +260,7 @@ class CanvasRenderer:
         return cached is None or (cached != view and integer_shift(cached, view) is None) \
             or self._cache.size != (view.width, view.height)
 
-    @_plain
+    @in_plain_state
     def evaluate(self, view: View) -> str:
         """Bring the cached image up to date for ``view`` without drawing it anywhere; what was evaluated."""
         self._evaluate(view)

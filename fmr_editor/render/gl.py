@@ -6,6 +6,7 @@ objects belong to that context and are freed by ``delete`` (with it current).
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -87,6 +88,15 @@ def plain_state() -> Iterator[None]:
         GL.glBlendFuncSeparate(*blend[:4])
         GL.glBlendEquationSeparate(*blend[4:])
         GL.glColorMask(*mask)
+
+
+def in_plain_state(method):
+    """Run a GL-drawing method in ``plain_state``: it sets what its passes need and restores the rest."""
+    @functools.wraps(method)
+    def wrapped(self, *args, **kwargs):
+        with plain_state():
+            return method(self, *args, **kwargs)
+    return wrapped
 
 
 @contextmanager

@@ -15,7 +15,6 @@ layer is drawn by its field's renderer alone, exactly as before layers.
 
 from __future__ import annotations
 
-import functools
 from collections import Counter
 from dataclasses import replace
 
@@ -25,7 +24,7 @@ from OpenGL import GL
 from ..engine import Composite, LayerFields, Representation
 from .cached_image import CachedImage, show_scaled, union
 from .canvas_renderer import TOLERANCE, CanvasRenderer
-from .gl import Program, VertexArray, over, plain_state, shader_source
+from .gl import Program, VertexArray, in_plain_state, over, plain_state, shader_source
 from .view import View
 
 #: A field: ``(layer id, "image" or "mask")``, as ``engine.stack``'s.
@@ -54,14 +53,6 @@ def merge_changes(before: dict[FieldKey, np.ndarray | None],
         else:
             merged[key] = old | changed
     return merged
-
-
-def _plain(method):
-    @functools.wraps(method)
-    def wrapped(self, *args, **kwargs):
-        with plain_state():
-            return method(self, *args, **kwargs)
-    return wrapped
 
 
 class PictureRenderer:
@@ -202,7 +193,7 @@ class PictureRenderer:
             return
         self._draw_layers(view, target, preview)
 
-    @_plain
+    @in_plain_state
     def _draw_layers(self, view: View, target: int, preview: bool) -> None:
         if preview and self._composed_view is not None and self._composed_view != view:
             show_scaled(self._composed.shown(), self._composed_view, view, target)
@@ -233,7 +224,7 @@ class PictureRenderer:
         # With every layer hidden the picture is black; a layer at opacity 0 still gives the checkerboard around it.
         shown = self._picture.shown or (replace(self._picture.layers[0], opacity=0.0),)
         tinted = next((layer for layer in self._picture.layers if layer.id == self._overlay), None)
-        keys = {key for layer in shown for key in _layer_keys(layer)}
+        keys = {(layer.id, kind) for layer in shown for kind, _ in layer.read}
         if tinted is not None:
             keys |= {(tinted.id, "image")} | ({(tinted.id, "mask")} if tinted.mask is not None else set())
         evaluated = {self.renderers[key].evaluate(view) for key in keys}
@@ -312,10 +303,6 @@ class PictureRenderer:
         if self._background is not None:
             self._background.release()
         self._program = self._vao = self._background = None
-
-
-def _layer_keys(layer: LayerFields) -> list[FieldKey]:
-    return [(layer.id, "image")] + ([(layer.id, "mask")] if layer.masked else [])
 
 
 def _settings(picture: Composite) -> tuple:
