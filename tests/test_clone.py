@@ -166,7 +166,7 @@ def test_clipping_keeps_exactly_the_parts_inside_and_the_boundary_turns_the_insi
 
 @pytest.mark.parametrize("region", [np.zeros((2, 2)), np.array([[0, 0], [10, 10], [10, 0], [0, 10.0]])])
 def test_a_region_that_is_no_simple_polygon_is_refused(region):
-    with pytest.raises(ValueError, match="simple polygon"):
+    with pytest.raises(ValueError, match="three finite|simple polygon"):
         SeamlessClone(empty_segments(), region)
 
 

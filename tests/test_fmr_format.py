@@ -405,7 +405,7 @@ def first(data: dict) -> dict:
 @pytest.mark.parametrize(
     "edit, message",
     [
-        (lambda d: d.update(version=3), "newer fmr-editor (document format version 3; this version reads up to 2)"),
+        (lambda d: d.update(version=4), "newer fmr-editor (document format version 4; this version reads up to 3)"),
         (lambda d: d.update(version="1"), "version must be a whole number"),
         (lambda d: d.pop("version"), "version is missing"),
         (lambda d: d.update(format="something else"), "format is 'something else'"),

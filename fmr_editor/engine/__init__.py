@@ -23,6 +23,7 @@ from .points.field import PointField  # noqa: E402
 from .points.gauss import GaussPoints  # noqa: E402
 from .raster import evaluate_points, output_size, rasterise  # noqa: E402
 from .representation import MAX_LEVELS, Representation, Settings  # noqa: E402
+from .cloning import clone_points  # noqa: E402
 from .solve.clone import SeamlessClone, Similarity  # noqa: E402
 from .stack import LiveStack, StackUpdate, build, composite_of  # noqa: E402
 
@@ -30,5 +31,5 @@ __all__ = [
     "MAX_LEVELS", "Composite", "GaussPoints", "LayerFields", "Lattice", "LiveRepresentation", "LiveStack",
     "PointField", "Progress", "Representation", "SeamlessClone", "Segments", "Settings", "Similarity", "StackUpdate",
     "Update", "build",
-    "composite_of", "evaluate_points", "local_polynomials", "output_size", "rasterise",
+    "clone_points", "composite_of", "evaluate_points", "local_polynomials", "output_size", "rasterise",
 ]

@@ -51,6 +51,8 @@ class LayerFields:
     visible : bool
     id : int
         The layer's stable id (``model.Layer.id``), by which views keep what they made of it.
+    source : Representation or None
+        A clone layer's source image (what a file keeps so that opening solves nothing); not drawn.
     """
 
     image: Representation
@@ -62,6 +64,7 @@ class LayerFields:
     transform: ColorTransform = IDENTITY
     visible: bool = True
     id: int = 0
+    source: Representation | None = None
 
     @property
     def covers(self) -> bool:

@@ -20,6 +20,7 @@ import numpy as np
 
 from ..model import Document
 from ..model.layer import Layer
+from .cloning import LiveClone
 from .composite import Composite, LayerFields
 from .live import LiveRepresentation, Progress, Update
 from .representation import Representation, Settings
@@ -55,9 +56,13 @@ class StackUpdate:
 
 
 def _wanted(document: Document) -> dict[FieldKey, Document]:
-    """The one-image documents the engine keeps for ``document``: each layer's image, each mask with items."""
+    """The one-image documents the engine solves for ``document``: each layer's image (a clone layer's
+    source instead), each mask with items."""
     fields = {}
     for layer in document.layers:
+        if layer.clone is not None:
+            fields[layer.id, "source"] = layer.clone.source
+            continue
         fields[layer.id, "image"] = document.flat(layer)
         if layer.mask is not None and not layer.mask.is_constant:
             fields[layer.id, "mask"] = document.flat(layer.mask)
@@ -81,8 +86,10 @@ class LiveStack:
     progress : callable, optional
         ``progress(stage, fraction)`` over all the builds.
     saved : sequence, optional
-        Per layer, ``(image, mask)`` representations as saved (either may be
-        None): taken as they are, as ``LiveRepresentation`` takes one.
+        Per layer, ``(image, mask)`` or ``(image, mask, source)``
+        representations as saved (any may be None): taken as they are, as
+        ``LiveRepresentation`` takes one; a clone layer's image and mask
+        with its source's.
     memory : int
         Bytes the kept states of all fields may take, shared among them.
 
@@ -90,7 +97,10 @@ class LiveStack:
     ----------
     document : Document
     fields : dict
-        ``LiveRepresentation`` by ``FieldKey``.
+        ``LiveRepresentation`` by ``FieldKey``: layers' images, masks and
+        clone layers' sources (``"source"``).
+    clones : dict
+        ``cloning.LiveClone`` by clone layer id.
     """
 
     def __init__(self, document: Document, settings: Settings = Settings(), progress: Progress | None = None,
@@ -101,10 +111,17 @@ class LiveStack:
         self.document = document
         self.fields: dict[FieldKey, LiveRepresentation] = {}
         self._retired: OrderedDict[FieldKey, LiveRepresentation] = OrderedDict()
+        self.clones: dict[int, LiveClone] = {}
+        self._below: dict[int, tuple] = {}  # per clone layer id, what lay below it when it was blended
         kept = {}
-        for layer, pair in zip(document.layers, saved or ()):
-            kept.update({(layer.id, kind): rep for kind, rep in zip(("image", "mask"), pair) if rep is not None})
+        for layer, fields in zip(document.layers, saved or ()):
+            fields = dict(zip(("image", "mask", "source"), fields))
+            if layer.clone is not None and fields.get("image") is not None and fields.get("mask") is not None:
+                self.clones[layer.id] = LiveClone(layer.clone, fields.pop("image"), fields.pop("mask"))
+                self._below[layer.id] = self._below_of(document, layer)
+            kept.update({(layer.id, kind): rep for kind, rep in fields.items() if rep is not None})
         self._follow(document, progress, kept, exact=True)
+        self._blend(document, {})  # the clones not saved
 
     def _follow(self, document: Document, progress: Progress | None, saved: dict[FieldKey, Representation],
                 exact: bool) -> dict[FieldKey, Update]:
@@ -140,13 +157,54 @@ class LiveStack:
         """Bring every field to ``document``; see ``LiveRepresentation.update`` for ``exact``."""
         start = time.perf_counter()
         updates = self._follow(document, progress, {}, exact)
+        self._blend(document, updates)
         return StackUpdate(updates, time.perf_counter() - start)
 
     def refine(self) -> StackUpdate:
         """Make every approximate field exact (after previews)."""
         start = time.perf_counter()
         updates = {key: live.refine() for key, live in self.fields.items() if live.approximate}
+        self._blend(self.document, updates)
         return StackUpdate(updates, time.perf_counter() - start)
+
+    @staticmethod
+    def _below_of(document: Document, layer: Layer) -> tuple:
+        """What a clone layer blends with: the canvas and the layers below it (compared by value)."""
+        index = next(i for i, each in enumerate(document.layers) if each.id == layer.id)
+        return (document.width, document.height) + document.layers[:index]
+
+    def _blend(self, document: Document, updates: dict[FieldKey, Update]) -> None:
+        """Make each clone layer's fields anew whose clone, or anything below it, changed (adds to ``updates``)."""
+        changed_below = False
+        for index, layer in enumerate(document.layers):
+            changed_below = changed_below or any(key[0] == layer.id for key in updates)
+            if layer.clone is None:
+                continue
+            live = self.clones.get(layer.id)
+            below = self._below_of(document, layer)
+            if (live is not None and live.image is not None and live.clone is layer.clone and not changed_below
+                    and self._below.get(layer.id) == below):
+                continue
+            start = time.perf_counter()
+            live = live or LiveClone(layer.clone)
+            picture = Composite(document.width, document.height,
+                                tuple(layer_fields(each, *self._drawn(each)) for each in document.layers[:index]))
+            live.follow(layer.clone, self.fields[layer.id, "source"].representation, picture, self.settings, layer.id)
+            self.clones[layer.id], self._below[layer.id] = live, below
+            seconds = time.perf_counter() - start
+            for kind, rep in (("image", live.image), ("mask", live.mask)):
+                n = rep.lattice.cells_per_side
+                updates[layer.id, kind] = Update("clone", np.ones((n, n), bool), seconds)
+            changed_below = True
+        for gone in set(self.clones) - {layer.id for layer in document.layers}:
+            del self.clones[gone], self._below[gone]
+
+    def _drawn(self, layer: Layer) -> tuple[Representation | None, ...]:
+        """``layer``'s image and mask representations as drawn (and a clone layer's source)."""
+        if layer.clone is not None:
+            live = self.clones[layer.id]
+            return live.image, live.mask, self.fields[layer.id, "source"].representation
+        return self.image(layer), self.mask(layer)
 
     @property
     def approximate(self) -> bool:
@@ -158,10 +216,14 @@ class LiveStack:
 
     def image(self, layer: Layer) -> Representation:
         """``layer``'s image representation."""
+        if layer.clone is not None:
+            return self.clones[layer.id].image
         return self.fields[layer.id, "image"].representation
 
     def mask(self, layer: Layer) -> Representation | None:
-        """``layer``'s mask representation; None without a mask or for a constant one."""
+        """``layer``'s mask representation (a clone layer's region); None without a mask or for a constant one."""
+        if layer.clone is not None:
+            return self.clones[layer.id].mask
         live = self.fields.get((layer.id, "mask"))
         return live.representation if live is not None else None
 
@@ -173,19 +235,25 @@ class LiveStack:
     @property
     def composite(self) -> Composite:
         """The picture: every layer's representations with its mask, opacity, transform and visibility."""
-        return composite_of(self.document, [(self.image(layer), self.mask(layer)) for layer in self.document.layers])
+        return composite_of(self.document, [self._drawn(layer) for layer in self.document.layers])
 
 
-def composite_of(document: Document,
-                 fields: Sequence[tuple[Representation, Representation | None]]) -> Composite:
-    """``document``'s picture from each layer's ``(image, mask)`` representations (mask None: no mask or no items)."""
-    layers = []
-    for layer, (image, mask_field) in zip(document.layers, fields, strict=True):
-        mask = layer.mask
-        layers.append(LayerFields(
-            image, mask_field, mask.base if mask is not None else 1.0, mask is not None and mask.inverted,
-            mask is None or mask.enabled, layer.opacity, layer.transform, layer.visible, layer.id,
-        ))
+def layer_fields(layer: Layer, image: Representation, mask_field: Representation | None,
+                 source: Representation | None = None) -> LayerFields:
+    """How ``layer`` is drawn from its image and mask representations (a clone layer's mask: its region; its
+    ``source`` is kept with it)."""
+    if layer.clone is not None:
+        return LayerFields(image, mask_field, 0.0, False, True, layer.opacity, layer.transform, layer.visible,
+                           layer.id, source)
+    mask = layer.mask
+    return LayerFields(image, mask_field, mask.base if mask is not None else 1.0, mask is not None and mask.inverted,
+                       mask is None or mask.enabled, layer.opacity, layer.transform, layer.visible, layer.id)
+
+
+def composite_of(document: Document, fields: Sequence[tuple]) -> Composite:
+    """``document``'s picture from each layer's ``(image, mask, ...)`` representations (mask None: no mask or no
+    items)."""
+    layers = (layer_fields(layer, *reps) for layer, reps in zip(document.layers, fields, strict=True))
     return Composite(document.width, document.height, tuple(layers))
 
 

@@ -30,6 +30,7 @@ from __future__ import annotations
 import json
 
 from ..model import BlurStop, ColorStop, DiffusionCurve, DiffusionPoint, Document, Layer, Mask
+from ..model.clone import MAX_REGION, Clone, Similarity, region_on_canvas
 from ..model.layer import MAX_LAYERS, MAX_NAME
 from ..model.color_transform import ColorTransform
 from .json_checks import (
@@ -48,8 +49,9 @@ from .json_checks import (
 FORMAT_NAME = "fmr-editor document"
 """Value of the ``format`` key."""
 
-SCHEMA_VERSION = 2
-"""The version written, and the newest one read (1: one image, 2: layers)."""
+SCHEMA_VERSION = 3
+"""The newest version read (1: one image, 2: layers, 3: clone layers); a document is written in the oldest
+version that holds it, so that a file without clone layers still opens in an editor of version 2."""
 
 
 MAX_CANVAS_SIZE = 32768
@@ -69,7 +71,7 @@ def document_to_data(document: Document) -> dict:
     """
     return {
         "format": FORMAT_NAME,
-        "version": SCHEMA_VERSION,
+        "version": 3 if any(layer.clone is not None for layer in document.layers) else 2,
         "canvas": {"width": document.width, "height": document.height},
         "active": document.active,
         "layers": [_layer_to_data(layer) for layer in document.layers],
@@ -94,6 +96,17 @@ def _layer_to_data(layer: Layer) -> dict:
             "base": mask.base, "inverted": mask.inverted, "enabled": mask.enabled, **_items_to_data(mask)
         },
         **_items_to_data(layer),
+        **({"clone": _clone_to_data(layer.clone)} if layer.clone is not None else {}),
+    }
+
+
+def _clone_to_data(clone: Clone) -> dict:
+    source, similarity = clone.source, clone.similarity
+    return {
+        "source": {"canvas": {"width": source.width, "height": source.height}, **_items_to_data(source.layer)},
+        "region": [list(vertex) for vertex in clone.region],
+        "similarity": {"scale": similarity.scale, "degrees": similarity.degrees, "offset": list(similarity.offset),
+                       "mirror": similarity.mirror},
     }
 
 
@@ -173,7 +186,7 @@ def document_from_data(data: object) -> Document:
     values = as_list(required(root, "layers", ""), "layers")
     if not 1 <= len(values) <= MAX_LAYERS:
         raise SchemaError(f"layers must hold 1 to {MAX_LAYERS} layers, got {len(values)}")
-    layers = tuple(_layer(value, f"layers[{i}]") for i, value in enumerate(values))
+    layers = tuple(_layer(value, f"layers[{i}]", (width, height)) for i, value in enumerate(values))
     active = whole(root.get("active", 0), "active", 0, len(layers) - 1)
     return Document(width, height, layers=layers, active=active)
 
@@ -194,7 +207,7 @@ def _flag(item: dict, key: str, default: bool, where: str) -> bool:
     return value
 
 
-def _layer(value: object, where: str) -> Layer:
+def _layer(value: object, where: str, canvas: tuple[int, int]) -> Layer:
     item = as_object(value, where)
     name = item.get("name", "Layer")
     if not isinstance(name, str) or len(name) > MAX_NAME:
@@ -215,8 +228,36 @@ def _layer(value: object, where: str) -> Layer:
                     _flag(mask_item, "inverted", False, f"{where}.mask"),
                     _flag(mask_item, "enabled", True, f"{where}.mask"))
     curves, points = _items(item, where)
-    return Layer(curves, points, name, _flag(item, "visible", True, where), opacity, mask,
-                 ColorTransform(matrix, offset))
+    clone = _clone(item["clone"], f"{where}.clone", canvas) if item.get("clone") is not None else None
+    try:
+        return Layer(curves, points, name, _flag(item, "visible", True, where), opacity, mask,
+                     ColorTransform(matrix, offset), clone)
+    except ValueError as error:
+        raise SchemaError(f"{where}: {error}") from None
+
+
+def _clone(value: object, where: str, canvas: tuple[int, int]) -> Clone:
+    item = as_object(value, where)
+    source = as_object(required(item, "source", where), f"{where}.source")
+    size = as_object(required(source, "canvas", f"{where}.source"), f"{where}.source.canvas")
+    width = whole(required(size, "width", f"{where}.source.canvas"), f"{where}.source.canvas.width", 1, MAX_CANVAS_SIZE)
+    height = whole(required(size, "height", f"{where}.source.canvas"), f"{where}.source.canvas.height", 1,
+                   MAX_CANVAS_SIZE)
+    region = finite_rows(required(item, "region", where), 2, f"{where}.region")
+    if not 3 <= len(region) <= MAX_REGION:
+        raise SchemaError(f"{where}.region must have 3 to {MAX_REGION} corners, got {len(region)}")
+    placing = as_object(required(item, "similarity", where), f"{where}.similarity")
+    try:
+        similarity = Similarity(finite(placing.get("scale", 1.0), f"{where}.similarity.scale"),
+                                finite(placing.get("degrees", 0.0), f"{where}.similarity.degrees"),
+                                finite_tuple(placing.get("offset", [0, 0]), 2, f"{where}.similarity.offset"),
+                                _flag(placing, "mirror", False, f"{where}.similarity"))
+        clone = Clone(Document(width, height, *_items(source, f"{where}.source")), tuple(region), similarity)
+        region_on_canvas(region, width, height)
+        region_on_canvas(clone.placed_region, *canvas)
+    except ValueError as error:
+        raise SchemaError(f"{where}: {error}") from None
+    return clone
 
 
 def _curve(value: object, where: str) -> DiffusionCurve:

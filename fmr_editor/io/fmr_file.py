@@ -7,7 +7,8 @@ An ``.fmr`` file is a ZIP archive (as OpenRaster and Krita files are):
 * per layer ``i``, ``layers/i/image/representation.json`` and
   ``layers/i/image/representation/*.npy``: its solved representation
   (``representation_entries``), optional; ``layers/i/mask/...`` likewise
-  for a mask with items.  Files of version 1 (one image) have
+  for a mask with items, and for a clone layer, its region's indicator,
+  with its source's under ``layers/i/source/...``.  Files of version 1 (one image) have
   ``representation.json`` and ``representation/*.npy`` at the top;
 * ``thumbnail.png``: at most 256 px on its longest side, present with a
   representation.
@@ -34,8 +35,8 @@ from typing import BinaryIO
 import numpy as np
 from PIL import Image
 
-from ..engine import Composite, Representation, Settings, composite_of, rasterise
-from ..model import Document
+from ..engine import Composite, Representation, Settings, clone_points, composite_of, rasterise
+from ..model import Document, Layer
 from .atomic import write_atomically
 from .document_json import dumps_document, loads_document
 from .errors import DocumentLoadError
@@ -83,7 +84,8 @@ class FmrFile:
     document : Document
     fields : tuple
         Per layer, its image's and its mask's representations ``(image,
-        mask)``, ready to render; None where the file has none, where they
+        mask)``, and for a clone layer its source's ``(image, mask, source)``,
+        ready to render; None where the file has none, where they
         were not asked for, or where they cannot be used (see ``notes``).
     settings : Settings or None
         The build settings saved with the representations, when given.
@@ -94,7 +96,7 @@ class FmrFile:
     """
 
     document: Document
-    fields: tuple[tuple[Representation | None, Representation | None], ...] = ()
+    fields: tuple[tuple[Representation | None, ...], ...] = ()
     settings: Settings | None = None
     notes: tuple[str, ...] = ()
 
@@ -108,8 +110,10 @@ class FmrFile:
         """The picture, ready to render, when the file holds every representation it needs; else None."""
         if len(self.fields) != len(self.document.layers):
             return None
-        for layer, (image, mask) in zip(self.document.layers, self.fields):
+        for layer, (image, mask, *_) in zip(self.document.layers, self.fields):
             if image is None or (layer.mask is not None and not layer.mask.is_constant and mask is None):
+                return None
+            if layer.clone is not None and mask is None:
                 return None
         return composite_of(self.document, self.fields)
 
@@ -164,31 +168,46 @@ def save_fmr(
     document_bytes = dumps_document(document)
     fields = []
     for prefix, rep, target in _fields(document, representation):
-        manifest, arrays = describe(rep, document.flat(target), settings)
+        manifest, arrays = describe(rep, target, settings)
         manifest["document_sha256"] = _digest(document_bytes)
         fields.append((prefix, manifest, arrays))
     return write_atomically(path, lambda stream: _write_archive(stream, document_bytes, fields, representation))
 
 
 def _fields(document: Document, representation: Representation | Composite | None) -> list[tuple]:
-    """``(prefix, representation, layer or mask)`` of each representation to save."""
+    """``(prefix, representation, the document it is made for)`` of each representation to save."""
     if representation is None:
         return []
     if isinstance(representation, Representation):
         if len(document.layers) != 1:
             raise ValueError(f"a document of {len(document.layers)} layers is saved with its composite")
-        return [(field_prefix(0, "image"), representation, document.layers[0])]
+        return [(field_prefix(0, "image"), representation, document.flat(document.layers[0]))]
     if len(representation.layers) != len(document.layers):
         raise ValueError(f"the composite has {len(representation.layers)} layers, the document "
                          f"{len(document.layers)}")
     fields = []
     for i, (layer, drawn) in enumerate(zip(document.layers, representation.layers)):
-        fields.append((field_prefix(i, "image"), drawn.image, layer))
+        targets = field_documents(document, layer)
+        fields.append((field_prefix(i, "image"), drawn.image, targets["image"]))
         if drawn.mask is not None:
-            if layer.mask is None:
+            if targets.get("mask") is None:
                 raise ValueError(f"layer {i} of the composite has a mask, the document's has none")
-            fields.append((field_prefix(i, "mask"), drawn.mask, layer.mask))
+            fields.append((field_prefix(i, "mask"), drawn.mask, targets["mask"]))
+        if layer.clone is not None:
+            if drawn.source is None:
+                raise ValueError(f"layer {i} is a clone layer: its source's representation is saved with it")
+            fields.append((field_prefix(i, "source"), drawn.source, targets["source"]))
     return fields
+
+
+def field_documents(document: Document, layer: Layer) -> dict[str, Document | None]:
+    """The one-image documents each representation of ``layer`` is made for, by kind: ``"image"``, ``"mask"``
+    (None without one), and for a clone layer ``"source"`` (its image holds its placed points; its mask,
+    the region's indicator, none)."""
+    if layer.clone is None:
+        return {"image": document.flat(layer), "mask": document.flat(layer.mask) if layer.mask is not None else None}
+    placed = Document(document.width, document.height, (), clone_points(layer.clone, document.width, document.height))
+    return {"image": placed, "mask": Document(document.width, document.height), "source": layer.clone.source}
 
 
 def _write_archive(stream: BinaryIO, document_bytes: bytes, fields: list[tuple], rep: Representation | Composite
@@ -297,17 +316,17 @@ def _read(archive: zipfile.ZipFile, with_representation: bool) -> FmrFile:
     names = set(archive.namelist())
     fields, notes, settings = [], [], None
     for i, layer in enumerate(document.layers):
-        pair = []
-        for kind, target in (("image", layer), ("mask", layer.mask)):
+        reps = []
+        for kind, target in field_documents(document, layer).items():
             prefix = "" if REPRESENTATION_ENTRY in names and (i, kind) == (0, "image") else field_prefix(i, kind)
             if target is None or prefix + REPRESENTATION_ENTRY not in names:
-                pair.append(None)
+                reps.append(None)
                 continue
-            rep, field_settings, note = _read_field(archive, prefix, document_bytes, document.flat(target))
-            pair.append(rep)
+            rep, field_settings, note = _read_field(archive, prefix, document_bytes, target)
+            reps.append(rep)
             settings = settings or field_settings
             notes += [note] if note else []
-        fields.append(tuple(pair))
+        fields.append(tuple(reps))
     return FmrFile(document, tuple(fields), settings, tuple(dict.fromkeys(notes)))
 
 

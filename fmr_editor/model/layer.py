@@ -19,6 +19,7 @@ from itertools import repeat
 
 import numpy as np
 
+from .clone import Clone
 from .color_transform import IDENTITY, ColorTransform
 from .curve import DiffusionCurve
 from .identity import checked_id, new_id
@@ -105,6 +106,9 @@ class Layer:
     mask : Mask, optional
     transform : ColorTransform
         Applied to the layer's colours before blending.
+    clone : Clone, optional
+        For a clone layer, what it shows (``model.clone``); such a layer
+        holds no curves, points or mask of its own (its region is its mask).
     id : int, optional
         Stable id (``identity``), not part of the value; the engine keeps a
         layer's representation under it.
@@ -117,6 +121,7 @@ class Layer:
     opacity: float = 1.0
     mask: Mask | None = None
     transform: ColorTransform = IDENTITY
+    clone: Clone | None = None
     id: int | None = field(default=None, compare=False)
 
     def __post_init__(self) -> None:
@@ -135,6 +140,12 @@ class Layer:
             raise TypeError("a layer's mask must be a Mask")
         if not isinstance(self.transform, ColorTransform):
             raise TypeError("a layer's transform must be a ColorTransform")
+        if self.clone is not None:
+            if not isinstance(self.clone, Clone):
+                raise TypeError("a layer's clone must be a Clone")
+            if self.curves or self.points or self.mask is not None:
+                raise ValueError("a clone layer holds no curves, points or mask of its own: "
+                                 "draw on another layer, or add a layer above it")
         object.__setattr__(self, "id", checked_id(self.id))
 
     def with_curves(self, curves) -> Layer:
@@ -150,8 +161,8 @@ class Layer:
 
     @property
     def covers(self) -> bool:
-        """True when the layer is drawn at full weight everywhere (visible, opaque, no mask)."""
-        return self.visible and self.opacity == 1.0 and self.active_mask is None
+        """True when the layer is drawn at full weight everywhere (visible, opaque, no mask, not a clone)."""
+        return self.visible and self.opacity == 1.0 and self.active_mask is None and self.clone is None
 
     @property
     def plain(self) -> bool:

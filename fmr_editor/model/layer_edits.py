@@ -155,7 +155,7 @@ def merge_down(document: Document, index: int | None = None) -> Document:
     Raises
     ------
     ValueError
-        For the bottom layer (nothing below), a hidden layer, an upper layer
+        For the bottom layer (nothing below), a clone layer, a hidden layer, an upper layer
         with a mask or an opacity below 1 (which merged items cannot keep), or
         a layer whose transform cannot be applied to its items (a colour
         offset with no curve to carry it, as a Paint layer's).
@@ -163,6 +163,9 @@ def merge_down(document: Document, index: int | None = None) -> Document:
     index = _index(document, index)
     if index == 0:
         raise ValueError("the bottom layer has no layer below to merge into")
+    for layer in document.layers[index - 1 : index + 1]:
+        if layer.clone is not None:
+            raise ValueError(f"{layer.name} is a clone layer, made anew from the layers below it: it cannot be merged")
     upper, lower = baked(document.layers[index]), baked(document.layers[index - 1])
     if not (upper.visible and lower.visible):
         raise ValueError("show both layers to merge them (a hidden layer's items would appear or vanish)")

@@ -53,11 +53,12 @@ class Frame:
     @classmethod
     def first(cls, live: LiveStack) -> Frame:
         """The frame of ``live`` as built: every cell of every field changed."""
-        changes = {}
-        for key, field in live.fields.items():
-            n = field.lattice.cells_per_side
-            changes[key] = np.ones((n, n), bool)
-        return cls(live.document, live.composite, changes, "build", not live.approximate)
+        picture, changes = live.composite, {}
+        for layer in picture.layers:
+            for kind, rep in layer.read:
+                n = rep.lattice.cells_per_side
+                changes[layer.id, kind] = np.ones((n, n), bool)
+        return cls(live.document, picture, changes, "build", not live.approximate)
 
     @property
     def representation(self) -> Representation:

@@ -21,45 +21,15 @@ hold both to a raster oracle).
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 import scipy.linalg
 import shapely
 
+from ...model.clone import Similarity, region_on_canvas
 from ..geometry.segments import Segments, concatenate
 from ..kernels.segment_sums import direct_sum, pair_matrices
-
-
-@dataclass(frozen=True)
-class Similarity:
-    """``x -> scale R(degrees) M x + offset`` (``M`` mirrors x when ``mirror``), in document pixels."""
-
-    scale: float = 1.0
-    degrees: float = 0.0
-    offset: tuple[float, float] = (0.0, 0.0)
-    mirror: bool = False
-
-    def __post_init__(self) -> None:
-        if not (math.isfinite(self.scale) and self.scale > 0 and math.isfinite(self.degrees)
-                and all(map(math.isfinite, self.offset))):
-            raise ValueError("a similarity needs a positive scale and finite angle and offset")
-
-    @property
-    def matrix(self) -> np.ndarray:
-        c, s = math.cos(math.radians(self.degrees)), math.sin(math.radians(self.degrees))
-        flip = np.diag([-1.0, 1.0]) if self.mirror else np.eye(2)
-        return self.scale * np.array([[c, -s], [s, c]]) @ flip
-
-    def apply(self, points: np.ndarray) -> np.ndarray:
-        return np.asarray(points, dtype=np.float64) @ self.matrix.T + np.asarray(self.offset)
-
-    def inverse(self, points: np.ndarray) -> np.ndarray:
-        return (np.asarray(points, dtype=np.float64) - np.asarray(self.offset)) @ np.linalg.inv(self.matrix).T
-
-    def moved(self, dx: float, dy: float) -> Similarity:
-        return replace(self, offset=(self.offset[0] + dx, self.offset[1] + dy))
 
 
 def clipped_to(segments: Segments, polygon: np.ndarray) -> Segments:
@@ -132,13 +102,11 @@ class SeamlessClone:
     def __init__(self, source: Segments, region: np.ndarray, similarity: Similarity = Similarity(),
                  spacing: float = 1.0, canvas: tuple[float, float] | None = None) -> None:
         region = np.asarray(region, dtype=np.float64)
-        if len(region) < 3 or not shapely.Polygon(region).is_valid or shapely.Polygon(region).area <= 0:
-            raise ValueError("a clone region must be a simple polygon of positive area")
         placed = similarity.apply(region)
-        on_canvas = _on_canvas(placed, canvas) if canvas is not None else placed
-        self._cut = on_canvas is not placed  # the canvas edge took a part of the region
+        kept = region_on_canvas(placed, *(canvas or (None, None)))
+        self._cut = kept is not placed  # the canvas edge took a part of the region
         if self._cut:
-            region = similarity.inverse(on_canvas)
+            region = similarity.inverse(kept)
         self.similarity, self.canvas = similarity, canvas
         copied = clipped_to(source, region)
         gp, gq = boundary(region, spacing / similarity.scale)
@@ -202,22 +170,6 @@ class SeamlessClone:
         twin.copied = replace(self.copied, p=self.copied.p + shift, q=self.copied.q + shift)
         twin.gamma_p, twin.gamma_q = self.gamma_p + shift, self.gamma_q + shift
         return twin
-
-
-def _on_canvas(region: np.ndarray, canvas: tuple[float, float]) -> np.ndarray:
-    """The part of the placed ``region`` on the canvas, as one polygon's vertices (``region`` itself when all of
-    it is)."""
-    polygon = shapely.Polygon(region)
-    width, height = canvas
-    frame = shapely.box(0.0, 0.0, width, height)
-    if polygon.within(frame):
-        return region
-    part = shapely.intersection(polygon, frame)
-    if part.is_empty or part.area <= 0:
-        raise ValueError("the clone region lands wholly outside the target canvas")
-    if part.geom_type != "Polygon":
-        raise ValueError("the canvas edge splits the clone region in two; move it further in or out")
-    return np.asarray(part.exterior.coords)[:-1]
 
 
 def paper_segments(clone: SeamlessClone, target: np.ndarray, source_at_gamma: np.ndarray) -> Segments:
