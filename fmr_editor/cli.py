@@ -1,6 +1,6 @@
 """Command line: the editor, and headless rendering.
 
-``fmr-editor [FILE]`` opens the editor (on FILE, or on a new document);
+``fmr-editor [FILE ...]`` opens the editor (each FILE in a tab, or a new document);
 ``fmr-editor render INPUT -o OUT.png`` or ``fmr-editor render A.xml B.xml ... -o DIR``
 renders without a window; ``fmr-editor compose BOTTOM TOP -o OUT.fmr [--mask
 MASK] [--opacity A] [--hue DEGREES]`` layers two documents into one;
@@ -27,25 +27,27 @@ def _positive(text: str) -> int:
 
 def _editor_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
-        prog="fmr-editor", usage="fmr-editor [FILE]\n       fmr-editor render INPUT ... -o OUTPUT [options]\n"
+        prog="fmr-editor", usage="fmr-editor [FILE ...]\n       fmr-editor render INPUT ... -o OUTPUT [options]\n"
                                   "       fmr-editor compose BOTTOM TOP -o OUT.fmr [options]\n"
                                   "       fmr-editor clone TARGET SOURCE --region POLYGON -o OUT.fmr [options]",
         description="Diffusion-curve images on the fast multipole representation. Without a command, opens the "
-                    "editor (on FILE, or on a new document); 'fmr-editor render --help' tells how to render "
+                    "editor (each FILE in a tab, or a new document); 'fmr-editor render --help' tells how to render "
                     "documents to PNG without a window, 'fmr-editor compose --help' how to layer two documents, "
                     "'fmr-editor clone --help' how to paste a region of one into another seamlessly.")
-    parser.add_argument("file", nargs="?", metavar="FILE", help="document to open (.fmr, or Orzan CurveSetXML .xml)")
+    parser.add_argument("files", nargs="*", metavar="FILE",
+                        help="documents to open, each in a tab (.fmr, or Orzan CurveSetXML .xml)")
     return parser
 
 
 def run_editor(args: argparse.Namespace) -> int:
     """Open the editor (needs a display); 2 with one line on stderr when it cannot start."""
-    if args.file is not None and not Path(args.file).is_file():
-        print(f"fmr-editor: cannot open {args.file}: no such file", file=sys.stderr)
-        return 2
+    for path in args.files:
+        if not Path(path).is_file():
+            print(f"fmr-editor: cannot open {path}: no such file", file=sys.stderr)
+            return 2
     from .ui.app import main as editor_main
 
-    return editor_main(args.file)
+    return editor_main(args.files)
 
 
 def _parser() -> argparse.ArgumentParser:

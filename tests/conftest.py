@@ -178,11 +178,11 @@ class EditorDriver:
                              timeout=timeout)
 
     def open(self, path) -> None:
-        """Open ``path`` through the window and wait for it."""
-        before = self.window.workspace
+        """Open ``path`` through the window (or show its tab, when it is open already) and wait for it."""
         self.window.open_path(path)
         self.qtbot.waitUntil(lambda: self.window.job is None, timeout=60_000)
-        assert self.window.workspace is not before, f"{path} did not open: {self.errors}"
+        workspace = self.window.workspace
+        assert workspace is not None and workspace.path == Path(path).absolute(), f"{path} did not open: {self.errors}"
         self.wait_idle()
 
     # -- pointer, in document pixels (rounded to the nearest window pixel)

@@ -583,7 +583,7 @@ def test_eyedropper_sets_the_colour_from_the_sampler_and_never_the_document(line
 def test_every_tool_has_a_unique_name_and_shortcut():
     context = make_context(Document(10, 10))
     tools = create_tools(context)
-    assert list(tools) == [cls.name for cls in TOOLS] == ["select", "pen", "stops", "brush", "eyedropper"]
+    assert list(tools) == [cls.name for cls in TOOLS] == ["select", "pen", "stops", "brush", "eyedropper", "lasso", "clone"]
     assert len({cls.shortcut for cls in TOOLS}) == len(TOOLS)
     assert all(tool.context is context and tool.overlay() == [] for tool in tools.values())
 

@@ -40,31 +40,35 @@ def test_help_names_the_editor_and_the_render_command(capsys):
         main(["--help"])
     assert stop.value.code == 0
     out = capsys.readouterr().out
-    assert "fmr-editor [FILE]" in out and "fmr-editor render" in out
+    assert "fmr-editor [FILE ...]" in out and "fmr-editor render" in out and "fmr-editor clone" in out
 
 
 @pytest.mark.gui
-def test_the_editor_opens_a_file_and_returns_when_closed(gl_display, qapp, tmp_path):
+def test_the_editor_opens_its_files_in_tabs_and_returns_when_closed(gl_display, qapp, tmp_path):
     pytest.importorskip("pytestqt", reason="pytest-qt is in the [test] extra")
     from PySide6.QtCore import QSettings, QTimer
+    from shapes import scattered_document
 
+    from fmr_editor.io import save_fmr
     from fmr_editor.ui import app
     from fmr_editor.ui.files import RecentFiles
     from fmr_editor.ui.main_window import MainWindow
 
+    other = save_fmr(tmp_path / "other.fmr", scattered_document(64))
     seen = []
 
     def close_when_open() -> None:
         windows = [w for w in qapp.topLevelWidgets() if isinstance(w, MainWindow) and w.isVisible()]
-        ready = [w for w in windows if w.workspace is not None and w.job is None and w.workspace.current]
+        ready = [w for w in windows if len(w.workspaces) == 2 and w.job is None and w.workspace.current]
         if ready:
-            seen.append((ready[0].windowTitle(), len(ready[0].workspace.history.document.curves)))
+            tabs = ready[0].tabs
+            seen.append((ready[0].windowTitle(), [tabs.tabText(i) for i in range(tabs.count())]))
             ready[0].close()
         else:
             QTimer.singleShot(50, close_when_open)
 
     QTimer.singleShot(50, close_when_open)
     settings = QSettings(str(tmp_path / "settings.ini"), QSettings.Format.IniFormat)
-    assert app.main(RIBBON, settings=settings) == 0
-    assert seen == [("ribbon.xml \u2014 FMR Editor", 5)]
-    assert RecentFiles(settings).paths() == [RIBBON]
+    assert app.main([RIBBON, other], settings=settings) == 0
+    assert seen == [("other.fmr \u2014 FMR Editor", ["ribbon.xml", "other.fmr"])]
+    assert RecentFiles(settings).paths() == [other, RIBBON]

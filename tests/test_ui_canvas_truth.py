@@ -69,6 +69,7 @@ class CanvasTruth(RuleBasedStateMachine):
 
     @rule(which=st.integers(0, 1))
     def open_another_file(self, which):
+        """Open the file, or show its tab (with its edits) when it is open already."""
         self.editor.open(self.paths[which])
 
     @precondition(lambda self: self.document.curves)
@@ -152,7 +153,7 @@ def test_the_canvas_always_shows_what_the_cpu_gives(editor, tmp_path):
     from PySide6.QtWidgets import QMessageBox
 
     paths = documents(tmp_path)
-    editor.answers["question"] = QMessageBox.StandardButton.Discard  # opening another file drops the edits
+    editor.answers["question"] = QMessageBox.StandardButton.Discard  # at teardown, drop the edits
     run_state_machine_as_test(
         lambda: CanvasTruth(editor, paths),
         settings=settings(max_examples=6, stateful_step_count=10, deadline=None, derandomize=True, database=None,

@@ -247,7 +247,14 @@ def test_recent_files_menu_reopens_a_file(ribbon, tmp_path, qtbot):
     entries = [a for a in window.recent_menu.actions() if "ribbon.xml" in a.text()]
     assert len(entries) == 1
     first = editor.workspace
-    entries[0].trigger()
+    window.new_document((100, 100))  # another tab in front
     qtbot.waitUntil(lambda: window.job is None and editor.workspace is not first, timeout=30_000)
-    assert editor.workspace.path == RIBBON and editor.history.labels == ("",)
+    entries[0].trigger()  # an open file: its tab comes to the front, no second copy
+    assert editor.workspace is first and window.tabs.count() == 2
+    window.close_document()
+    assert window.tabs.count() == 1 and editor.workspace.path is None
+    entries[0].trigger()
+    qtbot.waitUntil(lambda: window.job is None and editor.workspace.path == RIBBON, timeout=30_000)
+    assert editor.workspace is not first and editor.history.labels == ("",)
+    assert window.tabs.count() == 1  # the new canvas nobody drew on gave way to the file
     editor.wait_idle()

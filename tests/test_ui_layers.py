@@ -115,6 +115,8 @@ def test_layers_panel_mask_hue_undo_redo_save_and_reopen(line, tmp_path, qtbot):
     window.save_as()
     qtbot.waitUntil(lambda: window.job is None and not editor.history.modified, timeout=30_000)
     assert load_fmr(target).document == editor.document
+    window.close_document()  # else opening it shows its tab again
+    assert window.workspace is None
     editor.open(target)
     assert editor.document == steps[-1] and editor.workspace.frame.kind == "build"
     reopened = rasterise(editor.workspace.frame.picture, 64, 64, samples=1)

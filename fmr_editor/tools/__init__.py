@@ -12,7 +12,7 @@ the document from before it.
 >>> context = ToolContext(History(Document(64, 64)))
 >>> tools = create_tools(context)
 >>> sorted(tools)
-['brush', 'eyedropper', 'pen', 'select', 'stops']
+['brush', 'clone', 'eyedropper', 'lasso', 'pen', 'select', 'stops']
 """
 
 from __future__ import annotations
@@ -23,11 +23,13 @@ from .brush import BrushTool
 from .context import Selection, ToolContext, ToolOptions
 from .events import PointerEvent
 from .eyedropper import EyedropperTool
+from .lasso import LassoTool
 from .pen import PenTool
 from .select import SelectTool
 from .stops import StopsTool
+from .transform import CloneTool
 
-TOOLS: tuple[type[Tool], ...] = (SelectTool, PenTool, StopsTool, BrushTool, EyedropperTool)
+TOOLS: tuple[type[Tool], ...] = (SelectTool, PenTool, StopsTool, BrushTool, EyedropperTool, LassoTool, CloneTool)
 """The tool classes in toolbar order."""
 
 
@@ -37,7 +39,7 @@ def create_tools(context: ToolContext) -> dict[str, Tool]:
 
 
 __all__ = [
-    "TOOLS", "BrushTool", "Drag", "EditDrag", "EyedropperTool", "PenTool", "PointerEvent", "SelectTool",
+    "TOOLS", "BrushTool", "CloneTool", "Drag", "EditDrag", "EyedropperTool", "LassoTool", "PenTool", "PointerEvent", "SelectTool",
     "Selection", "StopsTool", "Tool", "ToolContext", "ToolOptions", "create_tools", "delete_selection",
     "nudge", "recolor_stops",
 ]

@@ -9,6 +9,8 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field, replace
 
+import numpy as np
+
 from ..model import Document
 from ..model.curve import Color
 from ..model.history import History
@@ -135,8 +137,14 @@ class ToolContext:
         colour (the ui opens a dialog); None (the default, or the user
         cancelled) changes nothing.
     options : ToolOptions
+    say : callable, optional
+        ``say(text)``: a one-line message for the status bar (why something
+        was refused, what was done); "" clears it.
     selection : Selection
         Kept within the current document on every change (undo included).
+    region : numpy.ndarray or None
+        The lasso's selection: ``(k, 2)`` corners of a simple polygon on the
+        canvas, document pixels (what Copy copies).
     zoom : float
         Screen pixels per document pixel; the view keeps it current.
     tolerance_px, marker_offset_px, drag_threshold_px : float
@@ -148,7 +156,9 @@ class ToolContext:
     sample: Sampler = lambda x, y: (0.0, 0.0, 0.0)
     choose_color: ColorChooser | None = None
     options: ToolOptions = field(default_factory=ToolOptions)
+    say: Callable[[str], None] = lambda text: None
     selection: Selection = field(default_factory=Selection)
+    region: np.ndarray | None = None
     zoom: float = 1.0
     tolerance_px: float = 6.0
     marker_offset_px: float = 8.0

@@ -15,7 +15,8 @@ import numpy as np
 from ..model import Document
 from .context import Selection, ToolContext
 
-ROLES = ("selected", "hover", "preview", "handle", "rubber-band", "brush")
+ROLES = ("selected", "hover", "preview", "handle", "rubber-band", "brush", "ants")
+"""What a primitive shows; ``"ants"`` is a region's outline (the lasso's selection), drawn as marching ants."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -127,3 +128,8 @@ def point_marks(document: Document, selection: Selection) -> list:
                             [p.color for p in points])]
     out += [Circle(p.position, p.radius, "selected") for p in points if p.id in chosen]
     return out
+
+
+def region_marks(context: ToolContext) -> list:
+    """The lasso's selection (``ToolContext.region``) as marching ants."""
+    return [Polyline(context.region, "ants", closed=True)] if context.region is not None else []

@@ -31,13 +31,13 @@ def display_problem(environ=None, platform: str | None = None) -> str | None:
             "desktop or under xvfb-run, or render without a window: fmr-editor render FILE -o OUT.png")
 
 
-def main(path: str | os.PathLike | None = None, argv: list[str] | None = None, settings=None) -> int:
-    """Open the editor on ``path`` (a new document when None) and run until it closes.
+def main(paths=(), argv: list[str] | None = None, settings=None) -> int:
+    """Open the editor on ``paths`` (a new document when there are none) and run until it closes.
 
     Parameters
     ----------
-    path : str or os.PathLike, optional
-        A ``.fmr`` or Orzan ``.xml`` document.
+    paths : sequence of str or os.PathLike, or one of them
+        ``.fmr`` or Orzan ``.xml`` documents, each opened in a tab.
     argv : list of str, optional
         Arguments for ``QApplication`` (default: the program name).
     settings : QSettings, optional
@@ -62,8 +62,9 @@ def main(path: str | os.PathLike | None = None, argv: list[str] | None = None, s
     app.setOrganizationName(ORGANISATION)
     window = MainWindow(settings if settings is not None else QSettings(ORGANISATION, "editor"))
     window.show()
-    if path is not None:
-        window.open_path(Path(path))
+    paths = [paths] if isinstance(paths, (str, os.PathLike)) else list(paths)
+    if paths:
+        window.open_paths([Path(path) for path in paths])
     else:
         window.new_document(DEFAULT_SIZE)
     return app.exec()

@@ -128,6 +128,11 @@ class Canvas(QOpenGLWidget):
         """Pan and zoom in widget (logical) pixels."""
         return self._view
 
+    @property
+    def fitted(self) -> bool:
+        """True while the view fits the canvas in the window and follows the window's size."""
+        return self._fitted
+
     def set_view(self, view: View) -> None:
         self._fitted = False
         self._settle.stop()

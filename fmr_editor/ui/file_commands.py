@@ -17,7 +17,7 @@ from PySide6.QtCore import QTimer
 
 from ..io import DocumentLoadError, save_fmr
 from .export import ExportDialog, ExportOptions, export_png
-from .files import NewDocumentDialog, ask_keep_changes, ask_open_path, ask_save_path, openable, show_error
+from .files import NewDocumentDialog, ask_open_path, ask_save_path, openable, show_error
 from .workspace import DEFAULT_SIZE, new_document, open_file
 
 
@@ -29,18 +29,6 @@ def _reason(error: BaseException):
 class FileCommands:
     """File menu commands, drag and drop, and the question before unsaved changes are lost."""
 
-    def _settle_changes(self, proceed: Callable[[], None]) -> None:
-        """Run ``proceed`` once unsaved changes are saved or may be dropped (asks the user)."""
-        workspace = self.workspace
-        if workspace is None or not workspace.history.modified:
-            proceed()
-            return
-        answer = ask_keep_changes(self, workspace.name)
-        if answer == "discard":
-            proceed()
-        elif answer == "save":
-            self.save(then=proceed)
-
     def _folder(self) -> str:
         workspace = self.workspace
         if workspace is not None and workspace.path is not None:
@@ -50,19 +38,15 @@ class FileCommands:
 
     # -- file commands ------------------------------------------------------------------------------------
     def new_document(self, size: tuple[int, int] | None = None) -> None:
-        """A new, empty document; asks for the canvas size unless ``size`` is given."""
+        """A new, empty document in a tab of its own; asks for the canvas size unless ``size`` is given."""
         if self._busy:
             return
-
-        def proceed() -> None:
-            chosen = size or NewDocumentDialog.get_size(self, *DEFAULT_SIZE)
-            if chosen is None:
-                return
-            width, height = chosen
-            self._start("New document", lambda progress: new_document(width, height, progress), self._install,
-                        lambda error: show_error(self, "Cannot Create the Document", str(error)))
-
-        self._settle_changes(proceed)
+        chosen = size or NewDocumentDialog.get_size(self, *DEFAULT_SIZE)
+        if chosen is None:
+            return
+        width, height = chosen
+        self._start("New document", lambda progress: new_document(width, height, progress), self._install,
+                    lambda error: show_error(self, "Cannot Create the Document", str(error)))
 
     def open_document(self) -> None:
         """Ask for a document and open it."""
@@ -72,22 +56,41 @@ class FileCommands:
         if path is not None:
             self.open_path(path)
 
-    def open_path(self, path: str | os.PathLike) -> None:
-        """Open ``path`` (after asking about unsaved changes); a failure leaves the open document as it was."""
+    def open_path(self, path: str | os.PathLike, then: Callable[[], None] | None = None) -> None:
+        """Open ``path`` in a tab of its own (its tab, if it is open already), then ``then()``; a failure
+        changes nothing (with nothing open and nothing to follow, a new canvas opens instead)."""
         if self._busy:
             return
         path = Path(path)
+        for workspace in self.workspaces:
+            if workspace.path is not None and workspace.path == path.absolute():
+                self._activate(workspace)
+                if then is not None:
+                    then()
+                return
+
+        def opened(result) -> None:
+            self._install(result)
+            if then is not None:
+                then()
 
         def failed(error: BaseException) -> None:
             message = str(error) if isinstance(error, DocumentLoadError) else f"{path.name}: {error}"
             if not path.exists():
                 self.recent.remove(path)
             show_error(self, "Cannot Open the Document", message)
-            if self.workspace is None:  # nothing open yet (started on this file): a blank canvas instead
+            if then is not None:
+                then()
+            elif self.workspace is None:  # nothing open (started on this file): a blank canvas instead
                 self.new_document(DEFAULT_SIZE)
 
-        self._settle_changes(lambda: self._start(f"Opening {path.name}", lambda progress: open_file(path, progress),
-                                                 self._install, failed))
+        self._start(f"Opening {path.name}", lambda progress: open_file(path, progress), opened, failed)
+
+    def open_paths(self, paths: list) -> None:
+        """Open each of ``paths`` in a tab, one after the other (a new canvas when none opens)."""
+        if paths:
+            rest = list(paths[1:])
+            self.open_path(paths[0], (lambda: self.open_paths(rest)) if rest else None)
 
     def save(self, then: Callable[[], None] | None = None) -> None:
         """Save to the document's ``.fmr`` file (Save As for a new or imported one)."""
@@ -125,9 +128,10 @@ class FileCommands:
 
         def saved(written: Path) -> None:
             history = workspace.history
+            workspace.path = Path(written)
             if history.index == step and history.document is document:
                 history.mark_saved()
-            workspace.path = Path(written)
+            self._steps_of(workspace)
             self.recent.add(written)
             self.status_label.setText(f"Saved {Path(written).name}")
             if then is not None:
@@ -218,26 +222,18 @@ class FileCommands:
         QTimer.singleShot(0, lambda: self.open_path(path))  # not inside the drop: open_path may ask a question
 
     def closeEvent(self, event) -> None:
-        workspace = self.workspace
         if not self._close_now and self.job is not None:
             event.ignore()  # a job is writing or reading: close when asked again after it
             self.status_label.setText("Wait for the current job to finish before closing.")
             return
-        if not self._close_now and workspace is not None and workspace.history.modified:
-            answer = ask_keep_changes(self, workspace.name)
-            if answer == "cancel":
-                event.ignore()
-                return
-            if answer == "save":
-                event.ignore()
-                self.save(then=self._close_after_save)
-                return
+        if not self._close_now and any(workspace.history.modified for workspace in self.workspaces):
+            event.ignore()  # asks about each document; closes when none is left unsettled
+            self._settle_all(self._close_after_save)
+            return
         self.settings.setValue("window/geometry", self.saveGeometry())
         self.settings.setValue("window/state", self.saveState())
-        if workspace is not None:
-            workspace.tools[self.tool_name].cancel()
-            workspace.close()
-            self.workspace = None
+        for workspace in list(self.workspaces):
+            self._drop(workspace)
         event.accept()
 
     def _close_after_save(self) -> None:

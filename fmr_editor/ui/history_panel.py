@@ -32,9 +32,13 @@ class HistoryPanel(QWidget):
         self._shown: tuple | None = None
         self.list.currentRowChanged.connect(self._jump)
 
-    def bind(self, history: History, first: str) -> None:
-        """Show ``history``; ``first`` names its starting state ("Open ribbon.xml")."""
+    def bind(self, history: History | None, first: str) -> None:
+        """Show ``history`` (None: no document); ``first`` names its starting state ("Open ribbon.xml")."""
         self._history, self._first, self._shown = history, first, None
+        if history is None:
+            self.list.blockSignals(True)
+            self.list.clear()
+            self.list.blockSignals(False)
         self.refresh()
 
     def refresh(self) -> None:

@@ -99,8 +99,13 @@ class LayersPanel(QWidget):
         self.opacity.valueChanged.connect(self._set_opacity)
 
     # -- the history -----------------------------------------------------------------------------
-    def bind(self, history: History) -> None:
+    def bind(self, history: History | None) -> None:
+        """Show the layers of ``history``'s document (None: no document)."""
         self._history, self._shown = history, None
+        if history is None:
+            self.list.blockSignals(True)
+            self.list.clear()
+            self.list.blockSignals(False)
         self.refresh()
 
     @property

@@ -1,7 +1,8 @@
 """The editor's main window: canvas, panels, menus, and the jobs that open, save and export.
 
-One document is open at a time (a ``Workspace``).  Pointer events from the
-canvas go to the active tool; every change of the document goes to the
+Each open document is a ``Workspace`` in a tab of its own (``documents``);
+the active one is ``workspace``.  Pointer events from the canvas go to its
+active tool; every change of the document goes to the
 engine thread, whose frames update the canvas cell by cell.  Opening,
 building, saving and exporting run on ``jobs.Job`` threads with progress in
 the status bar; while one runs the document cannot be edited, so that a job
@@ -17,7 +18,10 @@ from PySide6.QtGui import QCursor
 from PySide6.QtWidgets import QDockWidget, QLabel, QMainWindow, QMenu, QMessageBox, QProgressBar
 
 from ..tools import Selection, ToolOptions, delete_selection
+from ..tools.overlay import region_marks
 from .canvas import Canvas
+from .clip_commands import ClipCommands, canvas_region
+from .documents import DocumentTabs
 from .events import modifier_names, pointer_event, tool_key
 from .file_commands import FileCommands
 from .files import RecentFiles
@@ -29,7 +33,7 @@ from .menus import build_actions, build_menus
 from .options_panel import OptionsPanel
 from .overlay import Overlay
 from .stops_panel import StopsPanel
-from .workspace import Opened, Workspace
+from .workspace import Workspace
 
 APP_NAME = "FMR Editor"
 CURSORS = {
@@ -40,8 +44,9 @@ CURSORS = {
 }
 
 
-class MainWindow(FileCommands, LayerCommands, QMainWindow):
-    """The editor window (its file and layer commands: ``file_commands``, ``layer_commands``).
+class MainWindow(FileCommands, LayerCommands, DocumentTabs, ClipCommands, QMainWindow):
+    """The editor window (its file, layer, tab and clipboard commands: ``file_commands``, ``layer_commands``,
+    ``documents``, ``clip_commands``).
 
     Parameters
     ----------
@@ -52,7 +57,9 @@ class MainWindow(FileCommands, LayerCommands, QMainWindow):
     Attributes
     ----------
     workspace : Workspace or None
-        The open document (None until the first one is built).
+        The active document (None while none is open).
+    workspaces : list of Workspace
+        Every open document, in the order of their tabs.
     canvas : ui.canvas.Canvas
     actions : dict of str to QAction
     """
@@ -71,7 +78,7 @@ class MainWindow(FileCommands, LayerCommands, QMainWindow):
         self._declined: int | None = None  # a key press the tool declined at its shortcut override
 
         self.canvas = Canvas(self)
-        self.setCentralWidget(self.canvas)
+        self.setCentralWidget(self._build_tabs())
         self.overlay = Overlay(self.canvas, self._overlay)
         self.canvas.pressed.connect(lambda *a: self._pointer("press", pointer_event(*a)))
         self.canvas.double_clicked.connect(lambda *a: self._pointer("press", pointer_event(*a, clicks=2)))
@@ -157,10 +164,20 @@ class MainWindow(FileCommands, LayerCommands, QMainWindow):
         tool = self.tool
         if tool is None or self._busy:
             return
-        getattr(tool, kind)(event)
+        self._refusing(getattr(tool, kind), event)
         x, y = event.position
         self.position_label.setText(f"{x:.1f}, {y:.1f}")
         self._after_tool()
+
+    def _refusing(self, action: Callable, *args):
+        """``action(*args)`` of the tool; an edit the document refuses (drawing on a clone layer, say) cancels
+        what the tool was doing and says why in the status bar."""
+        try:
+            return action(*args)
+        except ValueError as error:
+            self.tool.cancel()
+            self.status_label.setText(f"Not done: {error}")
+            return True
 
     def _after_tool(self) -> None:
         """Show what a tool or panel did: overlay, stops, colours, actions."""
@@ -171,7 +188,7 @@ class MainWindow(FileCommands, LayerCommands, QMainWindow):
 
     def _overlay(self) -> list:
         tool = self.tool
-        return tool.overlay() if tool is not None else []
+        return region_marks(self.workspace.context) + tool.overlay() if tool is not None else []
 
     def _view_changed(self) -> None:
         if self.workspace is not None:
@@ -193,7 +210,7 @@ class MainWindow(FileCommands, LayerCommands, QMainWindow):
             if self._declined == key:
                 self._declined = None
                 return False
-        used = tool.key(name, modifier_names(event.modifiers()))
+        used = self._refusing(tool.key, name, modifier_names(event.modifiers()))
         if used:
             self._after_tool()
             if kind == QEvent.Type.ShortcutOverride:
@@ -229,15 +246,25 @@ class MainWindow(FileCommands, LayerCommands, QMainWindow):
     def select_all(self) -> None:
         if self.workspace is None:
             return
-        document = self.workspace.context.document
-        self.workspace.context.selection = Selection.of(curves=[c.id for c in document.curves],
-                                                        points=document.point_ids())
+        context = self.workspace.context
+        document = context.document
+        context.selection = Selection.of(curves=[c.id for c in document.curves], points=document.point_ids())
+        context.region = canvas_region(document)
         self._after_tool()
 
     def deselect(self) -> None:
         if self.workspace is not None:
             self.workspace.context.selection = Selection()
+            self.workspace.context.region = None
             self._after_tool()
+
+    def next_document(self, step: int = 1) -> None:
+        """Show the next open document's tab (Ctrl+Tab), or with ``step`` -1 the previous one."""
+        if len(self.workspaces) > 1 and not self._busy:
+            self.tabs.setCurrentIndex((self.tabs.currentIndex() + step) % len(self.workspaces))
+
+    def previous_document(self) -> None:
+        self.next_document(-1)
 
     def zoom_in(self) -> None:
         self.canvas.zoom_in()
@@ -260,35 +287,6 @@ class MainWindow(FileCommands, LayerCommands, QMainWindow):
                           "representation.</p>")
 
     # -- the document ---------------------------------------------------------------------------------
-    def _install(self, opened: Opened) -> None:
-        """Make ``opened`` the open document (the previous one is closed)."""
-        old = self.workspace
-        if old is not None:
-            old.tools[self.tool_name].cancel()
-            old.close()
-            old.deleteLater()
-        workspace = Workspace(opened, self.options, self._choose_stop_color, self)
-        workspace.document_changed.connect(self._document_changed)
-        workspace.steps_changed.connect(self._update_state)
-        workspace.frame_ready.connect(self._frame_ready)
-        workspace.engine_failed.connect(self._engine_failed)
-        workspace.engine_progress.connect(self._engine_progress)
-        self.workspace = workspace
-        frame = opened.frame
-        self.canvas.set_representation(frame.picture, fit=True)
-        workspace.context.zoom = self.canvas.view.scale
-        first = f"Open {workspace.name}" if workspace.path is not None else "New Document"
-        self.history_panel.bind(workspace.history, first)
-        self.layers_panel.bind(workspace.history)
-        self.stops_panel.bind(workspace.context)
-        if workspace.path is not None:
-            self.recent.add(workspace.path)
-        self.set_tool(self.tool_name)
-        self._update_state()
-        self.canvas.setFocus()
-        if self.canvas.error:  # no suitable OpenGL: editing works, the image cannot be shown
-            self.status_label.setText(f"The canvas cannot draw the image: {self.canvas.error}")
-
     def _choose_stop_color(self, current) -> None:
         """The stops tool's double click: the selected stop's live colour dialog (``StopsPanel.edit_color``)."""
         stops = self.workspace.context.selection.stops if self.workspace is not None else ()
@@ -347,8 +345,12 @@ class MainWindow(FileCommands, LayerCommands, QMainWindow):
         actions["redo"].setEnabled(free and redo is not None)
         for name in ("new", "open"):
             actions[name].setEnabled(free)
-        for name in ("save", "save_as", "export", "delete", "select_all", "deselect"):
+        for name in ("save", "save_as", "export", "close", "delete", "select_all", "deselect"):
             actions[name].setEnabled(free and workspace is not None)
+        for name in ("next_document", "previous_document"):
+            actions[name].setEnabled(free and len(self.workspaces) > 1)
+        self.tabs.setEnabled(free)
+        self._update_clip_actions()
         self._update_layer_actions()
 
     def _update_state(self) -> None:
@@ -362,7 +364,7 @@ class MainWindow(FileCommands, LayerCommands, QMainWindow):
     def _set_busy(self, message: str | None) -> None:
         """Pause editing while a job runs (``message`` says what it does), or resume it (None)."""
         self._busy = message is not None
-        for widget in (self.canvas, self.stops_panel, self.history_panel, self.layers_panel):
+        for widget in (self.canvas, self.stops_panel, self.history_panel, self.layers_panel, self.tabs):
             widget.setEnabled(not self._busy)
         self.status_label.setText(message or "")
         if self._busy:

@@ -12,7 +12,7 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import numpy as np
-from PySide6.QtCore import QEvent, QLineF, QObject, QPointF, QRectF, Qt
+from PySide6.QtCore import QEvent, QLineF, QObject, QPointF, QRectF, Qt, QTimer
 from PySide6.QtGui import QBrush, QColor, QPainter, QPen, QPolygonF
 from PySide6.QtWidgets import QWidget
 
@@ -21,6 +21,9 @@ from ..tools.overlay import Circle, Markers, Polyline, Rectangle, Segments
 ACCENT = QColor(30, 120, 255)
 HOVER = QColor(120, 190, 255)
 HALO = QColor(255, 255, 255, 170)
+#: The marching ants: dash and gap length in screen pixels, and how often they step on.
+ANTS_DASH = 4.0
+ANTS_STEP_MS = 120
 #: Marker sizes in screen pixels.
 SIZES = {"anchor": 7.0, "handle": 6.0, "stop": 10.0, "point": 7.0, "sample": 14.0}
 
@@ -57,6 +60,14 @@ class Overlay(QWidget):
         self.setGeometry(canvas.rect())
         canvas.installEventFilter(self)
         canvas.view_changed.connect(self.update)
+        self.ants_phase = 0  # dash offset of the marching ants, stepped while any are shown
+        self._ants = QTimer(self)
+        self._ants.setInterval(ANTS_STEP_MS)
+        self._ants.timeout.connect(self._march)
+
+    def _march(self) -> None:
+        self.ants_phase = (self.ants_phase + 1) % int(2 * ANTS_DASH)
+        self.update()
 
     def eventFilter(self, watched: QObject, event: QEvent) -> bool:
         if watched is self._canvas and event.type() == QEvent.Type.Resize:
@@ -75,6 +86,9 @@ class Overlay(QWidget):
             primitives = self._primitives()
         except (IndexError, KeyError):  # a stale selection during a document switch: draw nothing this time
             return
+        ants = any(isinstance(item, Polyline) and item.role == "ants" for item in primitives)
+        if ants != self._ants.isActive():
+            self._ants.start() if ants else self._ants.stop()
         painter = QPainter(self)
         painter.setRenderHint(QPainter.RenderHint.Antialiasing)
         for item in primitives:
@@ -95,6 +109,9 @@ class Overlay(QWidget):
         if len(points) < 2:
             return
         polygon = QPolygonF([QPointF(x, y) for x, y in points])
+        if item.role == "ants":
+            self._ants_line(painter, polygon, item.closed)
+            return
         color, width, style = {
             "hover": (HOVER, 1.5, Qt.PenStyle.SolidLine),
             "preview": (ACCENT, 1.0, Qt.PenStyle.DashLine),
@@ -102,6 +119,16 @@ class Overlay(QWidget):
         for pen in (_pen(HALO, width + 2.0), _pen(color, width, style)):
             painter.setPen(pen)
             painter.drawPolygon(polygon) if item.closed else painter.drawPolyline(polygon)
+
+    def _ants_line(self, painter: QPainter, polygon: QPolygonF, closed: bool) -> None:
+        """Black dashes marching over white, as every editor draws a selection."""
+        dashes = _pen(QColor(0, 0, 0), 1.0, Qt.PenStyle.CustomDashLine)
+        dashes.setDashPattern([ANTS_DASH, ANTS_DASH])
+        dashes.setDashOffset(self.ants_phase)
+        painter.setBrush(Qt.BrushStyle.NoBrush)
+        for pen in (_pen(QColor(255, 255, 255), 1.0), dashes):
+            painter.setPen(pen)
+            painter.drawPolygon(polygon) if closed else painter.drawPolyline(polygon)
 
     def _segments(self, painter: QPainter, item: Segments) -> None:
         ends = self._window(item.ends.reshape(-1, 2)).reshape(-1, 4)

@@ -114,6 +114,9 @@ class Workspace(QObject):
         The newest frame the engine produced.
     path : pathlib.Path or None
         Where the document was read from or last saved to.
+    view : tuple
+        ``(render.view.View or None, fitted)``: the canvas's view while the
+        document was last shown (fitted: it fitted the canvas in the window).
 
     Signals
     -------
@@ -125,6 +128,8 @@ class Workspace(QObject):
         (a drag's commit adds a step without changing the document shown).
     engine_failed(str)
     engine_progress(str, float)
+    message(str)
+        A tool's one-line message for the status bar (``ToolContext.say``).
     """
 
     frame_ready = Signal(object)
@@ -132,13 +137,16 @@ class Workspace(QObject):
     steps_changed = Signal()
     engine_failed = Signal(str)
     engine_progress = Signal(str, float)
+    message = Signal(str)
 
     def __init__(self, opened: Opened, options: ToolOptions, choose_color=None, parent=None) -> None:
         super().__init__(parent)
         self.path = opened.path
         self.settings = opened.live.settings
         self.history = History(opened.document)
-        self.context = ToolContext(self.history, sample=self.sample, choose_color=choose_color, options=options)
+        self.context = ToolContext(self.history, sample=self.sample, choose_color=choose_color, options=options,
+                                   say=self.message.emit)
+        self.view = (None, True)
         self.tools = create_tools(self.context)
         self.frame = opened.frame
         self._waiting: list[Callable[[Frame | None], None]] = []
