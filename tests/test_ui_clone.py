@@ -19,6 +19,7 @@ from PySide6.QtWidgets import QMessageBox  # noqa: E402
 
 from fmr_editor.engine import LiveStack  # noqa: E402
 from fmr_editor.io import load_fmr, save_fmr  # noqa: E402
+from fmr_editor.model import edits, layer_edits  # noqa: E402
 from fmr_editor.tools.transform import Handles  # noqa: E402
 
 pytestmark = pytest.mark.gui
@@ -150,6 +151,12 @@ def test_a_clone_is_chosen_and_moved_again_later_and_esc_drops_the_change(two_do
     editor.key(Qt.Key.Key_Return)
     assert editor.history.index == 2 and "clone layer" in window.status_label.text()
 
+    bottom = editor.document.layers[0]  # an edit below the clone: it blends in anew
+    recoloured = edits.set_stop_color(layer_edits.select_layer(editor.document, 0), bottom.curves[0].id, "left", 0,
+                                      (0.1, 0.9, 0.2))
+    editor.history.apply(recoloured, "Change Stop Colour")
+    shows_the_composite(editor)
+
 
 def handles_of(document) -> Handles:
     return Handles.of(document.layer.clone, 1.0)
@@ -185,8 +192,6 @@ def test_plain_paste_saving_and_closing_ask_per_document(two_documents, tmp_path
     window.tabs.setCurrentIndex(0)
     window.deselect()
     assert editor.context.region is None
-    from fmr_editor.model import edits
-
     editor.history.apply(edits.remove_curves(editor.document, [editor.document.curves[0].id]), "Delete")
     assert window.tabs.tabText(0) == "source.fmr*"
     editor.answers["question"] = QMessageBox.StandardButton.Cancel

@@ -83,6 +83,14 @@ class DocumentTabs:
         if 0 <= index < len(self.workspaces) and self.workspaces[index] is not self.workspace:
             self._show(self.workspaces[index])
 
+    def next_document(self, step: int = 1) -> None:
+        """Show the next open document's tab (Ctrl+Tab), or with ``step`` -1 the previous one."""
+        if len(self.workspaces) > 1 and not self._busy:
+            self.tabs.setCurrentIndex((self.tabs.currentIndex() + step) % len(self.workspaces))
+
+    def previous_document(self) -> None:
+        self.next_document(-1)
+
     def _tab_moved(self, source: int, target: int) -> None:
         self.workspaces.insert(target, self.workspaces.pop(source))
 

@@ -154,7 +154,7 @@ class LayersPanel(QWidget):
     @staticmethod
     def _item(document: Document, index: int) -> QListWidgetItem:
         layer = document.layers[index]
-        marks = []
+        marks = ["a seamless clone: Transform Clone (T) moves, scales and turns it"] if layer.clone is not None else []
         if layer.mask is not None:
             marks.append("mask" + ("" if layer.mask.enabled else " (disabled)")
                          + (" inverted" if layer.mask.inverted else ""))
@@ -227,7 +227,7 @@ class LayersPanel(QWidget):
 def _summary(document: Document) -> tuple:
     """What the panel shows of ``document``: it is rebuilt only when this changes (not on every dab)."""
     layers = tuple((layer.id, layer.name, layer.visible, layer.opacity, layer.transform.is_identity,
-                    None if layer.mask is None else (layer.mask.enabled, layer.mask.inverted))
+                    None if layer.mask is None else (layer.mask.enabled, layer.mask.inverted), layer.clone is None)
                    for layer in document.layers)
     return layers, document.active, document.editing_mask
 

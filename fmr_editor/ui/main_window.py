@@ -258,14 +258,6 @@ class MainWindow(FileCommands, LayerCommands, DocumentTabs, ClipCommands, QMainW
             self.workspace.context.region = None
             self._after_tool()
 
-    def next_document(self, step: int = 1) -> None:
-        """Show the next open document's tab (Ctrl+Tab), or with ``step`` -1 the previous one."""
-        if len(self.workspaces) > 1 and not self._busy:
-            self.tabs.setCurrentIndex((self.tabs.currentIndex() + step) % len(self.workspaces))
-
-    def previous_document(self) -> None:
-        self.next_document(-1)
-
     def zoom_in(self) -> None:
         self.canvas.zoom_in()
 
