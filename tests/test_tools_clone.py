@@ -10,7 +10,8 @@ from test_tools import click, drag, event, make_context
 
 from fmr_editor.model import Document, layer_edits
 from fmr_editor.model.clone import Similarity
-from fmr_editor.model.clone_edits import copy_region, paste_seamless
+from fmr_editor.model.clone_edits import canvas_region, copy_region, paste_curves, paste_position, paste_seamless
+from fmr_editor.model.color_transform import ColorTransform, hue_rotation
 from fmr_editor.tools import CloneTool, LassoTool
 from fmr_editor.tools.lasso import enclosed_region
 from fmr_editor.tools.overlay import Polyline
@@ -119,3 +120,31 @@ def test_a_placement_off_the_canvas_is_refused_and_other_clones_are_chosen_by_a_
     tool.finish()
     assert context.history.labels == ("", "Paste Seamless", "Transform Clone")
     assert context.document.layer.clone.similarity == Similarity(offset=(5.0, 0.0))
+
+
+def test_copy_carries_the_layers_colour_adjustment_and_paste_curves_adds_to_the_active_layer():
+
+    source = scattered_document(SIZE, seed=3)
+    turned = layer_edits.set_transform(source, 0, hue_rotation(150))
+    copied = copy_region(turned, SQUARE)
+    baked = layer_edits.baked(turned.layer)
+    assert copied.source.curves == baked.curves and copied.source.layer.transform.is_identity
+    with pytest.raises(ValueError, match="Paint layer"):  # an offset no curve carries
+        copy_region(layer_edits.set_transform(Document(SIZE, SIZE), 0, ColorTransform(np.zeros((3, 3)), (1.0, 0.5, 0.0))),
+                    SQUARE)
+
+    target = scattered_document(SIZE, seed=8)
+    pasted = paste_curves(target, copied, (5.0, -5.0))
+    added = pasted.curves[len(target.curves):]
+    assert len(pasted.layers) == 1 and pasted.curves[:len(target.curves)] == target.curves and added
+    assert all(curve.id not in {c.id for c in target.curves} for curve in added)
+    np.testing.assert_allclose(added[0].control_points - [5.0, -5.0],
+                               next(c for c in copied.source.curves if c.left == added[0].left).control_points)
+    with pytest.raises(ValueError, match="nothing to paste"):
+        paste_curves(target, copy_region(Document(SIZE, SIZE), SQUARE))
+
+    assert paste_position(copied, target) == Similarity()  # in place: it fits
+    small = Document(40, 30)
+    offset = np.asarray(paste_position(copied, small).offset)
+    np.testing.assert_allclose(shapely.Polygon(copied.region + offset).centroid.coords[0], (20.0, 15.0))
+    np.testing.assert_array_equal(canvas_region(small), [[0, 0], [40, 0], [40, 30], [0, 30]])

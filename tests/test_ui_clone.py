@@ -174,11 +174,14 @@ def test_plain_paste_saving_and_closing_ask_per_document(two_documents, tmp_path
     assert region.min() == 0.0 and region.max() <= 70.5  # clipped to the canvas
     window.copy()
     window.tabs.setCurrentIndex(1)
-    editor.key(Qt.Key.Key_V, CTRL)
+    before = editor.document
+    editor.key(Qt.Key.Key_V, CTRL)  # into the active layer, as they are
     assert editor.history.labels[-1] == "Paste" and not editor.history.in_transaction
-    layer = editor.document.layer
-    assert layer.clone is None and 0 < len(layer.curves)
-    assert editor.context.selection.curves == {curve.id for curve in layer.curves}  # selected, to move on
+    pasted = editor.document
+    assert len(pasted.layers) == 1 and len(pasted.curves) > len(before.curves)
+    assert pasted.curves[:len(before.curves)] == before.curves
+    assert editor.context.selection.curves == {c.id for c in pasted.curves[len(before.curves):]}  # to move on
+    shows_the_composite(editor)
 
     window.paste_seamless()
     editor.key(Qt.Key.Key_Return)
@@ -201,3 +204,36 @@ def test_plain_paste_saving_and_closing_ask_per_document(two_documents, tmp_path
     window.close()
     qtbot.waitUntil(lambda: not window.isVisible(), timeout=30_000)
     assert window.workspaces == [] and window.workspace is None
+
+
+def test_a_paste_session_gives_way_to_undo_the_layers_panel_and_other_tabs(two_documents, qtbot):
+    editor, (source_path, target_path) = two_documents
+    window = editor.window
+    window.tabs.setCurrentIndex(0)
+    lasso_corners(editor, CORNERS)
+    window.copy()
+    window.tabs.setCurrentIndex(1)
+    target = editor.document
+    window.layers_panel.list.setFocus()
+    window.actions["paste_seamless"].trigger()
+    assert editor.canvas.hasFocus()  # so that Return and Esc reach the handles
+    assert window.actions["undo"].isEnabled()
+    window.actions["undo"].trigger()  # Ctrl+Z drops the paste, as Esc does
+    assert editor.document == target and not editor.history.in_transaction and window.tool_name == "clone"
+
+    window.paste_seamless()
+    window.layers_panel.list.setCurrentRow(1)  # the bottom layer: the placement is kept, then the layer chosen
+    assert editor.history.labels == ("", "Paste Seamless") and editor.document.active == 0
+    window.layers_panel.list.setCurrentRow(0)
+    assert editor.document.active == 1
+
+    editor.key(Qt.Key.Key_B)  # a dab on a clone layer: refused with a message, no step
+    editor.click(60, 60)
+    assert editor.history.index == 1 and "clone layer" in window.status_label.text()
+    assert not window.actions["add_mask"].isEnabled()  # a clone layer's mask is its region
+
+    window.tabs.setCurrentIndex(0)
+    editor.answers["question"] = QMessageBox.StandardButton.Discard
+    window.close_document(window.workspaces[1])  # a tab behind with changes: asked about, closed
+    assert len(editor.questions) == 1 and "target.fmr" in editor.questions[0][1]
+    assert [w.path for w in window.workspaces] == [source_path] and editor.workspace.path == source_path

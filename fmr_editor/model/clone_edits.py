@@ -17,6 +17,7 @@ import shapely
 from .clone import Clone, Similarity, region_on_canvas
 from .document import Document
 from .layer import Layer
+from .layer_edits import baked
 
 #: Samples per curve piece by which ``paste_plain`` tells which curves the region holds.
 SAMPLES_PER_PIECE = 8
@@ -42,18 +43,45 @@ class Copied:
 
 
 def copy_region(document: Document, region) -> Copied:
-    """The active layer's items with ``region`` (cut to the canvas), for ``paste_seamless`` and ``paste_plain``.
+    """What the tools act on (the active layer, or its mask while it is edited) with ``region`` (cut to the
+    canvas), for ``paste_seamless`` and ``paste_curves``.
+
+    The layer's colour adjustment is applied to the copied items' colours
+    (``layer_edits.baked``), so that the copy shows what the layer shows;
+    its mask and opacity stay behind.
 
     Raises
     ------
     ValueError
-        For a bad region (``clone.region_on_canvas``), or a clone layer active (copy from its source instead).
+        For a bad region (``clone.region_on_canvas``), a clone layer active
+        (copy from its source instead), or a colour adjustment no item can
+        carry (a Paint layer's colour).
     """
     layer = document.layer
     if layer.clone is not None:
         raise ValueError("a clone layer has no curves to copy; copy from the layer it was cloned from")
-    source = Document(document.width, document.height, layer.curves, layer.points)
+    target = document.target if document.editing_mask else baked(layer)
+    if not document.editing_mask and not target.transform.is_identity:
+        raise ValueError(f"{layer.name}'s colour is a transform that no curve of it carries (a Paint layer): "
+                         "copy the layers it covers instead")
+    source = Document(document.width, document.height, target.curves, target.points)
     return Copied(source, region_on_canvas(region, document.width, document.height), layer.name)
+
+
+def canvas_region(document: Document) -> np.ndarray:
+    """The whole canvas of ``document`` as a region, ``(4, 2)`` (Select All)."""
+    w, h = float(document.width), float(document.height)
+    return np.array([[0.0, 0.0], [w, 0.0], [w, h], [0.0, h]])
+
+
+def paste_position(copied: Copied, document: Document) -> Similarity:
+    """Where a paste of ``copied`` goes in ``document``: where it was copied from when that lies on the canvas,
+    else its centroid at the canvas's centre."""
+    low, high = copied.region.min(axis=0), copied.region.max(axis=0)
+    if (low >= 0).all() and high[0] <= document.width and high[1] <= document.height:
+        return Similarity()
+    centroid = shapely.Polygon(copied.region).centroid
+    return Similarity(offset=(document.width / 2 - centroid.x, document.height / 2 - centroid.y))
 
 
 def _add_above(document: Document, layer: Layer) -> Document:
@@ -106,3 +134,39 @@ def paste_plain(document: Document, copied: Copied, offset: tuple[float, float] 
     points = [replace(point, position=tuple(np.asarray(point.position) + shift), id=None)
               for point in copied.source.points if shapely.contains_xy(polygon, *point.position)]
     return _add_above(document, Layer(curves, points, name=f"{copied.name} pasted"))
+
+
+def copied_items(copied: Copied) -> tuple[tuple, tuple]:
+    """The copied curves that meet the region and the points inside it: ``(curves, points)``."""
+    polygon = shapely.Polygon(copied.region)
+    curves = []
+    for curve in copied.source.curves:
+        s = np.linspace(0.0, curve.piece_count, SAMPLES_PER_PIECE * curve.piece_count + 1)
+        xy = curve.point_at(s)
+        if shapely.contains_xy(polygon, xy[:, 0], xy[:, 1]).any():
+            curves.append(curve)
+    points = [point for point in copied.source.points if shapely.contains_xy(polygon, *point.position)]
+    return tuple(curves), tuple(points)
+
+
+def paste_curves(document: Document, copied: Copied, offset: tuple[float, float] = (0.0, 0.0)) -> Document:
+    """The copied curves that meet the region and the points inside it added to the active layer (or the mask
+    edited), moved by ``offset``, as they are: they then diffuse with the items there, as drawn curves do.
+
+    Raises
+    ------
+    ValueError
+        When nothing was copied (no curve meets the region, no point lies in it) or the active layer is a
+        clone layer (which holds no curves).
+    """
+    curves, points = copied_items(copied)
+    if not (curves or points):
+        raise ValueError(f"no curve of {copied.name} meets the selection, and no point lies in it: nothing to paste")
+    if document.layer.clone is not None and not document.editing_mask:
+        raise ValueError(f"{document.layer.name} is a clone layer, which holds no curves: choose a layer to paste "
+                         "into")
+    shift = np.asarray(offset, dtype=np.float64)
+    moved_curves = tuple(replace(curve, control_points=curve.control_points + shift, id=None) for curve in curves)
+    moved_points = tuple(replace(point, position=tuple(np.asarray(point.position) + shift), id=None)
+                         for point in points)
+    return document.with_curves(document.curves + moved_curves).with_points(document.points + moved_points)

@@ -6,9 +6,11 @@
   the polygon.  BackSpace or Delete removes the last corner.
 - Esc drops the outline being drawn, or else clears the selection.
 - The closed outline becomes ``ToolContext.region``: what it encloses on
-  the canvas (it may be drawn across the canvas edge).  An outline that
-  crosses itself encloses several loops: the largest is kept, and the
-  status bar says so.
+  the canvas (it may be drawn across the canvas edge), without holes.  An
+  outline that crosses itself, or that the canvas edge cuts, may enclose
+  several areas: the largest is kept, and the status bar says so.
+- Delete and BackSpace do not delete through a selection (that is the
+  Select tool's): with no outline drawn, they only say so.
 
 Choosing a region is not an undo step (nor is any selection in this editor).
 """
@@ -125,6 +127,9 @@ class LassoTool(Tool):
                 return True
             return False
         if not self.outline:
+            if name in (BACKSPACE, DELETE) and self.context.region is not None:
+                self.context.say("The lasso's selection is for Copy: Delete removes what the Select tool (V) selected")
+                return True
             return False
         if name in (RETURN, ENTER):
             self.finish()
@@ -152,7 +157,8 @@ class LassoTool(Tool):
             context.say(f"No selection: {error}")
             return
         context.region = region
-        context.say(f"The outline crossed itself: the largest of its {parts} loops is selected" if parts > 1 else "")
+        context.say(f"The outline encloses {parts} separate areas on the canvas (where it crosses itself or the "
+                    "canvas edge cuts it): the largest is selected" if parts > 1 else "")
 
     # -- drawing -----------------------------------------------------------------------------
     def draw(self) -> list:

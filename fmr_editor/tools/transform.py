@@ -74,9 +74,11 @@ class Handles:
         p = np.asarray(position)
         if np.hypot(*(p - self.turn)) <= reach:
             return "turn"
-        if (np.hypot(*(self.box - p).T) <= reach).any():
+        inside = shapely.contains_xy(shapely.Polygon(self.box), *p)
+        small = np.hypot(*(self.box[2] - self.box[0])) < 4 * reach  # mostly corners: a press inside moves it
+        if (np.hypot(*(self.box - p).T) <= reach).any() and not (small and inside):
             return "scale"
-        return "move" if shapely.contains_xy(shapely.Polygon(self.box), *p) else None
+        return "move" if inside else None
 
 
 @dataclass(frozen=True)

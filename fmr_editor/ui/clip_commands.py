@@ -5,29 +5,16 @@ layer's items with the lasso's region (``model.clone_edits.copy_region``)
 into the window's clipboard; Paste Seamless adds a clone layer above the
 active layer of the active document and hands it to the Transform Clone
 tool, whose handles place it until Return keeps it as the step "Paste
-Seamless"; Paste adds the copied curves and points as they are ("Paste").
-A pasted region lands where it was copied from when it fits the canvas,
-else in the middle of the canvas.
+Seamless"; Paste adds the copied curves and points as they are to the
+active layer ("Paste").  A pasted region lands where it was copied from
+when it fits the canvas, else in the middle of the canvas.
 """
 
 from __future__ import annotations
 
-import numpy as np
-import shapely
-
 from ..model import Document
-from ..model.clone import Similarity
-from ..model.clone_edits import Copied, copy_region, paste_plain, paste_seamless
+from ..model.clone_edits import Copied, copy_region, paste_curves, paste_position, paste_seamless
 from ..tools import Selection
-
-
-def landing(copied: Copied, document: Document) -> Similarity:
-    """Where a paste of ``copied`` goes in ``document``: in place when it fits the canvas, else centred."""
-    low, high = copied.region.min(axis=0), copied.region.max(axis=0)
-    if (low >= 0).all() and high[0] <= document.width and high[1] <= document.height:
-        return Similarity()
-    centroid = shapely.Polygon(copied.region).centroid
-    return Similarity(offset=(document.width / 2 - centroid.x, document.height / 2 - centroid.y))
 
 
 class ClipCommands:
@@ -53,12 +40,11 @@ class ClipCommands:
         self._update_actions()
 
     def _pasting(self) -> tuple[Document, Copied] | None:
-        """The active document and the clipboard, when a paste can go ahead (any tool's work finished)."""
-        workspace, copied = self.workspace, self.clipboard
-        if workspace is None or copied is None or self._busy:
+        """The active document and the clipboard, when a paste can go ahead (``_settle_edits``)."""
+        if self.clipboard is None or not self._settle_edits():
             return None
-        self.tool.finish()
-        return workspace.history.document, copied
+        self.canvas.setFocus()  # Return and Esc go to the tool through the canvas
+        return self.workspace.history.document, self.clipboard
 
     def paste_seamless(self) -> None:
         """Add the clipboard as a clone layer above the active layer, placed with handles (Ctrl+Shift+V)."""
@@ -67,7 +53,7 @@ class ClipCommands:
             return
         document, copied = pasting
         try:
-            pasted = paste_seamless(document, copied, landing(copied, document))
+            pasted = paste_seamless(document, copied, paste_position(copied, document))
         except ValueError as error:
             self.status_label.setText(f"Cannot paste: {error}")
             return
@@ -78,19 +64,23 @@ class ClipCommands:
         self._after_tool()
 
     def paste(self) -> None:
-        """Add the clipboard's curves and points as they are, in a layer above the active one (Ctrl+V)."""
+        """Add the clipboard's curves and points as they are to the active layer, selected (Ctrl+V)."""
         pasting = self._pasting()
         if pasting is None:
             return
         document, copied = pasting
-        offset = landing(copied, document).offset
-        pasted = paste_plain(document, copied, offset)
+        try:
+            pasted = paste_curves(document, copied, paste_position(copied, document).offset)
+        except ValueError as error:
+            self.status_label.setText(f"Cannot paste: {error}")
+            return
         context = self.workspace.context
         context.history.apply(pasted, "Paste")
-        layer = context.document.layer
-        context.selection = Selection.of(curves=[c.id for c in layer.curves], points=[p.id for p in layer.points])
-        self.status_label.setText(f"Pasted {len(layer.curves)} curves and {len(layer.points)} points "
-                                  f"as {layer.name}")
+        new_curves = [c.id for c in pasted.curves[len(document.curves):]]
+        new_points = [p.id for p in pasted.points[len(document.points):]]
+        context.selection = Selection.of(curves=new_curves, points=new_points)
+        self.status_label.setText(f"Pasted {len(new_curves)} curves and {len(new_points)} points into "
+                                  f"{pasted.layer.name}; they are selected (V moves them)")
         self._after_tool()
 
     def _update_clip_actions(self) -> None:
@@ -98,9 +88,3 @@ class ClipCommands:
         self.actions["copy"].setEnabled(open_and_free)
         for name in ("paste", "paste_seamless"):
             self.actions[name].setEnabled(open_and_free and self.clipboard is not None)
-
-
-def canvas_region(document: Document) -> np.ndarray:
-    """The whole canvas of ``document`` as a region (Select All)."""
-    w, h = float(document.width), float(document.height)
-    return np.array([[0.0, 0.0], [w, 0.0], [w, h], [0.0, h]])

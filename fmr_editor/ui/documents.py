@@ -60,7 +60,9 @@ class DocumentTabs:
         workspace.engine_progress.connect(lambda *a, w=workspace: self._if_active(w, self._engine_progress, *a))
         workspace.message.connect(lambda text, w=workspace: self._if_active(w, self.status_label.setText, text))
         self.workspaces.append(workspace)
+        self.tabs.blockSignals(True)  # shown once, by _activate
         self.tabs.addTab(workspace.name)
+        self.tabs.blockSignals(False)
         if workspace.path is not None:
             self.recent.add(workspace.path)
         self._activate(workspace)
@@ -120,6 +122,8 @@ class DocumentTabs:
             self._frame_ready(workspace.frame)
         self.tabs.setVisible(len(self.workspaces) > 1)
         self.status_label.setText("")  # what was said was about the document shown before
+        if workspace is not None and workspace.failure is not None:
+            self._engine_failed(workspace.failure)
         self.set_tool(self.tool_name)
         self._update_state()
         self.canvas.setFocus()
@@ -129,39 +133,56 @@ class DocumentTabs:
     # -- names --------------------------------------------------------------------------------------
     def _steps_of(self, workspace: Workspace) -> None:
         """A workspace's steps or saved mark changed: its tab's name, and the window if it is shown."""
-        index = self.workspaces.index(workspace)
-        self.tabs.setTabText(index, workspace.name + ("*" if workspace.history.modified else ""))
-        self.tabs.setTabToolTip(index, str(workspace.path) if workspace.path is not None else "not saved yet")
+        self._name_tab(workspace)
         if workspace is self.workspace:
             self._update_state()
 
+    def _name_tab(self, workspace: Workspace) -> None:
+        """The file name on ``workspace``'s tab, with ``*`` while it has unsaved changes."""
+        index = self.workspaces.index(workspace)
+        self.tabs.setTabText(index, workspace.name + ("*" if workspace.history.modified else ""))
+        self.tabs.setTabToolTip(index, str(workspace.path) if workspace.path is not None else "not saved yet")
+
     # -- closing ------------------------------------------------------------------------------------
     def close_document(self, workspace: Workspace | None = None) -> None:
-        """Close ``workspace`` (default: the active one), asking first about unsaved changes (Ctrl+W)."""
-        workspace = workspace or self.workspace
+        """Close ``workspace`` (default: the active one), asking first about unsaved changes (Ctrl+W).
+
+        A tab in the background is brought forward only for the question;
+        the document worked on stays in front.
+        """
+        workspace, shown = workspace or self.workspace, self.workspace
         if workspace is None or self._busy:
             return
-        self._activate(workspace)
-        self._settle_changes(lambda: self._drop(workspace))
 
-    def _drop(self, workspace: Workspace) -> None:
-        """Close ``workspace`` now: its tab, tools and engine thread."""
+        def close() -> None:
+            self._drop(workspace)
+            if shown is not workspace and shown in self.workspaces:
+                self._activate(shown)
+
+        if workspace.history.modified:
+            self._activate(workspace)
+            self._settle_changes(close)
+        else:
+            close()
+
+    def _drop(self, workspace: Workspace, show_next: bool = True) -> None:
+        """Close ``workspace`` now: its tab, tools and engine thread; the next tab is shown if it was (unless
+        not ``show_next``: the window is closing)."""
         index = self.workspaces.index(workspace)
         workspace.tools[self.tool_name].cancel()
         workspace.close()
         self.workspaces.pop(index)
+        self.tabs.blockSignals(True)
+        self.tabs.removeTab(index)
+        self.tabs.blockSignals(False)
         if workspace is self.workspace:
-            self.workspace = None  # nothing to save of it: the next tab is shown without finishing its tools
+            self.workspace = None  # nothing to keep of it: the next one is shown without finishing its tools
             following = self.workspaces[min(index, len(self.workspaces) - 1)] if self.workspaces else None
-            self.tabs.blockSignals(True)
-            self.tabs.removeTab(index)
-            self.tabs.blockSignals(False)
-            self._show(following)
-            if following is not None:
-                self.tabs.setCurrentIndex(self.workspaces.index(following))
-        else:
-            self.tabs.removeTab(index)
-            self.tabs.setVisible(len(self.workspaces) > 1)
+            if following is not None and show_next:
+                self._activate(following)
+            else:
+                self._show(None)
+        self.tabs.setVisible(len(self.workspaces) > 1)
         workspace.deleteLater()
 
     def _settle_all(self, proceed: Callable[[], None], asked: tuple = ()) -> None:

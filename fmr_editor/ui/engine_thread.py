@@ -94,6 +94,11 @@ class _Worker(QObject):
             self._pending = (document, preview)
         return idle
 
+    def drop_pending(self) -> None:
+        """Forget the request waiting for the update in progress (the thread is stopping)."""
+        with self._lock:
+            self._pending = None
+
     @Slot()
     def warm_up(self) -> None:
         self.live.warm_up()
@@ -168,6 +173,7 @@ class EngineThread(QObject):
             self._wake.emit()
 
     def stop(self) -> None:
-        """Finish the current update and end the thread."""
+        """Finish the current update and end the thread (a waiting request is dropped)."""
+        self._worker.drop_pending()
         self._thread.quit()
         self._thread.wait()

@@ -195,17 +195,14 @@ class FileCommands:
 
     # -- drag and drop, closing ---------------------------------------------------------------------------
     @staticmethod
-    def _dropped(event) -> Path | None:
+    def _dropped(event) -> list[Path]:
         mime = event.mimeData()
         if not mime.hasUrls():
-            return None
-        for url in mime.urls():
-            if url.isLocalFile() and openable(url.toLocalFile()):
-                return Path(url.toLocalFile())
-        return None
+            return []
+        return [Path(url.toLocalFile()) for url in mime.urls() if url.isLocalFile() and openable(url.toLocalFile())]
 
     def dragEnterEvent(self, event) -> None:
-        if self._dropped(event) is not None and not self._busy:
+        if self._dropped(event) and not self._busy:
             event.acceptProposedAction()
         else:
             event.ignore()
@@ -214,12 +211,12 @@ class FileCommands:
         self.dragEnterEvent(event)
 
     def dropEvent(self, event) -> None:
-        path = self._dropped(event)
-        if path is None or self._busy:
+        paths = self._dropped(event)
+        if not paths or self._busy:
             event.ignore()
             return
         event.acceptProposedAction()
-        QTimer.singleShot(0, lambda: self.open_path(path))  # not inside the drop: open_path may ask a question
+        QTimer.singleShot(0, lambda: self.open_paths(paths))  # not inside the drop: opening may show a message
 
     def closeEvent(self, event) -> None:
         if not self._close_now and self.job is not None:
@@ -233,7 +230,7 @@ class FileCommands:
         self.settings.setValue("window/geometry", self.saveGeometry())
         self.settings.setValue("window/state", self.saveState())
         for workspace in list(self.workspaces):
-            self._drop(workspace)
+            self._drop(workspace, show_next=False)
         event.accept()
 
     def _close_after_save(self) -> None:

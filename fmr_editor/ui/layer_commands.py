@@ -22,10 +22,7 @@ class LayerCommands:
     _layer_actions_state: tuple | None = None  # what the Layer actions show; they are set again when it changes
 
     def _layer_edit(self, edit: Callable[[Document], Document], label: str) -> None:
-        if self.workspace is None or self._busy:
-            return
-        self.tool.finish()
-        self.layers_panel.apply(edit, label)
+        self.layers_panel.apply(edit, label)  # which makes way for it (the window's _settle_edits)
 
     def new_layer(self) -> None:
         self._layer_edit(layer_edits.add_layer, "New Layer")
@@ -64,18 +61,15 @@ class LayerCommands:
         """Turn the tools to the active layer's mask, or back to the layer."""
         if self.workspace is None or self._busy:
             return
-        document = self.workspace.history.document
-        if document.layer.mask is not None:
-            self.tool.finish()
+        if self.workspace.history.document.layer.mask is not None and self._settle_edits():
             self.workspace.context.selection = Selection()  # ids of the layer's items mean nothing in its mask
-            self.layers_panel.retarget(layer_edits.select_layer(document, document.active, not document.editing_mask))
+            self.layers_panel.retarget(lambda d: layer_edits.select_layer(d, d.active, not d.editing_mask))
         self._update_layer_actions()
 
     def adjust_colors(self) -> None:
         """Open the Colour Adjust dialog on the active layer (live preview; OK is one step)."""
-        if self.workspace is None or self._busy or self.workspace.history.in_transaction:
+        if not self._settle_edits():
             return
-        self.tool.finish()
         self.color_dialog = ColorAdjustDialog(self.workspace.history, self)
         self.color_dialog.finished.connect(lambda _: self._update_state())
         self.color_dialog.open()
@@ -86,7 +80,8 @@ class LayerCommands:
         document = workspace.history.document if workspace is not None else None
         free = document is not None and not self._busy
         mask = document.layer.mask if document is not None else None
-        state = (free, document is not None and (len(document.layers), document.active, document.editing_mask),
+        state = (free, document is not None and (len(document.layers), document.active, document.editing_mask,
+                                                 document.layer.clone is None),
                  mask is not None and mask.enabled, mask is None)
         if state == self._layer_actions_state:  # this runs on every pointer move: setting actions is not free
             return
@@ -98,8 +93,9 @@ class LayerCommands:
         actions["delete_layer"].setEnabled(free and len(document.layers) > 1)
         actions["merge_down"].setEnabled(free and document.active > 0)
         actions["flatten"].setEnabled(free and len(document.layers) > 1)
-        actions["add_mask"].setEnabled(free and mask is None)
-        actions["add_hiding_mask"].setEnabled(free and mask is None)
+        clone = document.layer.clone is not None  # a clone layer's mask is its region
+        actions["add_mask"].setEnabled(free and mask is None and not clone)
+        actions["add_hiding_mask"].setEnabled(free and mask is None and not clone)
         for name in ("delete_mask", "invert_mask", "disable_mask", "edit_mask"):
             actions[name].setEnabled(free and mask is not None)
         actions["disable_mask"].setText("Ena&ble Mask" if mask is not None and not mask.enabled else "Disa&ble Mask")

@@ -35,6 +35,9 @@ class LayersPanel(QWidget):
     ----------
     actions : dict of str to QAction
         The window's Layer actions (``menus.ACTIONS``), shown as the panel's buttons.
+    settle : callable, optional
+        ``settle() -> bool``, called before each change: makes way for it
+        (the window's tool finishes its work) or says it cannot be done now.
     parent : QWidget, optional
 
     Signals
@@ -45,8 +48,9 @@ class LayersPanel(QWidget):
 
     failed = Signal(str)
 
-    def __init__(self, actions: dict, parent=None) -> None:
+    def __init__(self, actions: dict, settle: Callable[[], bool] = lambda: True, parent=None) -> None:
         super().__init__(parent)
+        self._settle = settle
         self.list = QListWidget(self)
         self.list.setObjectName("layers")
         self.list.setDragDropMode(QAbstractItemView.DragDropMode.InternalMove)
@@ -115,18 +119,20 @@ class LayersPanel(QWidget):
     def apply(self, edit: Callable[[Document], Document], label: str, merge_key=None) -> None:
         """``edit`` of the current document as one step ``label``; a refusal goes to ``failed``."""
         history = self._history
-        if history is None or history.in_transaction:
-            return
-        try:
-            history.apply(edit(history.document), label, merge_key)
-        except (ValueError, IndexError) as error:
-            self.failed.emit(str(error))
+        if history is not None and self._settle() and not history.in_transaction:
+            try:
+                history.apply(edit(history.document), label, merge_key)
+            except (ValueError, IndexError) as error:
+                self.failed.emit(str(error))
+        self._shown = None  # what the list shows may be the user's change, refused
         self.refresh()
 
-    def retarget(self, document: Document) -> None:
-        """Make ``document`` (another active layer or mask editing) current without a step."""
-        if self._history is not None and not self._history.in_transaction:
-            self._history.retarget(document)
+    def retarget(self, choose: Callable[[Document], Document]) -> None:
+        """Make ``choose(document)`` (another active layer or mask editing) current without a step."""
+        history = self._history
+        if history is not None and self._settle() and not history.in_transaction:
+            history.retarget(choose(history.document))
+        self._shown = None
         self.refresh()
 
     # -- showing -------------------------------------------------------------------------------
@@ -181,7 +187,8 @@ class LayersPanel(QWidget):
         document = self.document
         if document is None or row < 0 or self._index(row) == document.active:
             return
-        self.retarget(layer_edits.select_layer(document, self._index(row)))
+        index = self._index(row)
+        self.retarget(lambda d: layer_edits.select_layer(d, index))
 
     def _item_changed(self, item: QListWidgetItem) -> None:
         document = self.document

@@ -17,10 +17,11 @@ from PySide6.QtCore import QEvent, QSettings, Qt
 from PySide6.QtGui import QCursor
 from PySide6.QtWidgets import QDockWidget, QLabel, QMainWindow, QMenu, QMessageBox, QProgressBar
 
+from ..model.clone_edits import canvas_region
 from ..tools import Selection, ToolOptions, delete_selection
 from ..tools.overlay import region_marks
 from .canvas import Canvas
-from .clip_commands import ClipCommands, canvas_region
+from .clip_commands import ClipCommands
 from .documents import DocumentTabs
 from .events import modifier_names, pointer_event, tool_key
 from .file_commands import FileCommands
@@ -95,7 +96,7 @@ class MainWindow(FileCommands, LayerCommands, DocumentTabs, ClipCommands, QMainW
         self.stops_panel = StopsPanel()
         self.stops_panel.changed.connect(self._after_tool)
         self.history_panel = HistoryPanel()
-        self.layers_panel = LayersPanel(self.actions)
+        self.layers_panel = LayersPanel(self.actions, self._settle_edits)
         self.layers_panel.failed.connect(lambda message: self.status_label.setText(message))
         docks = [
             self._dock("Tool Options", "options", self.options_panel, Qt.DockWidgetArea.LeftDockWidgetArea),
@@ -168,6 +169,14 @@ class MainWindow(FileCommands, LayerCommands, DocumentTabs, ClipCommands, QMainW
         x, y = event.position
         self.position_label.setText(f"{x:.1f}, {y:.1f}")
         self._after_tool()
+
+    def _settle_edits(self) -> bool:
+        """Make way for an edit from a menu or a panel: the active tool finishes what it was doing (a clone's
+        placement is kept); False when nothing can be edited (no document, a job, a panel's drag open)."""
+        if self.workspace is None or self._busy:
+            return False
+        self.tool.finish()
+        return not self.workspace.history.in_transaction
 
     def _refusing(self, action: Callable, *args):
         """``action(*args)`` of the tool; an edit the document refuses (drawing on a clone layer, say) cancels
@@ -325,6 +334,7 @@ class MainWindow(FileCommands, LayerCommands, DocumentTabs, ClipCommands, QMainW
             return
         mark = "*" if workspace.history.modified else ""
         self.setWindowTitle(f"{workspace.name}{mark} \u2014 {APP_NAME}")
+        self._name_tab(workspace)
 
     def _update_actions(self) -> None:
         workspace, actions, free = self.workspace, self.actions, not self._busy
@@ -333,7 +343,8 @@ class MainWindow(FileCommands, LayerCommands, DocumentTabs, ClipCommands, QMainW
         redo = history.redo_label if history is not None else None
         actions["undo"].setText(f"Undo {undo}" if undo else "Undo")
         actions["redo"].setText(f"Redo {redo}" if redo else "Redo")
-        actions["undo"].setEnabled(free and undo is not None)
+        gesture = self.tool is not None and self.tool.busy  # Undo drops it
+        actions["undo"].setEnabled(free and (undo is not None or gesture))
         actions["redo"].setEnabled(free and redo is not None)
         for name in ("new", "open"):
             actions[name].setEnabled(free)

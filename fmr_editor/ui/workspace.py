@@ -117,6 +117,9 @@ class Workspace(QObject):
     view : tuple
         ``(render.view.View or None, fitted)``: the canvas's view while the
         document was last shown (fitted: it fitted the canvas in the window).
+    failure : str or None
+        The engine's last failure, until a frame arrives (shown when the
+        document's tab comes to the front).
 
     Signals
     -------
@@ -147,6 +150,7 @@ class Workspace(QObject):
         self.context = ToolContext(self.history, sample=self.sample, choose_color=choose_color, options=options,
                                    say=self.message.emit)
         self.view = (None, True)
+        self.failure: str | None = None  # why the engine could not bring the image up to date, until it can
         self.tools = create_tools(self.context)
         self.frame = opened.frame
         self._waiting: list[Callable[[Frame | None], None]] = []
@@ -182,7 +186,7 @@ class Workspace(QObject):
         self.steps_changed.emit()
 
     def _ready(self, frame: Frame) -> None:
-        self.frame = frame
+        self.frame, self.failure = frame, None
         self.frame_ready.emit(frame)
         if self.current and self._waiting:
             waiting, self._waiting = self._waiting, []
@@ -190,6 +194,7 @@ class Workspace(QObject):
                 callback(frame)
 
     def _failed(self, message: str) -> None:
+        self.failure = message
         self.engine_failed.emit(message)
         waiting, self._waiting = self._waiting, []
         for callback in waiting:
