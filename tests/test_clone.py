@@ -130,7 +130,7 @@ def test_moving_a_clone_keeps_its_factorisation_and_gives_the_clone_built_there(
     source, target = images
     region = hexagon(60, 62, 30, 26)
     clone = SeamlessClone(source.segments, region, Similarity(offset=(2.0, 1.0)))
-    moved = clone.placed(6.0, -7.0)
+    moved = clone.moved(6.0, -7.0)
     fresh = SeamlessClone(source.segments, region, Similarity(offset=(8.0, -6.0)))
     assert moved._factors is clone._factors
     a = moved.segments(evaluate_points(target, moved.midpoints))

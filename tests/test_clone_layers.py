@@ -20,7 +20,7 @@ from fmr_editor.engine.stack import layer_fields
 from fmr_editor.io import load_fmr
 from fmr_editor.io.document_json import document_from_data, dumps_document
 from fmr_editor.io.json_checks import SchemaError
-from fmr_editor.model import DiffusionPoint, Document, Layer, edits, layer_edits
+from fmr_editor.model import DiffusionPoint, Document, edits, layer_edits
 from fmr_editor.model.clone import Similarity
 from fmr_editor.model.clone_edits import copy_region, paste_plain, paste_seamless, place_clone
 from fmr_editor.model.color_transform import hue_rotation

@@ -125,6 +125,7 @@ class LiveRepresentation:
         self._points: LivePoints | None = None
         self._radii = np.zeros(0)  # the points' radii, sorted
         self._point_levels = 2  # the lattice depth the points asked for when it was built
+        self._handed_out: tuple | None = None  # (state, Representation): see representation
         if saved is None or not self._resume(document, saved):
             self._rebuild(document, progress)
         self._kept.keep(self._state())
@@ -219,18 +220,42 @@ class LiveRepresentation:
         self._forget_curves(document.curves)
         return True
 
+    def twin(self, document: Document) -> LiveRepresentation:
+        """A representation of ``document``, which holds this one's very curves and points on its canvas: this
+        one's solution and expansions as they are, no solve (a clone's source copied from a layer, a duplicate).
+
+        The two are independent from now on; the twin factorises its system
+        only when an edit first needs it.  This one must be exact.
+        """
+        twin = object.__new__(LiveRepresentation)
+        twin.__dict__.update(self.__dict__)
+        twin.document, twin.timings = document, {"twin": 0.0}
+        twin._curve_cache = self._curve_cache.copy()
+        twin._solvers = SystemSolvers(twin._new_solver)
+        twin._solvers.move_to(self._boundary)
+        twin._kept = KeptStates(self.memory)
+        twin._unreported = np.zeros_like(self._unreported)
+        twin._points = self._points.copy() if self._points is not None else None
+        twin._kept.keep(twin._state())
+        return twin
+
     def _new_solver(self, boundary: Segments, progress: Callable[[float], None] | None = None) -> BoundarySolver:
         solve_lattice = Lattice(choose_levels(self._curves, self._side, SOLVE_SEGMENTS_PER_CELL), self._side)
         return BoundarySolver(boundary, solve_lattice, progress)
 
     @property
     def representation(self) -> Representation:
-        document = self.document
-        return Representation(
-            document.width, document.height, self.lattice, self._cells.segments, self._cells.cell_start,
-            self._cells.local, self.settings.order, self.timings,
-            self._points.field() if self._points is not None else None,
-        )
+        points = self._points
+        state = (self.document, self._cells, self.timings, points) + ((points.source, points.tensor)
+                                                                      if points is not None else (None, None))
+        if self._handed_out is None or any(a is not b for a, b in zip(self._handed_out[0], state)):
+            document = self.document
+            self._handed_out = state, Representation(
+                document.width, document.height, self.lattice, self._cells.segments, self._cells.cell_start,
+                self._cells.local, self.settings.order, self.timings,
+                points.field() if points is not None else None,
+            )
+        return self._handed_out[1]  # the same object while nothing changed: what it keeps (near_tables) is kept
 
     def warm_up(self) -> None:
         """Do once, now, the work the first edit of each kind would otherwise pay for.

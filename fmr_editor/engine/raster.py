@@ -211,13 +211,15 @@ def evaluate_points(rep: Representation | Composite, points: np.ndarray, order: 
         inside = (points >= 0).all(axis=1) & (points[:, 0] <= rep.width) & (points[:, 1] <= rep.height)
         return np.where(inside[:, None], values, 0.0)  # transforms and mask bases make no colour out there
     lattice, seg = rep.lattice, rep.segments
-    poly = rep.polynomials(order)
     cells = lattice.cell_of(points)
+    occupied, which = np.unique(cells[:, 0] * lattice.cells_per_side + cells[:, 1], return_inverse=True)
+    poly = rep.polynomials(order, np.divmod(occupied, lattice.cells_per_side))[which]  # the points' cells only
     local = points / lattice.cell_size - (cells[:, ::-1] + 0.5)
     degrees = np.arange(poly.shape[-1])
     xi, eta = local[:, 0:1] ** degrees, local[:, 1:2] ** degrees
-    far = np.einsum("mcij,mi,mj->mc", poly[cells[:, 0], cells[:, 1]], xi, eta)
-    near = near_sum(points, lattice.cells_per_side, lattice.cell_size, rep.cell_start, seg.p, seg.q, seg.flux, seg.jump)
+    far = np.einsum("mcij,mi,mj->mc", poly, xi, eta)
+    near = near_sum(points, lattice.cells_per_side, lattice.cell_size, rep.cell_start, seg.p, seg.q, seg.flux, seg.jump,
+                    tables=rep.near_tables)
     if rep.points is not None:
         near += near_at(rep.points.near, points)
     inside = (points >= 0).all(axis=1) & (points[:, 0] <= rep.width) & (points[:, 1] <= rep.height)

@@ -10,12 +10,14 @@ downward (M2L, L2L); a document with diffusion points adds a fifth, points
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
 from .fmm.expansions import local_polynomials
 from .fmm.lattice import Lattice
 from .geometry.segments import Segments
+from .kernels.segment_sums import near_tables
 from .points.field import PointField
 
 
@@ -60,6 +62,10 @@ SEGMENTS_PER_CELL = 6.0
 #: The same for the lattice of the iterative solve's products: fewer levels,
 #: more exact near-field pairs, measured 3-4x faster per product.
 SOLVE_SEGMENTS_PER_CELL = 24.0
+#: The same for a clone layer, made anew on every frame of a drag: its downward
+#: pass is paid per frame (a level less is about 4x fewer cells; a drag frame of
+#: roses into itself 280 -> 125 ms, near fields of about 10 segments a cell).
+CLONE_SEGMENTS_PER_CELL = 12.0
 #: Smallest fine cell ``choose_levels`` picks, in pixels.
 MIN_CELL_SIZE = 2.0
 
@@ -98,7 +104,13 @@ class Representation:
     timings: dict = field(default_factory=dict)
     points: PointField | None = None
 
-    def polynomials(self, order: int | None = None) -> np.ndarray:
+    @cached_property
+    def near_tables(self) -> tuple[np.ndarray, np.ndarray]:
+        """``segment_sums.near_tables`` of the segments, kept for the point evaluations that follow (a live
+        representation hands out the same ``Representation`` until it changes)."""
+        return near_tables(self.segments.p, self.segments.q, self.segments.flux, self.segments.jump)
+
+    def polynomials(self, order: int | None = None, cells: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
         """Cell polynomials ``c[row, column, channel, i, j]`` of ``xi^i eta^j``.
 
         ``(xi, eta) = ((x, y) - cell centre) / cell size`` lie in
@@ -110,28 +122,35 @@ class Representation:
         ----------
         order : int, optional
             Degree; defaults to ``self.order``, at most the propagation order.
+        cells : tuple of numpy.ndarray, optional
+            ``(rows, columns)``: only these cells' polynomials, ``(m, channel, i, j)``.
         """
         order = self.order if order is None else order
         if not 0 <= order < self.local.shape[-1]:
             raise ValueError(f"order must be between 0 and {self.local.shape[-1] - 1}")
-        coeffs = local_polynomials(self.local, order)
+        coeffs = local_polynomials(self.local if cells is None else self.local[cells], order)
         if self.points is not None:
-            coeffs += self.points.polynomials(order)
+            point_coeffs = self.points.polynomials(order)
+            coeffs += point_coeffs if cells is None else point_coeffs[cells]
         return coeffs
 
 
-def choose_levels(curves: Segments, side: float, per_cell: float = SEGMENTS_PER_CELL) -> int:
+def choose_levels(curves: Segments | np.ndarray, side: float, per_cell: float = SEGMENTS_PER_CELL) -> int:
     """Lattice depth: the coarsest with at most ``per_cell`` segments per occupied cell.
 
-    Stops refining at cells of ``MIN_CELL_SIZE`` pixels.
+    ``curves`` are the segments or their midpoints ``(n, 2)``.  Stops
+    refining at cells of ``MIN_CELL_SIZE`` pixels.
     """
-    mids = curves.midpoints
+    mids = curves if isinstance(curves, np.ndarray) else curves.midpoints
+    finest = Lattice(MAX_LEVELS, side).cell_of(mids)  # a coarser level's cells are these halved (exactly)
     for levels in range(2, MAX_LEVELS + 1):
         lattice = Lattice(levels, side)
         if lattice.cell_size / 2 < MIN_CELL_SIZE or len(mids) == 0:
             return levels
-        cells = lattice.cell_of(mids)
-        occupied = len(np.unique(cells[:, 0] * lattice.cells_per_side + cells[:, 1]))
+        cells = finest >> (MAX_LEVELS - levels)
+        flat = cells[:, 0] * lattice.cells_per_side + cells[:, 1]
+        many = lattice.cells_per_side**2 > 8 * len(flat)
+        occupied = len(np.unique(flat)) if many else np.count_nonzero(np.bincount(flat))
         if len(mids) / occupied <= per_cell:
             return levels
     return MAX_LEVELS

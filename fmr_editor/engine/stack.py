@@ -138,7 +138,9 @@ class LiveStack:
             live = self.fields.get(key) or self._retired.pop(key, None)
             if live is None:
                 start = time.perf_counter()
-                live = LiveRepresentation(flat, self.settings, lap, saved.get(key), memory=share)
+                twin = None if key in saved else self._same_items(flat)
+                live = twin.twin(flat) if twin else LiveRepresentation(flat, self.settings, lap, saved.get(key),
+                                                                       memory=share)
                 n = live.lattice.cells_per_side
                 updates[key] = Update("rebuild", np.ones((n, n), bool), time.perf_counter() - start)
             elif _items_changed(live.document, flat):
@@ -152,6 +154,15 @@ class LiveStack:
                 self._retired.popitem(last=False)
         self.document = document
         return updates
+
+    def _same_items(self, flat: Document) -> LiveRepresentation | None:
+        """An exact field of the very items of ``flat`` on its canvas (a layer a clone was pasted from), if any."""
+        for live in self.fields.values():
+            held = live.document
+            if (held.curves is flat.curves and held.points is flat.points and not live.approximate
+                    and (held.width, held.height) == (flat.width, flat.height)):
+                return live
+        return None
 
     def update(self, document: Document, progress: Progress | None = None, exact: bool = True) -> StackUpdate:
         """Bring every field to ``document``; see ``LiveRepresentation.update`` for ``exact``."""
@@ -189,12 +200,14 @@ class LiveStack:
             live = live or LiveClone(layer.clone)
             picture = Composite(document.width, document.height,
                                 tuple(layer_fields(each, *self._drawn(each)) for each in document.layers[:index]))
-            live.follow(layer.clone, self.fields[layer.id, "source"].representation, picture, self.settings, layer.id)
+            changed = live.follow(layer.clone, self.fields[layer.id, "source"].representation, picture, self.settings,
+                                  layer.id)
             self.clones[layer.id], self._below[layer.id] = live, below
             seconds = time.perf_counter() - start
             for kind, rep in (("image", live.image), ("mask", live.mask)):
                 n = rep.lattice.cells_per_side
-                updates[layer.id, kind] = Update("clone", np.ones((n, n), bool), seconds)
+                cells = np.ones((n, n), bool) if changed is None else changed  # the cells of both regions
+                updates[layer.id, kind] = Update("clone", cells, seconds)
             changed_below = True
         for gone in set(self.clones) - {layer.id for layer in document.layers}:
             del self.clones[gone], self._below[gone]

@@ -11,15 +11,24 @@ evaluation, sparse passes) keep both cores.  Measured on lady_bug: a build
 0.73 -> 0.47 s.
 
 The limit is set for the whole process when the engine is imported (BLAS
-keeps one setting per process); ``blas_threads`` says what is in force.
+keeps one setting per process), on numpy's BLAS and on scipy's own copy, both
+loaded first (a library loaded later would start with a thread per core);
+``blas_threads`` says what is in force.
 """
 
 from __future__ import annotations
 
-from threadpoolctl import threadpool_info, threadpool_limits
+from functools import lru_cache
+
+import numpy  # noqa: F401  (loads numpy's BLAS, so that the limit reaches it)
+import scipy.linalg  # noqa: F401  (scipy ships its own BLAS: loaded now, it is limited too)
+from threadpoolctl import ThreadpoolController, threadpool_info, threadpool_limits
 
 #: BLAS threads the engine runs with.
 BLAS_THREADS = 1
+#: BLAS threads for one large dense factorisation, which no compiled kernel runs beside: a dense LU of
+#: 1,451 unknowns (a clone's boundary) took 103 ms on one thread, 62-70 ms on two.
+FACTORISATION_THREADS = 2
 
 
 def limit_blas(threads: int = BLAS_THREADS) -> None:
@@ -30,3 +39,13 @@ def limit_blas(threads: int = BLAS_THREADS) -> None:
 def blas_threads() -> list[int]:
     """Threads of every loaded BLAS library, as now set."""
     return [entry["num_threads"] for entry in threadpool_info() if entry["user_api"] == "blas"]
+
+
+@lru_cache(maxsize=None)
+def _controller() -> ThreadpoolController:
+    return ThreadpoolController()  # made once: scanning the loaded libraries costs 2 ms
+
+
+def factorisation_threads():
+    """A context in which BLAS runs on ``FACTORISATION_THREADS`` threads (back to what it was after)."""
+    return _controller().limit(limits=FACTORISATION_THREADS, user_api="blas")

@@ -3,5 +3,6 @@
 ``expansions`` holds P2M, M2M, M2L and L2L (DESIGN section 4) and
 ``moments`` the compiled P2M; ``lattice`` the cells, the upward and
 downward passes; ``sparse_downward`` the downward pass of a change that
-touches few cells.
+touches few cells, and of sources in a few cells to a few cells (a clone
+layer's region).
 """

@@ -14,7 +14,8 @@ from functools import lru_cache
 
 import numpy as np
 
-from ..geometry.segments import Segments
+from ..geometry.discretise import cell_cuts
+from ..geometry.segments import Segments, concatenate
 from .expansions import l2l_matrix, m2l_matrix, m2m_matrix
 from .moments import cell_moments
 
@@ -97,7 +98,11 @@ def cell_order(segments: Segments, lattice: Lattice) -> tuple[np.ndarray, np.nda
     cell_start : numpy.ndarray
         ``(4^L + 1,)`` int64.
     """
-    cells = lattice.cell_of(segments.midpoints)
+    return _midpoint_order(segments.midpoints, lattice)
+
+
+def _midpoint_order(midpoints: np.ndarray, lattice: Lattice) -> tuple[np.ndarray, np.ndarray]:
+    cells = lattice.cell_of(midpoints)
     flat = cells[:, 0] * lattice.cells_per_side + cells[:, 1]
     counts = np.bincount(flat, minlength=lattice.cells_per_side**2)
     return np.argsort(flat, kind="stable"), np.concatenate([[0], np.cumsum(counts)])
@@ -107,6 +112,25 @@ def sort_into_cells(segments: Segments, lattice: Lattice) -> tuple[Segments, np.
     """Segments sorted by fine cell and the CSR offsets of each cell's run (``cell_order``)."""
     order, cell_start = cell_order(segments, lattice)
     return segments.take(order), cell_start
+
+
+def cut_into_cells(segments: Segments, lattice: Lattice) -> tuple[Segments, np.ndarray]:
+    """``sort_into_cells(cut_at_cells(segments, lattice.cell_size), lattice)``, the pieces made once, in order."""
+    owner, t0, t1 = cell_cuts(segments, lattice.cell_size)
+    start, step = segments.p[owner], (segments.q - segments.p)[owner]
+    order, cell_start = _midpoint_order(0.5 * ((start + t0[:, None] * step) + (start + t1[:, None] * step)), lattice)
+    return segments.split(owner[order], t0[order], t1[order]), cell_start
+
+
+def merged(first: Segments, first_start: np.ndarray, second: Segments,
+           second_start: np.ndarray) -> tuple[Segments, np.ndarray]:
+    """Two sets of segments sorted by cell (with their CSR offsets) as one: in each cell, ``first``'s, then
+    ``second``'s (``sort_into_cells`` of the two concatenated)."""
+    order = np.empty(len(first) + len(second), np.int64)  # where each merged segment is in the two, one after the other
+    order[np.arange(len(first)) + np.repeat(second_start[:-1], np.diff(first_start))] = np.arange(len(first))
+    order[np.arange(len(second)) + np.repeat(first_start[1:], np.diff(second_start))] = len(first) + np.arange(
+        len(second))
+    return concatenate([first, second]).take(order), first_start + second_start
 
 
 def fine_multipoles(segments: Segments, cell_start: np.ndarray, lattice: Lattice, order: int,

@@ -9,6 +9,7 @@ import numpy as np
 @numba.njit(parallel=True, cache=True)
 def _cell_moments(occupied, cell_start, centres, size, p, q, flux, jump, out):
     order = out.shape[2] - 1
+    inverse = 1.0 / np.arange(1, order + 2)  # divisions cost: 1/k once
     for c in numba.prange(occupied.shape[0]):
         cell = occupied[c]
         cx, cy = centres[c, 0], centres[c, 1]
@@ -17,8 +18,8 @@ def _cell_moments(occupied, cell_start, centres, size, p, q, flux, jump, out):
             zq = complex((q[j, 0] - cx) / size, (q[j, 1] - cy) / size)
             d = complex(q[j, 0] - p[j, 0], q[j, 1] - p[j, 1])
             h = abs(d)
-            tangent = d / h
-            dipole = -1j * tangent / size  # normal / r
+            reach = size * d.conjugate() / h  # size / tangent
+            dipole = -1j * d / (h * size)  # normal / r
             power_p, power_q = zp, zq
             previous = complex(h, 0.0)  # int zeta^0 ds
             for ch in range(3):
@@ -26,9 +27,10 @@ def _cell_moments(occupied, cell_start, centres, size, p, q, flux, jump, out):
             for k in range(1, order + 1):
                 power_p *= zp
                 power_q *= zq
-                integral = size * (power_q - power_p) / ((k + 1) * tangent)
+                integral = (power_q - power_p) * reach * inverse[k]
+                weight = dipole * previous
                 for ch in range(3):
-                    out[c, ch, k] += -flux[j, ch] / k * integral + jump[j, ch] * dipole * previous
+                    out[c, ch, k] += -flux[j, ch] * inverse[k - 1] * integral + jump[j, ch] * weight
                 previous = integral
 
 

@@ -41,6 +41,12 @@ class CurveSegments:
             segments = self._clipped[key] = clip_to_canvas(flat, width, height)
         return segments
 
+    def copy(self) -> CurveSegments:
+        """An independent cache holding what this one holds (the segments themselves shared: they never change)."""
+        twin = CurveSegments(self.tolerance, self.max_length)
+        twin._clipped, twin._last = dict(self._clipped), self._last
+        return twin
+
     def forget(self, keep: tuple[DiffusionCurve, ...]) -> None:
         """Drop the kept segments of curves in neither ``keep`` nor the last document."""
         wanted = set(keep) | set(self._last[0] if self._last is not None else ())

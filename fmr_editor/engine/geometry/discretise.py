@@ -141,6 +141,11 @@ def cut_at_cells(segments: Segments, cell_size: float) -> Segments:
 
     Afterwards every segment lies in one cell (up to its end points).
     """
+    return segments.split(*cell_cuts(segments, cell_size))
+
+
+def cell_cuts(segments: Segments, cell_size: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The pieces ``cut_at_cells`` makes, as ``(owner, t0, t1)``: each piece's segment and its parameters along it."""
     n = len(segments)
     owners = [np.arange(n), np.arange(n)]
     params = [np.zeros(n), np.ones(n)]
@@ -160,7 +165,7 @@ def cut_at_cells(segments: Segments, cell_size: float) -> Segments:
     order = np.lexsort((t, owner))
     owner, t = owner[order], t[order]
     pair = np.flatnonzero((owner[:-1] == owner[1:]) & (t[1:] - t[:-1] > 1e-12))
-    return segments.split(owner[pair], t[pair], t[pair + 1])
+    return owner[pair], t[pair], t[pair + 1]
 
 
 def from_curve(segments: Segments, curve_id: int) -> Segments:

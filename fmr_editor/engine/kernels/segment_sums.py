@@ -272,6 +272,7 @@ def near_sum(
     flux: np.ndarray,
     jump: np.ndarray,
     own: np.ndarray | None = None,
+    tables: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> np.ndarray:
     """Sum over the segments in the 3x3 cells around each target, ``(m, 3)``.
 
@@ -294,15 +295,22 @@ def near_sum(
     own : numpy.ndarray, optional
         ``(m,)`` index of a segment each target lies on (its midpoint), whose
         double layer then counts as 0 (the principal value); -1 for none.
+    tables : tuple of numpy.ndarray, optional
+        ``near_tables(p, q, flux, jump)``, when kept from an earlier call.
     """
     targets = np.ascontiguousarray(targets, dtype=np.float64)
     out = np.empty((len(targets), 3))
     own = np.full(len(targets), -1, np.int64) if own is None else np.asarray(own, np.int64)
     cell = cells_of(targets, int(cells_per_side), float(cell_size))
     order, _ = counting_sort(cell, int(cells_per_side) ** 2)
-    _near_sum(targets, cell, order, own, int(cells_per_side), np.asarray(cell_start, np.int64),
-              segment_table(p, q), _weights(flux, jump), out)
+    table, weights = tables or near_tables(p, q, flux, jump)
+    _near_sum(targets, cell, order, own, int(cells_per_side), np.asarray(cell_start, np.int64), table, weights, out)
     return out
+
+
+def near_tables(p: np.ndarray, q: np.ndarray, flux: np.ndarray, jump: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """What ``near_sum`` reads of the segments: ``segment_table(p, q)`` and the weights (E, then C)."""
+    return segment_table(p, q), _weights(flux, jump)
 
 
 @numba.njit(parallel=True, cache=True, fastmath=POLY_MATH, error_model="numpy")

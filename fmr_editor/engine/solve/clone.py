@@ -12,37 +12,90 @@ segments: collocation at their midpoints, where the mean of both sides is
 is ``g + h`` inside and exactly 0 outside, so the layer is composed through
 the indicator of ``Omega``.
 
-The matrix depends on ``Gamma``'s shape only, and the copied segments move
-with it: re-placing a clone (``SeamlessClone.placed``) evaluates ``f_t`` at
-``Gamma``'s midpoints and back-substitutes.  The paper instead sets
+The system is assembled and factorised in source pixels (``ClonedRegion``),
+once for every similarity: rotating or mirroring (with the segments
+reversed) keeps both layers' matrices; scaling by ``s`` keeps the double
+layer and makes the single layer ``s S + s ln(s) / 2pi * ones lengths^T``,
+whose rank-one part the extra constant absorbs, as it absorbs the constant
+``ln(s) / 2pi * total flux`` by which scaling shifts the copied segments'
+sum at ``Gamma``.  So ``E`` in target pixels is the source-pixel solution
+divided by ``s``.  ``Gamma`` is cut into pieces of ``boundary_spacing``
+source pixels, which moves with the scale in steps only: every placement
+within a step reuses the factorisation, and any placement gives what a
+fresh build of it gives.  A placement that the canvas edge cuts changes the
+region's shape and is factorised anew.  The paper instead sets
 ``C = f_t - g``, ``E = 0`` and solves nothing (an approximation; the tests
 hold both to a raster oracle).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
+from functools import cached_property
 
 import numpy as np
 import scipy.linalg
 import shapely
 
 from ...model.clone import Similarity, region_on_canvas
+from ..fmm.lattice import dilated
 from ..geometry.segments import Segments, concatenate
 from ..kernels.segment_sums import direct_sum, pair_matrices
+from ..threads import factorisation_threads
+
+#: Steps per octave of scale that share one discretisation of ``Gamma`` (``boundary_spacing``).
+SCALE_STEPS = 8
 
 
 def clipped_to(segments: Segments, polygon: np.ndarray) -> Segments:
     """The parts of ``segments`` inside the simple ``polygon`` ``(k, 2)`` (its edges cut them)."""
     a = np.asarray(polygon, dtype=np.float64)
     low, high = a.min(axis=0), a.max(axis=0)
-    near = ((np.minimum(segments.p, segments.q) <= high) & (np.maximum(segments.p, segments.q) >= low)).all(axis=1)
-    segments = segments.take(near)  # the others lie wholly outside the polygon's bounding box
-    if len(segments) == 0:
-        return segments
-    e = np.roll(a, -1, axis=0) - a
-    p, d = segments.p, segments.q - segments.p
-    w = a[None, :, :] - p[:, None, :]
+    boxed = np.flatnonzero(((np.minimum(segments.p, segments.q) <= high)
+                            & (np.maximum(segments.p, segments.q) >= low)).all(axis=1))  # others: outside its box
+    p, q = segments.p[boxed], segments.q[boxed]
+    crossing = np.flatnonzero(_near_edges(p, q, a)) if len(boxed) else boxed  # others: wholly inside or outside
+    cut_owner, t0, t1 = _edge_cuts(p[crossing], q[crossing], a)
+    whole = np.setdiff1d(np.arange(len(boxed)), crossing, assume_unique=True)
+    owner = np.concatenate([whole, crossing[cut_owner]])
+    t0, t1 = np.concatenate([np.zeros(len(whole)), t0]), np.concatenate([np.ones(len(whole)), t1])
+    order = np.lexsort((t0, owner))
+    owner, t0, t1 = owner[order], t0[order], t1[order]
+    mid = p[owner] + (0.5 * (t0 + t1))[:, None] * (q - p)[owner]
+    inside = shapely.contains_xy(shapely.Polygon(a), mid[:, 0], mid[:, 1])
+    return segments.split(boxed[owner[inside]], t0[inside], t1[inside])
+
+
+def _near_edges(p: np.ndarray, q: np.ndarray, polygon: np.ndarray) -> np.ndarray:
+    """True for the segments ``p -> q`` that may meet an edge of ``polygon`` (all that do, and some others).
+
+    On a grid of cells as large as the longest segment, the cells within two
+    of an edge hold every segment that meets it: the meeting point lies in a
+    cell next to a sample of the edge (taken every half cell), an end of the
+    segment within one cell of that point.
+    """
+    size = max(float(np.hypot(*(q - p).T).max()), 1e-9)
+    low = polygon.min(axis=0) - 3 * size
+    shape = np.ceil((polygon.max(axis=0) + 3 * size - low) / size).astype(int) + 1
+    edge = np.roll(polygon, -1, axis=0) - polygon
+    steps = np.ceil(np.hypot(*edge.T) / (0.5 * size)).astype(int) + 1
+    along = np.arange(steps.sum()) - np.repeat(np.cumsum(steps) - steps, steps)
+    samples = np.repeat(polygon, steps, axis=0) + (along / np.repeat(steps - 1, steps))[:, None] * np.repeat(
+        edge, steps, axis=0)
+    near = np.zeros(shape, bool)
+    cells = ((samples - low) // size).astype(int)
+    near[cells[:, 0], cells[:, 1]] = True
+    near = dilated(dilated(near))
+    ends = [np.clip(((x - low) // size).astype(int), 0, shape - 1) for x in (p, q)]
+    return near[ends[0][:, 0], ends[0][:, 1]] | near[ends[1][:, 0], ends[1][:, 1]]
+
+
+def _edge_cuts(p: np.ndarray, q: np.ndarray, polygon: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The pieces ``(owner, t0, t1)`` the edges of ``polygon`` cut segments ``p -> q`` into (parameters along them)."""
+    e = np.roll(polygon, -1, axis=0) - polygon
+    d = q - p
+    w = polygon[None, :, :] - p[:, None, :]
     denom = d[:, None, 0] * e[None, :, 1] - d[:, None, 1] * e[None, :, 0]
     with np.errstate(divide="ignore", invalid="ignore"):
         t = (w[..., 0] * e[None, :, 1] - w[..., 1] * e[None, :, 0]) / denom
@@ -51,10 +104,7 @@ def clipped_to(segments: Segments, polygon: np.ndarray) -> Segments:
     ends = np.sort(np.concatenate([np.zeros((len(p), 1)), cuts, np.ones((len(p), 1))], axis=1), axis=1)
     t0, t1 = ends[:, :-1], ends[:, 1:]
     owner, piece = np.nonzero((t1 <= 1.0) & (t1 > t0))
-    t0, t1 = t0[owner, piece], t1[owner, piece]
-    mid = p[owner] + (0.5 * (t0 + t1))[:, None] * d[owner]
-    inside = shapely.contains_xy(shapely.Polygon(a), mid[:, 0], mid[:, 1])
-    return segments.split(owner[inside], t0[inside], t1[inside])
+    return owner, t0[owner, piece], t1[owner, piece]
 
 
 def boundary(polygon: np.ndarray, spacing: float) -> tuple[np.ndarray, np.ndarray]:
@@ -75,8 +125,76 @@ def boundary(polygon: np.ndarray, spacing: float) -> tuple[np.ndarray, np.ndarra
     return a[edge] + f0[:, None] * d, a[edge] + f1[:, None] * d
 
 
+def boundary_spacing(spacing: float, scale: float) -> float:
+    """Length in source pixels of ``Gamma``'s pieces for ``spacing`` target pixels at ``scale``.
+
+    The scale is rounded up to a step of ``2^(1 / SCALE_STEPS)``: every scale
+    within a step shares one discretisation (and its factorisation), and the
+    pieces are between ``2^(-1 / SCALE_STEPS)`` and 1 times ``spacing`` long
+    in the target.
+    """
+    return spacing / 2.0 ** (math.ceil(SCALE_STEPS * math.log2(scale)) / SCALE_STEPS)
+
+
+class ClonedRegion:
+    """A region of a source image in source pixels: what every placement of a clone of it shares.
+
+    Parameters
+    ----------
+    source : Segments
+        The source image's solved segments (``E`` and ``C`` known), curves and border alike.
+    region : numpy.ndarray
+        ``(k, 2)`` a simple polygon in source pixels.
+    spacing : float
+        Length of ``Gamma``'s pieces in source pixels.
+
+    Attributes
+    ----------
+    copied : Segments
+        The source segments inside the region, clipped at its boundary.
+    gamma_p, gamma_q : numpy.ndarray
+        ``(n, 2)`` ``Gamma``'s pieces, the region on their left.
+    """
+
+    def __init__(self, source: Segments, region: np.ndarray, spacing: float) -> None:
+        self.source, self.region, self.spacing = source, np.asarray(region, dtype=np.float64), spacing
+        self.copied = clipped_to(source, self.region)
+        gp, gq = self.gamma_p, self.gamma_q = boundary(self.region, spacing)
+        single, double = pair_matrices(0.5 * (gp + gq), gp, gq)
+        n = len(gp)
+        double[np.arange(n), np.arange(n)] = 0.0  # a principal value: rounding must not put the midpoint to a side
+        system = np.zeros((n + 1, n + 1))
+        system[:n, :n], system[:n, n], system[n, :n] = single, 1.0, np.hypot(*(gq - gp).T)
+        self._double = double
+        with factorisation_threads():
+            self._factors = scipy.linalg.lu_factor(system)
+        self.copied_flux = (self.copied.flux * self.copied.lengths[:, None]).sum(axis=0)
+
+    def fits(self, source: Segments, region: np.ndarray, spacing: float) -> bool:
+        """True when this is the region ``region`` of ``source`` cut at ``spacing``."""
+        return source is self.source and spacing == self.spacing and np.array_equal(region, self.region)
+
+    @cached_property
+    def copied_at_gamma(self) -> np.ndarray:
+        """The copied segments' sum at ``Gamma``'s midpoints, ``(n, 3)`` (a direct sum, made when first asked for)."""
+        copies = self.copied
+        return direct_sum(0.5 * (self.gamma_p + self.gamma_q), copies.p, copies.q, copies.flux, copies.jump)
+
+    def flux(self, target: np.ndarray, copied_at_gamma: np.ndarray) -> np.ndarray:
+        """``E`` on ``Gamma`` in source pixels (``s`` times a placement's) for the colours ``target (n, 3)``.
+
+        ``copied_at_gamma`` is the copied segments' sum at the midpoints, in
+        source pixels or in any placement's (they differ by a constant).
+        """
+        n = len(self.gamma_p)
+        rhs = np.empty((n + 1, 3))
+        rhs[:n] = 0.5 * target + self._double @ target - copied_at_gamma
+        rhs[n] = -self.copied_flux
+        return scipy.linalg.lu_solve(self._factors, rhs, check_finite=False)[:n]  # the factors are finite: made here
+
+
 class SeamlessClone:
-    """A region of a source image, ready to be placed seamlessly into targets.
+    """A region of a source image placed by a similarity, ready to be blended seamlessly into targets.
 
     Parameters
     ----------
@@ -87,10 +205,12 @@ class SeamlessClone:
     similarity : Similarity
         Where the region goes in the target.
     spacing : float
-        Length of ``Gamma``'s segments in target pixels.
+        Length of ``Gamma``'s segments in target pixels (at most; see ``boundary_spacing``).
     canvas : tuple of float, optional
         The target's ``(width, height)``: the placed region is cut to it, so that
         the clone also blends into the target along the canvas edge.
+    kept : tuple of ClonedRegion
+        Regions made for other placements: one that fits this one is used (its factorisation kept).
 
     Raises
     ------
@@ -100,33 +220,24 @@ class SeamlessClone:
     """
 
     def __init__(self, source: Segments, region: np.ndarray, similarity: Similarity = Similarity(),
-                 spacing: float = 1.0, canvas: tuple[float, float] | None = None) -> None:
-        region = np.asarray(region, dtype=np.float64)
-        placed = similarity.apply(region)
-        kept = region_on_canvas(placed, *(canvas or (None, None)))
-        self._cut = kept is not placed  # the canvas edge took a part of the region
-        if self._cut:
-            region = similarity.inverse(kept)
-        self.similarity, self.canvas = similarity, canvas
-        copied = clipped_to(source, region)
-        gp, gq = boundary(region, spacing / similarity.scale)
+                 spacing: float = 1.0, canvas: tuple[float, float] | None = None,
+                 kept: tuple[ClonedRegion, ...] = ()) -> None:
+        self._source, self._region = source, np.asarray(region, dtype=np.float64)
+        self.similarity, self.spacing, self.canvas = similarity, spacing, canvas
+        placed = similarity.apply(self._region)
+        on_canvas = region_on_canvas(placed, *(canvas or (None, None)))
+        self.cut = on_canvas is not placed  # the canvas edge took a part of the region: its shape is this placement's
+        region = similarity.inverse(on_canvas) if self.cut else self._region
+        source_spacing = boundary_spacing(spacing, similarity.scale)
+        fitting = [cloned for cloned in kept if cloned.fits(source, region, source_spacing)]
+        self.cloned = cloned = fitting[0] if fitting else ClonedRegion(source, region, source_spacing)
+        copied = cloned.copied
         p, q = similarity.apply(copied.p), similarity.apply(copied.q)
-        gp, gq = similarity.apply(gp), similarity.apply(gq)
+        gp, gq = similarity.apply(cloned.gamma_p), similarity.apply(cloned.gamma_q)
         if similarity.mirror:  # a mirror swaps left and right: reversed, each segment keeps its C and E
             p, q, gp, gq = q, p, gq, gp
         self.copied = replace(copied, p=p, q=q, flux=copied.flux / similarity.scale)
         self.gamma_p, self.gamma_q = gp, gq
-        single, double = pair_matrices(self.midpoints, gp, gq)
-        n = len(gp)
-        double[np.arange(n), np.arange(n)] = 0.0  # a principal value: rounding must not put the midpoint to a side
-        lengths = np.hypot(*(gq - gp).T)
-        system = np.zeros((n + 1, n + 1))
-        system[:n, :n], system[:n, n], system[n, :n] = single, 1.0, lengths
-        self._double = double
-        self._factors = scipy.linalg.lu_factor(system)
-        copies = self.copied
-        self._copied_at_gamma = direct_sum(self.midpoints, copies.p, copies.q, copies.flux, copies.jump)
-        self._copied_flux = (copies.flux * copies.lengths[:, None]).sum(axis=0)
 
     @property
     def midpoints(self) -> np.ndarray:
@@ -138,38 +249,39 @@ class SeamlessClone:
         """``Omega`` in the target: ``Gamma``'s vertices, ``(n, 2)``."""
         return self.gamma_p
 
-    def segments(self, target: np.ndarray) -> Segments:
-        """The clone layer's segments for the target's colours ``(n, 3)`` at ``midpoints``.
+    @property
+    def _factors(self):
+        """The factorisation of the boundary system (shared by the placements of one ``ClonedRegion``)."""
+        return self.cloned._factors
 
+    def gamma(self, target: np.ndarray, copied_at_gamma: np.ndarray | None = None) -> Segments:
+        """``Gamma``'s segments with ``C = target (n, 3)`` (the target's colours at ``midpoints``) and ``E`` solved.
+
+        ``copied_at_gamma`` is the copied segments' sum at ``midpoints``
+        (``cloning`` reads it from their expansions); by default a direct sum.
         With diffusion points copied into the layer as well, ``target`` is the
         target's colours minus the points' sum there (``cloning.clone_layer``):
         the segments then make the rest, and are 0 outside as without points.
         """
         target = np.asarray(target, dtype=np.float64)
+        if copied_at_gamma is None:
+            copied_at_gamma = self.cloned.copied_at_gamma
+        flux = self.cloned.flux(target, copied_at_gamma) / self.similarity.scale
         n = len(self.gamma_p)
-        rhs = np.zeros((n + 1, 3))
-        rhs[:n] = 0.5 * target + self._double @ target - self._copied_at_gamma
-        rhs[n] = -self._copied_flux
-        flux = scipy.linalg.lu_solve(self._factors, rhs)[:n]
-        zeros = np.zeros((n, 3))
-        gamma = Segments(self.gamma_p, self.gamma_q, target, zeros, np.zeros(n, bool), flux)
-        return concatenate([self.copied, gamma])
+        return Segments(self.gamma_p, self.gamma_q, target, np.zeros((n, 3)), np.zeros(n, bool), flux)
 
-    def placed(self, dx: float, dy: float) -> SeamlessClone:
-        """The same clone moved by ``(dx, dy)``: its factorisation and copied sums are kept (unless the canvas
-        edge cuts the region, which changes its shape)."""
-        if self.canvas is not None:
-            moved = self.gamma_p + np.array([dx, dy])
-            w, h = self.canvas
-            if moved.min() < 0 or moved[:, 0].max() > w or moved[:, 1].max() > h or self._cut:
-                raise ValueError("a clone cut by the canvas edge is placed anew, not moved")
-        twin = object.__new__(SeamlessClone)
-        twin.__dict__.update(self.__dict__)
-        shift = np.array([dx, dy])
-        twin.similarity = self.similarity.moved(dx, dy)
-        twin.copied = replace(self.copied, p=self.copied.p + shift, q=self.copied.q + shift)
-        twin.gamma_p, twin.gamma_q = self.gamma_p + shift, self.gamma_q + shift
-        return twin
+    def segments(self, target: np.ndarray, copied_at_gamma: np.ndarray | None = None) -> Segments:
+        """The clone layer's segments: the copied ones, then ``gamma(target, copied_at_gamma)``."""
+        return concatenate([self.copied, self.gamma(target, copied_at_gamma)])
+
+    def placed(self, similarity: Similarity) -> SeamlessClone:
+        """The same region placed by ``similarity`` instead: the factorisation is kept unless the scale leaves
+        its step of ``boundary_spacing`` or the canvas edge cuts the region."""
+        return SeamlessClone(self._source, self._region, similarity, self.spacing, self.canvas, (self.cloned,))
+
+    def moved(self, dx: float, dy: float) -> SeamlessClone:
+        """The same clone ``(dx, dy)`` further."""
+        return self.placed(self.similarity.moved(dx, dy))
 
 
 def paper_segments(clone: SeamlessClone, target: np.ndarray, source_at_gamma: np.ndarray) -> Segments:

@@ -64,22 +64,29 @@ def far_field_at_reference(local: np.ndarray, lattice: Lattice, cells: np.ndarra
 
 
 @numba.njit(parallel=True, cache=True)
-def _far_field(local, cells, points, cell_size, out):
+def _far_field(local, rows, cells, points, cell_size, out):
     for i in numba.prange(points.shape[0]):
         row, col = cells[i, 0], cells[i, 1]
         w = complex(points[i, 0] / cell_size - (col + 0.5), points[i, 1] / cell_size - (row + 0.5))
-        for channel in range(local.shape[2]):
-            coeffs = local[row, col, channel]
+        for channel in range(local.shape[1]):
+            coeffs = local[rows[i], channel]
             value = coeffs[-1]
             for term in range(coeffs.shape[0] - 2, -1, -1):
                 value = value * w + coeffs[term]
             out[i, channel] = value.real / (2 * np.pi)
 
 
-def far_field_at(local: np.ndarray, lattice: Lattice, cells: np.ndarray, points: np.ndarray) -> np.ndarray:
-    """Compiled twin of ``far_field_at_reference``."""
-    out = np.empty((len(points), local.shape[2]))
-    _far_field(local, np.ascontiguousarray(cells), np.ascontiguousarray(points, dtype=np.float64),
+def far_field_at(local: np.ndarray, lattice: Lattice, cells: np.ndarray, points: np.ndarray,
+                 rows: np.ndarray | None = None) -> np.ndarray:
+    """Compiled twin of ``far_field_at_reference``.
+
+    With ``rows``, ``local`` holds some cells' expansions only, ``(k, 3, P + 1)``: point ``i``'s at ``rows[i]``.
+    """
+    if rows is None:
+        n = lattice.cells_per_side
+        local, rows = local.reshape(n * n, *local.shape[2:]), cells[:, 0] * n + cells[:, 1]
+    out = np.empty((len(points), local.shape[1]))
+    _far_field(local, np.asarray(rows, np.int64), np.ascontiguousarray(cells), np.ascontiguousarray(points, np.float64),
                float(lattice.cell_size), out)
     return out
 
