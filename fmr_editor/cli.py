@@ -201,8 +201,8 @@ def run_compose(args: argparse.Namespace) -> int:
     settings are taken as they are; the others are solved.  Nothing is
     written when anything fails.
     """
-    from .engine import LiveStack, Settings
-    from .io import DocumentLoadError, load_fmr, save_fmr
+    from .engine import Settings
+    from .io import DocumentLoadError, load_fmr
     from .model import layer_edits
     from .model.color_transform import hue_rotation
 
@@ -229,17 +229,29 @@ def run_compose(args: argparse.Namespace) -> int:
     try:
         document = layer_edits.stacked(documents["bottom"], documents["top"], documents.get("mask"), args.opacity,
                                        hue_rotation(args.hue) if args.hue else None)
-        settings = settings or Settings()
-        stack = LiveStack(document, settings, StderrProgress(),
-                          [(saved.get("bottom"), None), (saved.get("top"), saved.get("mask"))])
-        written = save_fmr(args.output, document, stack.composite, settings=settings)
-    except (ValueError, MemoryError) as error:
+    except ValueError as error:
         print(f"fmr-editor: cannot compose: {error}", file=sys.stderr)
         return 2
-    except OSError as error:
-        print(f"fmr-editor: cannot write {args.output}: {error.strerror or error}", file=sys.stderr)
+    fields = [(saved.get("bottom"), None), (saved.get("top"), saved.get("mask"))]
+    return _build_and_save(args.output, document, settings or Settings(), fields, "compose")
+
+
+def _build_and_save(output: str, document, settings, saved: list, verb: str) -> int:
+    """Build ``document``'s layers (``saved`` representations taken as they are) and save it with them to
+    ``output``; 0, or 2 after one line on stderr saying why the command (``verb``) could not."""
+    from .engine import LiveStack
+    from .io import save_fmr
+
+    try:
+        stack = LiveStack(document, settings, StderrProgress(), saved)
+        written = save_fmr(output, document, stack.composite, settings=settings)
+    except (ValueError, MemoryError) as error:
+        print(f"fmr-editor: cannot {verb}: {error}", file=sys.stderr)
         return 2
-    print(f"wrote {written} (2 layers, {document.width}x{document.height})")
+    except OSError as error:
+        print(f"fmr-editor: cannot write {output}: {error.strerror or error}", file=sys.stderr)
+        return 2
+    print(f"wrote {written} ({len(document.layers)} layers, {document.width}x{document.height})")
     return 0
 
 
@@ -253,8 +265,8 @@ def run_clone(args: argparse.Namespace) -> int:
     """
     import shapely
 
-    from .engine import LiveStack, Settings
-    from .io import DocumentLoadError, load_fmr, save_fmr
+    from .engine import Settings
+    from .io import DocumentLoadError, load_fmr
     from .model.clone import Similarity
     from .model.clone_edits import copy_region, paste_seamless
 
@@ -278,19 +290,13 @@ def run_clone(args: argparse.Namespace) -> int:
         centroid = shapely.Polygon(copied.region).centroid
         similarity = Similarity().about((centroid.x, centroid.y), args.scale, args.rotate).moved(*args.offset)
         document = paste_seamless(target, copied, similarity)
-        saved = list(opened[0].fields) if opened[0] is not None else [()] * len(target.layers)
-        source_saved = opened[1] is not None and opened[1].settings == settings and source.is_flat
-        saved.insert(document.active, (None, None, opened[1].representation if source_saved else None))
-        stack = LiveStack(document, settings, StderrProgress(), saved)
-        written = save_fmr(args.output, document, stack.composite, settings=settings)
-    except (ValueError, MemoryError) as error:
+    except ValueError as error:
         print(f"fmr-editor: cannot clone: {error}", file=sys.stderr)
         return 2
-    except OSError as error:
-        print(f"fmr-editor: cannot write {args.output}: {error.strerror or error}", file=sys.stderr)
-        return 2
-    print(f"wrote {written} ({len(document.layers)} layers, {document.width}x{document.height})")
-    return 0
+    saved = list(opened[0].fields) if opened[0] is not None else [()] * len(target.layers)
+    source_saved = opened[1] is not None and opened[1].settings == settings and source.is_flat
+    saved.insert(document.active, (None, None, opened[1].representation if source_saved else None))
+    return _build_and_save(args.output, document, settings, saved, "clone")
 
 
 def main(argv: Sequence[str] | None = None) -> int:

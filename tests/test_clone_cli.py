@@ -2,17 +2,15 @@
 
 from __future__ import annotations
 
-import contextlib
-import io
 from pathlib import Path
 
 import numpy as np
 import pytest
+from cli_runs import run
 import shapely
 from PIL import Image
 from shapes import scattered_document
 
-from fmr_editor.cli import main
 from fmr_editor.engine import LiveStack, Settings, build, rasterise
 from fmr_editor.io import load_fmr, save_fmr
 from fmr_editor.io.png import to_rgb8
@@ -20,16 +18,6 @@ from fmr_editor.io.png import to_rgb8
 SIZE = 128
 PIXELS = 48
 REGION = "30,36 90,36 100,70 60,95 25,70"
-
-
-def run(*argv: str) -> tuple[int, str, str]:
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        try:
-            code = main(list(argv))
-        except SystemExit as exit:  # argparse
-            code = exit.code
-    return code, out.getvalue(), err.getvalue()
 
 
 @pytest.fixture(scope="module")

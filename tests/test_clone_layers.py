@@ -22,7 +22,7 @@ from fmr_editor.io.document_json import document_from_data, dumps_document
 from fmr_editor.io.json_checks import SchemaError
 from fmr_editor.model import DiffusionPoint, Document, edits, layer_edits
 from fmr_editor.model.clone import Similarity
-from fmr_editor.model.clone_edits import copy_region, paste_plain, paste_seamless, place_clone
+from fmr_editor.model.clone_edits import copy_region, paste_curves, paste_seamless, place_clone
 from fmr_editor.model.color_transform import hue_rotation
 from fmr_editor.model.history import History
 from fmr_editor.session import Session
@@ -153,11 +153,11 @@ def test_a_region_across_the_canvas_edge_is_cut_to_it_and_a_clone_off_the_canvas
         place_clone(pasted, 0, Similarity())
 
 
-def test_plain_paste_copies_the_curves_meeting_the_region_and_the_points_inside_moved(source):
+def test_plain_paste_adds_the_curves_meeting_the_region_and_the_points_inside_moved(source):
     target = Document(SIZE, SIZE)
-    pasted = paste_plain(target, copy_region(source, HEXAGON), (10.0, -5.0))
+    pasted = paste_curves(target, copy_region(source, HEXAGON), (10.0, -5.0))
     layer = pasted.layer
-    assert pasted.active == 1 and layer.clone is None and layer.name == "Layer 1 pasted"
+    assert len(pasted.layers) == 1 and layer.clone is None
     assert 0 < len(layer.curves) < len(source.curves)
     originals = {tuple(np.round(curve.control_points[0], 9)) for curve in source.curves}
     for curve in layer.curves:

@@ -14,17 +14,15 @@ Checks
 
 from __future__ import annotations
 
-import contextlib
-import io
 from pathlib import Path
 
 import numpy as np
 import pytest
+from cli_runs import run
 from layered import SIZE, reference, sharp_mask, soft_mask, three_layers
 from PIL import Image
 from shapes import scattered_document
 
-from fmr_editor.cli import main
 from fmr_editor.engine import LiveStack, Settings, build, rasterise
 from fmr_editor.io import load_fmr, open_live, save_fmr
 from fmr_editor.io.png import to_rgb8
@@ -63,16 +61,6 @@ def test_a_layered_document_saved_and_reopened_is_the_same_without_a_solve(tmp_p
 
 
 # -- the command line --------------------------------------------------------------------------------------------
-
-
-def run(*argv: str) -> tuple[int, str, str]:
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        try:
-            code = main(list(argv))
-        except SystemExit as exit:  # argparse
-            code = exit.code
-    return code, out.getvalue(), err.getvalue()
 
 
 @pytest.fixture(scope="module")

@@ -206,7 +206,7 @@ class LiveStack:
             seconds = time.perf_counter() - start
             for kind, rep in (("image", live.image), ("mask", live.mask)):
                 n = rep.lattice.cells_per_side
-                cells = np.ones((n, n), bool) if changed is None else changed  # the cells of both regions
+                cells = np.ones((n, n), bool) if changed is None else changed[kind]
                 updates[layer.id, kind] = Update("clone", cells, seconds)
             changed_below = True
         for gone in set(self.clones) - {layer.id for layer in document.layers}:

@@ -2,7 +2,8 @@
 
 ``copy_region`` takes the active layer's items and the selection;
 ``paste_seamless`` adds a clone layer (``model.clone``) above the active
-layer, ``paste_plain`` a layer of the copied curves and points as they are.
+layer, ``paste_curves`` adds the copied curves and points as they are to
+the active layer.
 Each is one undo step, as are ``place_clone`` (a clone moved, turned or
 scaled) and the commit of the on-canvas handles.
 """
@@ -19,7 +20,7 @@ from .document import Document
 from .layer import Layer
 from .layer_edits import baked
 
-#: Samples per curve piece by which ``paste_plain`` tells which curves the region holds.
+#: Samples per curve piece by which ``copied_items`` tells which curves the region holds.
 SAMPLES_PER_PIECE = 8
 
 
@@ -118,22 +119,6 @@ def _landing(document: Document, clone: Clone) -> Clone:
     except ValueError as error:
         raise ValueError(f"where the clone goes, {error}") from None
     return clone
-
-
-def paste_plain(document: Document, copied: Copied, offset: tuple[float, float] = (0.0, 0.0)) -> Document:
-    """A layer above the active one of the copied curves that meet the region and the points inside it,
-    moved by ``offset``, as they are (no blending: they diffuse on their own in their new layer)."""
-    polygon = shapely.Polygon(copied.region)
-    shift = np.asarray(offset, dtype=np.float64)
-    curves = []
-    for curve in copied.source.curves:
-        s = np.linspace(0.0, curve.piece_count, SAMPLES_PER_PIECE * curve.piece_count + 1)
-        xy = curve.point_at(s)
-        if shapely.contains_xy(polygon, xy[:, 0], xy[:, 1]).any():
-            curves.append(replace(curve, control_points=curve.control_points + shift, id=None))
-    points = [replace(point, position=tuple(np.asarray(point.position) + shift), id=None)
-              for point in copied.source.points if shapely.contains_xy(polygon, *point.position)]
-    return _add_above(document, Layer(curves, points, name=f"{copied.name} pasted"))
 
 
 def copied_items(copied: Copied) -> tuple[tuple, tuple]:

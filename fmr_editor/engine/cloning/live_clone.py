@@ -8,7 +8,7 @@ from ...model.clone import Clone
 from ..composite import Composite
 from ..representation import Representation, Settings
 from ..solve.clone import ClonedRegion, SeamlessClone
-from .layer import CopiedCells, clone_layer, clone_points, layer_lattice
+from .layer import CopiedCells, clone_layer, clone_points, layer_lattice, ring_cells
 
 #: Factorisations kept for the placements of one clone: a drag back from the canvas edge or across a step of scale
 #: and back finds its own (each holds two dense matrices of Gamma's size: 16 MB for 1,000 segments).
@@ -42,14 +42,17 @@ class LiveClone:
         self._points: tuple = ()  # the diffusion points copied into the image
 
     def follow(self, clone: Clone, source: Representation, below: Composite, settings: Settings,
-               layer_id: int) -> np.ndarray | None:
+               layer_id: int) -> dict[str, np.ndarray] | None:
         """Make the fields for ``clone`` (its source's representation ``source``) over ``below``.
 
         Returns
         -------
-        numpy.ndarray or None
-            ``(2^L, 2^L)`` bool: the fine cells where the fields may differ
-            from the last ones (the cells of both regions); None for all of them.
+        dict or None
+            By ``"image"`` and ``"mask"``, ``(2^L, 2^L)`` bool: the fine cells
+            where the field may differ from the last one (the image: the cells
+            of both regions; the mask: where only one of them lies, and the
+            rings around both boundaries, since it is 1 inside a region to
+            the expansions' accuracy); None for all cells.
         """
         canvas = (below.width, below.height)
         before = self._copied  # the cells of the fields shown now (None: not made here)
@@ -61,7 +64,11 @@ class LiveClone:
         fields = clone_layer(seamless, below, settings, layer_id, placed=points, copied=self._copied)
         comparable = before is not None and before.lattice == self._copied.lattice and not (points or self._points)
         self.clone, self.image, self.mask, self._points = clone, fields.image, fields.mask, points
-        return before.cells | self._copied.cells if comparable else None  # points reach beyond the cells
+        if not comparable:  # another lattice, or points, which reach beyond the cells
+            return None
+        now, rings = self._copied, ring_cells(before.gamma, before.lattice) | ring_cells(self._copied.gamma,
+                                                                                          before.lattice)
+        return {"image": before.cells | now.cells, "mask": (before.cells ^ now.cells) | rings}
 
     def _seamless_for(self, clone: Clone, source: Representation, canvas: tuple[int, int]) -> SeamlessClone:
         """The clone placed on ``canvas``: the last one if nothing moved, through a kept factorisation if one fits."""
