@@ -1,31 +1,37 @@
-"""The FMR paper's Tables 1 and 2 side by side with ours, on the Hilbert benchmark DCIs.
+"""The FMR paper's Tables 1 and 2, every cell, side by side with ours, on the Hilbert benchmark DCIs.
 
-    python bench/bench_paper.py [--repeat N] [--min-iteration I] [--max-iteration I] [--size S]
-                                [--levels L] [--order P] [--propagation-order Q] [--seed K]
+    python bench/bench_paper.py [--repeat N] [--cells ITERATION:LEVEL ...] [--error-pixels K] [--size S]
 
-Table 1 of Sun, Thamjaroenporn and Zheng (SIGGRAPH 2014) times the upward and
-downward passes (ms, quad-core C++) on Hilbert DCIs of 2,048 to 524,288
-segments; Table 2 the 1024x1024 raster.  Our side skips the boundary solve
-(dense, O(n^3) today): the segments are built as ``build`` builds them
-(flatten + clip, ``choose_levels``, cut at cells + canvas border), then given a
-synthetic, seeded normal-derivative jump ``E`` (standard normal per curve
-segment, zero on the border; border colours uniform in [0, 1]) -- the passes'
-and the raster's cost does not depend on the values.  ``upward`` is
-``sort_into_cells`` + ``upward_pass`` (as ``build`` times it), ``downward`` is
-``downward_pass``, the raster is ``rasterise(rep, S, S, samples=1)``.
+Table 1 of Sun, Thamjaroenporn and Zheng (SIGGRAPH 2014) times the upward pass
+(P2M, M2M) and the downward pass (M2L, L2L) on Hilbert DCIs of 2,048 to
+524,288 segments at lattice levels 5 to 9; Table 2 the 1024 x 1024 raster at
+one sample a pixel, at levels 5 to 10 (``../shared/paper_tables.md``: their
+figures, quad-core C++).  Every cell the paper fills is measured here, at the
+paper's level (``Settings(levels=L)``), each in a process of its own so that
+its peak memory is its own.
+
+Our side skips the boundary solve (the passes' and the raster's cost does
+not depend on the values): the segments are made as a build makes them
+(flatten, clip, cut at the cells, canvas border), then given a seeded
+synthetic normal-derivative jump ``E`` (standard normal per curve segment,
+none on the border; border colours uniform in [0, 1]).  ``upward`` and
+``downward`` are the two stages of ``Cells.build`` (what a build runs, timed
+by its own laps), the raster is ``rasterise(rep, S, S, samples=1)``.  The
+error is the largest difference from the direct boundary integral
+(``method="direct"``) at ``K`` random pixels, in 8-bit levels.
 
 Markdown on stdout, progress on stderr.  Every time is the best of N runs
-(default 3) on a shared, noisy 2-core machine.  Peak RSS is the process's
-``ru_maxrss`` after each row: a running maximum, so it belongs to the largest
-row so far.
+(default 5) on a shared, noisy 2-core machine.
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
+import json
 import os
 import resource
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -34,39 +40,36 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from bench_engine import best_of, log, machine, warm_up  # noqa: E402
+from bench_engine import log, machine, warm_up  # noqa: E402
 from hilbert import PAPER_ITERATIONS, hilbert_document, hilbert_settings  # noqa: E402
 
-from fmr_editor.engine import Representation, rasterise  # noqa: E402
-from fmr_editor.engine.fmm.lattice import Lattice, downward_pass, sort_into_cells, upward_pass  # noqa: E402
-from fmr_editor.engine.geometry.discretise import boundary_segments, curve_segments  # noqa: E402
-from fmr_editor.engine.representation import choose_levels  # noqa: E402
-
-#: The paper's numbers, keyed by segment count: (upward ms, downward ms, raster 1024x1024 ms).
-#: Not found: the paper's text (Table 1 and 2) could not be retrieved when this was written
-#: (searches of stored copies returned only the paper's first page).  Fill these in from the
-#: paper itself, with PAPER_SOURCE; never guess them.
-PAPER: dict[int, tuple[float | None, float | None, float | None]] = {
-    2 * 4**i: (None, None, None) for i in PAPER_ITERATIONS
+#: The paper's Table 1, ``(pieces, level): (upward ms, downward ms)``, and Table 2, ``(pieces, level): raster ms``.
+TABLE_1 = {
+    (2048, 5): (2.6, 3.2), (2048, 6): (3.6, 10), (2048, 7): (7.6, 21), (2048, 8): (22, 86), (2048, 9): (92, 318),
+    (8192, 6): (4.5, 7.6), (8192, 7): (8.5, 23), (8192, 8): (27, 87), (8192, 9): (96, 310),
+    (32768, 7): (12, 24), (32768, 8): (35, 85), (32768, 9): (106, 315),
+    (131072, 8): (59, 81), (131072, 9): (126, 318),
+    (524288, 9): (187, 324),
 }
-PAPER_SOURCE = "not found"
-#: Environment variables that set BLAS threads (the passes make many small matrix products).
-BLAS_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+TABLE_2 = {
+    (2048, 5): 51, (2048, 6): 68.3, (2048, 7): 39.4, (2048, 8): 31.1, (2048, 9): 23.9, (2048, 10): 19.8,
+    (8192, 6): 57, (8192, 7): 68.1, (8192, 8): 38.2, (8192, 9): 29.8, (8192, 10): 23.1,
+    (32768, 7): 171, (32768, 8): 68.8, (32768, 9): 39.8, (32768, 10): 32.2,
+    (131072, 8): 176, (131072, 9): 72.0, (131072, 10): 39.2,
+    (524288, 9): 180, (524288, 10): 72.5,
+}
+LEVELS = (5, 6, 7, 8, 9, 10)
 
 
-def peak_rss_mb() -> float:
-    """The process's peak resident set so far, in MB (Linux reports KiB)."""
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+def pieces_of(iteration: int) -> int:
+    return 2 * 4**iteration
 
 
-def timed(repeat: int, run):
-    """Smallest and largest wall time of ``repeat`` calls of ``run()``, and the last result."""
-    times, result = [], None
-    for _ in range(repeat):
-        start = time.perf_counter()
-        result = run()
-        times.append(time.perf_counter() - start)
-    return min(times), max(times), result
+def paper_cells() -> list[tuple[int, int]]:
+    """Every ``(iteration, level)`` either table fills, in row order."""
+    cells = {(i, level) for i in PAPER_ITERATIONS for level in LEVELS
+             if (pieces_of(i), level) in TABLE_1 or (pieces_of(i), level) in TABLE_2}
+    return sorted(cells)
 
 
 def synthetic_values(segments, seed: int):
@@ -78,138 +81,108 @@ def synthetic_values(segments, seed: int):
     return dataclasses.replace(segments, flux=flux, jump=jump)
 
 
-def discretise(document, settings):
-    """What ``build`` does before its solve: segments (curves + border, cut at cells) and the lattice."""
-    side = float(max(document.width, document.height))
+def measure(iteration: int, level: int, args: argparse.Namespace) -> dict:
+    """Times, sizes, error and peak memory of one cell (run in a process of its own)."""
+    from fmr_editor.engine import Representation, rasterise
+    from fmr_editor.engine.cells import Cells
+    from fmr_editor.engine.fmm.lattice import Lattice
+    from fmr_editor.engine.geometry.discretise import boundary_segments, curve_segments
+
+    warm_up()
+    settings = hilbert_settings(args.size, levels=level)
+    document = hilbert_document(iteration, args.size)
+    lattice = Lattice(level, float(args.size))
     curves = curve_segments(document, settings.tolerance, settings.max_length)
-    levels = settings.levels or choose_levels(curves, side)
-    lattice = Lattice(levels, side)
-    return curves, lattice, boundary_segments(curves, document, lattice.cell_size, settings.border_spacing)
+    segments = synthetic_values(boundary_segments(curves, document, lattice.cell_size, settings.border_spacing),
+                                args.seed)
+    passes, rasters, cells = [], [], None
+    for _ in range(args.repeat):
+        laps = [time.perf_counter()]
+        cells = Cells.build(segments, lattice, settings.propagation_order, lambda stage: laps.append(time.perf_counter()))
+        passes.append(np.diff(laps))
+    rep = Representation(args.size, args.size, lattice, cells.segments, cells.cell_start, cells.local, settings.order)
+    for _ in range(args.repeat):
+        start = time.perf_counter()
+        rasterise(rep, args.raster, args.raster, samples=1)
+        rasters.append(time.perf_counter() - start)
+    rng = np.random.default_rng(args.seed)
+    pixels = rng.uniform(0, args.size, (args.error_pixels, 2))
+    from fmr_editor.engine import evaluate_points
+    from fmr_editor.engine.kernels.segment_sums import direct_sum
+
+    seg = rep.segments
+    error = np.abs(evaluate_points(rep, pixels) - direct_sum(pixels, seg.p, seg.q, seg.flux, seg.jump)).max() * 255
+    best = np.min(passes, axis=0)
+    return {"iteration": iteration, "level": level, "pieces": pieces_of(iteration), "segments": len(segments),
+            "occupied": int(np.count_nonzero(np.diff(cells.cell_start))), "upward": float(best[0]),
+            "downward": float(best[1]), "raster": min(rasters), "error": float(error),
+            "orders": f"{settings.propagation_order}/{settings.order}",
+            "rss": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
 
 
-def bench_iteration(iteration: int, args: argparse.Namespace) -> dict:
-    """Times and sizes for one Hilbert DCI."""
-    size = args.size
-    settings = hilbert_settings(size, levels=args.levels, order=args.order, propagation_order=args.propagation_order)
-    log(f"iteration {iteration}: document")
-    start = time.perf_counter()
-    document = hilbert_document(iteration, size)
-    document_time = time.perf_counter() - start
-    log(f"iteration {iteration}: discretise x{args.repeat}")
-    discretise_time, (curves, lattice, segments) = best_of(args.repeat, lambda: discretise(document, settings))
-    segments = synthetic_values(segments, args.seed)
-    p = settings.propagation_order
-    log(f"iteration {iteration}: {len(curves)} curve segments -> {len(segments)} after cutting, L = {lattice.levels}; "
-        f"upward x{args.repeat}")
-
-    def upward():
-        ordered, cell_start = sort_into_cells(segments, lattice)
-        return ordered, cell_start, upward_pass(ordered, cell_start, lattice, p)
-
-    upward_time, upward_worst, (ordered, cell_start, multipoles) = timed(args.repeat, upward)
-    log(f"iteration {iteration}: downward x{args.repeat}")
-    downward_time, downward_worst, local = timed(args.repeat, lambda: downward_pass(multipoles, lattice, p))
-    del multipoles
-    rep = Representation(size, size, lattice, ordered, cell_start, local, settings.order,
-                         {"upward": upward_time, "downward": downward_time})
-    log(f"iteration {iteration}: raster {args.raster}x{args.raster} x{args.repeat}")
-    raster_time, raster_worst, image = timed(args.repeat, lambda: rasterise(rep, args.raster, args.raster, samples=1))
-    if not np.isfinite(image).all():
-        log(f"iteration {iteration}: WARNING: non-finite pixels in the raster")
-    occupied = int(np.count_nonzero(np.diff(cell_start)))
-    return {
-        "iteration": iteration,
-        "pieces": document.curves[0].piece_count,
-        "curve segments": len(curves),
-        "segments": len(segments),
-        "border": int(segments.on_border.sum()),
-        "L": lattice.levels,
-        "occupied": occupied,
-        "max per cell": int(np.diff(cell_start).max()),
-        "document": document_time,
-        "discretise": discretise_time,
-        "upward": upward_time,
-        "downward": downward_time,
-        "raster": raster_time,
-        "worst": {"upward": upward_worst, "downward": downward_worst, "raster": raster_worst},
-        "rss": peak_rss_mb(),
-    }
+def _cell(ours: float, paper: float | None) -> str:
+    """'ours (paper, ratio)' in ms."""
+    if paper is None:
+        return f"{1e3 * ours:.1f}"
+    return f"{1e3 * ours:.1f} ({paper:g}, **{1e3 * ours / paper:.2f}**)"
 
 
-def _ms(row: dict, stage: str) -> str:
-    """'best (slowest)' in ms."""
-    return f"{1e3 * row[stage]:.0f} ({1e3 * row['worst'][stage]:.0f})"
-
-
-def _paper_cells(count: int, index: int, ours: float) -> str:
-    """'paper ms | ours/paper' cells."""
-    value = PAPER.get(count, (None, None, None))[index]
-    if value is None:
-        return "not found | -"
-    return f"{value:g} | {1e3 * ours / value:.2f}"
+def _table(rows: dict, title: str, value, paper: dict, levels) -> None:
+    print(f"### {title}\n")
+    print("| curves | " + " | ".join(f"L{level}" for level in levels) + " |")
+    print("|---:|" + "---:|" * len(levels))
+    for i in PAPER_ITERATIONS:
+        cells = []
+        for level in levels:
+            row, figure = rows.get((i, level)), paper.get((pieces_of(i), level))
+            cells.append(_cell(value(row), figure) if row is not None and figure is not None else "")
+        print(f"| {pieces_of(i):,} | " + " | ".join(cells) + " |")
+    print()
 
 
 def main(argv: list[str] | None = None) -> None:
-    """Parse arguments, warm up, print both tables."""
-    from fmr_editor.engine import Settings
-
-    defaults = Settings()
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--repeat", type=int, default=3, help="runs per measurement; the best is reported")
-    parser.add_argument("--min-iteration", type=int, default=PAPER_ITERATIONS[0])
-    parser.add_argument("--max-iteration", type=int, default=PAPER_ITERATIONS[-1],
-                        help="stop after this iteration (9 = 524,288 segments, the heaviest)")
+    parser.add_argument("--repeat", type=int, default=5, help="runs per measurement; the best is reported")
+    parser.add_argument("--cells", nargs="*", help="ITERATION:LEVEL pairs to measure (default: every paper cell)")
     parser.add_argument("--size", type=int, default=1024, help="canvas side of the Hilbert documents")
     parser.add_argument("--raster", type=int, default=1024, help="raster side (one sample per pixel)")
-    parser.add_argument("--levels", type=int, default=None, help="lattice depth (default: choose_levels)")
-    parser.add_argument("--order", type=int, default=defaults.order, help="cell polynomial degree for pixels")
-    parser.add_argument("--propagation-order", type=int, default=defaults.propagation_order,
-                        help="terms carried through the passes")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the synthetic E")
+    parser.add_argument("--error-pixels", type=int, default=256, help="random pixels checked against the direct sum")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the synthetic E and the checked pixels")
+    parser.add_argument("--one", help=argparse.SUPPRESS)  # ITERATION:LEVEL, measured in this process (as JSON)
     args = parser.parse_args(argv)
-    if args.repeat < 1 or args.size < 1 or args.raster < 1 or args.min_iteration < 1:
-        parser.error("--repeat, --size, --raster and --min-iteration must be positive")
+    if args.one:
+        iteration, level = map(int, args.one.split(":"))
+        print(json.dumps(measure(iteration, level, args)))
+        return
+    cells = [tuple(map(int, cell.split(":"))) for cell in args.cells] if args.cells else paper_cells()
+    rows = {}
+    for iteration, level in cells:
+        log(f"{pieces_of(iteration):,} pieces at L{level}")
+        command = [sys.executable, __file__, "--one", f"{iteration}:{level}", "--repeat", str(args.repeat),
+                   "--size", str(args.size), "--raster", str(args.raster), "--error-pixels", str(args.error_pixels),
+                   "--seed", str(args.seed)]
+        done = subprocess.run(command, capture_output=True, text=True, env=os.environ)
+        if done.returncode != 0:
+            log(done.stderr[-2000:])
+            continue
+        rows[iteration, level] = row = json.loads(done.stdout.strip().splitlines()[-1])
+        log(f"  upward {1e3 * row['upward']:.1f} ms, downward {1e3 * row['downward']:.1f} ms, raster "
+            f"{1e3 * row['raster']:.1f} ms, error {row['error']:.3f}/255, peak {row['rss']:.0f} MB")
 
-    log("warming up the numba kernels")
-    compile_time = warm_up()
-    print(f"## FMR paper Tables 1 and 2 on the Hilbert DCIs (best of {args.repeat} runs)\n")
-    blas = ", ".join(f"{name}={os.environ[name]}" for name in BLAS_VARIABLES if name in os.environ) or "library default"
-    print(f"Machine: {machine()}; BLAS threads: {blas}. Shared and noisy: every time is the best of "
-          f"{args.repeat}, with the slowest run beside it in brackets.\n")
-    depth = f"L = {args.levels} (fixed)" if args.levels else "L from `choose_levels` (the paper's depth was not found)"
-    print(f"Settings: {depth}; propagation order {args.propagation_order}, pixel order {args.order}; "
-          f"canvas {args.size}x{args.size}, raster {args.raster}x{args.raster} at 1 sample per pixel; "
-          f"synthetic E (seed {args.seed}), no solve. Numba first call (not timed below): {compile_time:.1f} s.\n")
-    print(f"Paper numbers: {PAPER_SOURCE}" + (" -- the paper's text could not be retrieved; "
-          "no paper numbers are shown." if PAPER_SOURCE == "not found" else "") + "\n")
-
-    rows = []
-    for iteration in range(args.min_iteration, args.max_iteration + 1):
-        rows.append(bench_iteration(iteration, args))
-        r = rows[-1]
-        log(f"iteration {iteration}: upward {1e3 * r['upward']:.0f} ms, downward {1e3 * r['downward']:.0f} ms, "
-            f"raster {1e3 * r['raster']:.0f} ms, peak RSS {r['rss']:.0f} MB")
-
-    print("### Table 1: upward and downward passes (ms)\n")
-    print("| Hilbert DCI (pieces) | segments after cut (curve + border) | L | occupied cells | max seg/cell | "
-          "discretise ms | upward ms (slowest) | paper upward ms | ours/paper | downward ms (slowest) | "
-          "paper downward ms | ours/paper | peak RSS MB |")
-    print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
-    for r in rows:
-        print(f"| {r['pieces']:,} | {r['segments']:,} ({r['segments'] - r['border']:,} + {r['border']:,}) | {r['L']} | "
-              f"{r['occupied']:,} | {r['max per cell']} | {1e3 * r['discretise']:.0f} | {_ms(r, 'upward')} | "
-              f"{_paper_cells(r['pieces'], 0, r['upward'])} | {_ms(r, 'downward')} | "
-              f"{_paper_cells(r['pieces'], 1, r['downward'])} | {r['rss']:.0f} |")
-    print(f"\n### Table 2: {args.raster}x{args.raster} raster (ms)\n")
-    print("| Hilbert DCI (pieces) | L | raster ms (slowest) | paper raster ms | ours/paper |")
-    print("|---:|---:|---:|---:|---:|")
-    for r in rows:
-        print(f"| {r['pieces']:,} | {r['L']} | {_ms(r, 'raster')} | {_paper_cells(r['pieces'], 2, r['raster'])} |")
-    print("\nPieces = the paper's segment count (2 straight pieces per edge of a closed Moore curve of order i, "
-          "bench/hilbert.py); each piece is one curve segment before the engine cuts segments at cell edges. "
-          "Upward = sort_into_cells + upward_pass (P2M, M2M); downward = downward_pass (M2L, L2L); raster = "
-          "rasterise (cell polynomials + near field over the 3x3 block). The paper's are quad-core C++; ours are "
-          "numpy + numba on the machine above.")
+    print(f"## The FMR paper's Tables 1 and 2 on the Hilbert DCIs, best of {args.repeat}\n")
+    print(f"Machine: {machine()}. Each cell: ours in ms (the paper's quad-core C++ figure, **ours/paper**).\n")
+    _table(rows, "Table 1: upward pass (P2M, M2M)", lambda r: r["upward"], {k: v[0] for k, v in TABLE_1.items()},
+           LEVELS[:-1])
+    _table(rows, "Table 1: downward pass (M2L, L2L)", lambda r: r["downward"], {k: v[1] for k, v in TABLE_1.items()},
+           LEVELS[:-1])
+    _table(rows, f"Table 2: {args.raster} x {args.raster} raster, 1 sample a pixel", lambda r: r["raster"], TABLE_2,
+           LEVELS)
+    print("| curves | L | segments after cutting | occupied cells | orders (propagation/pixels) | "
+          f"max error vs direct sum ({args.error_pixels} pixels, /255) | peak RSS MB |")
+    print("|---:|---:|---:|---:|---|---:|---:|")
+    for (i, level), r in sorted(rows.items()):
+        print(f"| {r['pieces']:,} | {level} | {r['segments']:,} | {r['occupied']:,} | {r['orders']} | "
+              f"{r['error']:.3f} | {r['rss']:.0f} |")
 
 
 if __name__ == "__main__":
