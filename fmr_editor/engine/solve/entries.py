@@ -64,6 +64,16 @@ class CollocationEntries:
         self.midpoints = segments.midpoints
         self.length = self.table[6]
 
+    def flux_scale(self) -> np.ndarray:
+        """Per unknown: ``1 / h`` on a curve segment, 1 on the border.
+
+        A curve segment's column is about ``h`` times the log kernel, so its
+        entries scale with its length; times this scale, every column is of
+        order one (the unknown becomes the segment's total flux ``E h``).
+        The border's columns hold the ``-1/2`` of the diagonal whatever ``h``.
+        """
+        return np.where(self.border, 1.0, 1.0 / np.maximum(self.length, np.finfo(float).tiny))
+
     def block(self, rows: np.ndarray, columns: np.ndarray, parallel: bool = True) -> np.ndarray:
         """``A[rows][:, columns]``, ``(len(rows), len(columns))``; see ``at`` for ``parallel``."""
         return self.at(self.midpoints[rows], columns, rows, parallel)

@@ -218,6 +218,7 @@ class SkeletonFactorization:
     ) -> None:
         self.size = len(segments)
         self.entries = CollocationEntries(segments)
+        self.scale = self.entries.flux_scale()
         self.tolerance = tolerance
         self.levels: list[LevelSteps] = []
         self.stored_bytes = 0
@@ -228,7 +229,7 @@ class SkeletonFactorization:
         self.side = float(np.ptp(mids, axis=0).max()) * (1 + 1e-9) + 1e-9 if len(mids) else 1.0
         self.reach = float(self.entries.length.max()) if len(mids) else 0.0
         levels = leaf_levels(mids, self.origin, self.side, leaf_size)
-        boxes = {key: _Box(idx, self.entries.block(idx, idx)) for key, idx in _group(mids, self.origin, self.side, levels)}
+        boxes = {key: _Box(idx, self._block(idx, idx)) for key, idx in _group(mids, self.origin, self.side, levels)}
         # Each box's algebra is small: BLAS threads would only wait on each other.
         pool = ThreadPoolExecutor(self.workers) if self.workers > 1 else None
         try:
@@ -260,7 +261,7 @@ class SkeletonFactorization:
 
     def _merged_block(self, children: list[_Box]) -> np.ndarray:
         indices = np.concatenate([c.indices for c in children]) if children else np.zeros(0, np.int64)
-        block = self.entries.block(indices, indices)
+        block = self._block(indices, indices)
         start = 0
         for child in children:
             stop = start + len(child.indices)
@@ -334,9 +335,9 @@ class SkeletonFactorization:
         dx, dy = np.subtract.outer(proxy[:, 0], own[:, 0]), np.subtract.outer(proxy[:, 1], own[:, 1])
         charges = 0.5 * np.log(dx * dx + dy * dy)  # log |own - proxy|, (proxy, own)
         blocks = [
-            self.entries.block(near, box.indices, parallel=False),
-            self.entries.at(proxy, box.indices, parallel=False),
-            self.entries.block(box.indices, near, parallel=False).T,
+            self._block(near, box.indices, parallel=False),
+            self.entries.at(proxy, box.indices, parallel=False) * self.scale[box.indices],
+            self._block(box.indices, near, parallel=False).T,
             charges,
         ]
         rows = sum(len(block) for block in blocks)
@@ -348,8 +349,14 @@ class SkeletonFactorization:
         inverse, lower, upper, block = eliminate(box.block, skeleton, redundant, T)
         return Elimination(box.indices[redundant], box.indices[skeleton], T, inverse, lower, upper), block
 
+    def _block(self, rows: np.ndarray, columns: np.ndarray, parallel: bool = True) -> np.ndarray:
+        """``(A D)[rows][:, columns]``, the matrix factorised (``D``: ``scale``); ``parallel`` as ``entries.at``."""
+        block = self.entries.block(rows, columns, parallel)
+        block *= self.scale[columns]
+        return block
+
     def solve(self, rhs: np.ndarray) -> np.ndarray:
-        """Approximate ``A^-1 rhs`` for ``rhs`` of shape ``(n,)`` or ``(n, k)``."""
+        """Approximate ``A^-1 rhs = D (A D)^-1 rhs`` for ``rhs`` of shape ``(n,)`` or ``(n, k)``."""
         x = np.array(rhs, dtype=float, copy=True)
         columns = x.reshape(len(x), -1)  # a view: the levels work on it in place
         for level in self.levels:
@@ -358,6 +365,7 @@ class SkeletonFactorization:
             x[self.top] = scipy.linalg.lu_solve(self.top_lu, x[self.top], check_finite=False)
         for level in reversed(self.levels):
             level.backward(columns)
+        columns *= self.scale[:, None]
         return x
 
 

@@ -10,9 +10,10 @@ are one stacked vector, so every product is one three-channel FMM pass.
 This first-kind (log kernel) system is ill-conditioned: a near-field
 preconditioner only tames its high frequencies and leaves GMRES hundreds of
 iterations (530 on poivron).  The preconditioner is therefore a compressed
-factorisation of the whole matrix (``skeleton``), compressed to 1e-6 or
-1e-5 (``compression_tolerance``): GMRES then needs 2 iterations on
-lady_bug, about 16 on roses; tighter compression costs more than the
+factorisation of the whole matrix (``skeleton``, its columns scaled to the
+segments' total flux), compressed to 1e-6 or 1e-5
+(``compression_tolerance``): GMRES then needs 2 iterations on lady_bug, 3
+on roses and 4 on pink_flowers; tighter compression costs more than the
 iterations it saves (``bench/bench_solve.py``).
 """
 
