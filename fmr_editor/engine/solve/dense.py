@@ -35,6 +35,10 @@ class SolveTooLargeError(MemoryError):
     """The boundary system is too large for the dense solve on this machine."""
 
 
+class SingularSystemError(ValueError):
+    """The boundary system is singular: curves coincide (or nearly), and no solver here can share them out."""
+
+
 def available_memory() -> int:
     """Bytes of memory available to this process now (``MemAvailable``), or total physical memory."""
     try:

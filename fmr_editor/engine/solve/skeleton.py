@@ -34,6 +34,7 @@ GMRES (or to solve outright).
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
@@ -242,13 +243,15 @@ class SkeletonFactorization:
                     self._compress_level(boxes, level, pool)
                     if progress:
                         progress((levels - level + 1) / levels)
+        except np.linalg.LinAlgError as error:  # a box's block M_RR, or its interpolation, is singular
+            raise _singular(self.size) from error
         finally:
             if pool:
                 pool.shutdown(cancel_futures=True)  # after a failure, start no more boxes
         self.top = np.concatenate([b.indices for b in boxes.values()]) if boxes else np.zeros(0, np.int64)
         self._account(8 * len(self.top) ** 2)
         top_block = self._merged_block(list(boxes.values()))
-        self.top_lu = scipy.linalg.lu_factor(top_block, overwrite_a=True, check_finite=False) if len(self.top) else None
+        self.top_lu = _top_factors(top_block, self.size) if len(self.top) else None
 
     def _account(self, size: int) -> None:
         """Count ``size`` more bytes kept; fail early, before the machine runs out."""
@@ -367,6 +370,26 @@ class SkeletonFactorization:
             level.backward(columns)
         columns *= self.scale[:, None]
         return x
+
+
+def _singular(size: int) -> dense.SingularSystemError:
+    return dense.SingularSystemError(
+        f"{size:,} boundary segments: their system is singular (curves coincide or nearly coincide), "
+        "and the compressed factorisation cannot solve it"
+    )
+
+
+def _top_factors(block: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
+    """LU factors of the top block (overwritten); ``SingularSystemError`` where it is exactly singular."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", scipy.linalg.LinAlgWarning)  # lu_factor's word for an exactly singular one
+        try:
+            lu, pivots = scipy.linalg.lu_factor(block, overwrite_a=True, check_finite=False)
+        except scipy.linalg.LinAlgWarning:
+            raise _singular(size) from None
+    if not np.isfinite(np.diagonal(lu)).all():
+        raise _singular(size)
+    return lu, pivots
 
 
 def _box_keys(points: np.ndarray, origin: np.ndarray, side: float, level: int) -> np.ndarray:

@@ -33,15 +33,19 @@ from ..fmm.lattice import Lattice, cell_order, dilated, fine_multipoles
 from ..fmm.sparse_downward import delta_local
 from ..geometry.segments import Segments
 from ..kernels.segment_sums import near_sum
-from .dense import assemble, check_dense_fits, dense_factors, trivial
+from .dense import SingularSystemError, assemble, check_dense_fits, dense_factors, trivial
 from .skeleton import SkeletonFactorization
 
 #: Unknowns up to which the dense solve is faster (``bench/bench_solve.py``).
 DENSE_CROSSOVER = 1500
+#: Most unknowns solved densely (least squares) when the compressed factorisation finds the system singular.
+DENSE_FALLBACK = 8000
 #: Relative residual above which ``solve_boundary`` warns that GMRES did not converge.
 UNCONVERGED = 1e-6
 #: Relative residual the iterative solve aims at.
 GMRES_RTOL = 1e-9
+#: Curve segments shorter than this fraction of the geometry's extent count as points (``solved_segments``).
+POINT_LENGTH = 1e-12
 
 
 def compression_tolerance(count: int) -> float:
@@ -265,6 +269,12 @@ class BoundarySolver:
     change of colours costs one product and one solve (``right_hand_side``
     of the change of colours, then ``solve``).
 
+    Degenerate geometry: curve segments as short as a point take no part
+    (``solved_segments``; their ``E`` is 0).  Where curves coincide the
+    system is singular: the dense solve shares the density out by least
+    squares, and so does the compressed one's fallback, up to
+    ``DENSE_FALLBACK`` unknowns.
+
     Parameters
     ----------
     segments : Segments
@@ -278,30 +288,40 @@ class BoundarySolver:
     ------
     SolveTooLargeError
         Early, when the system cannot fit in memory.
+    SingularSystemError
+        A ``ValueError``: the system is singular and too large for the dense fallback.
     """
 
     def __init__(self, segments: Segments, lattice: Lattice, progress: Callable[[float], None] | None = None) -> None:
         self.size = len(segments)
-        self.trivial = trivial(segments)
-        self.order, cell_start = cell_order(segments, lattice)
+        taking_part = solved_segments(segments)
+        self.points = self.size - len(taking_part)  # segments too short to count (``solved_segments``)
+        order, cell_start = cell_order(segments.take(taking_part), lattice)
+        self.order = taking_part[order]
         ordered = segments.take(self.order)
+        self.trivial = trivial(ordered)
         self.operator = CollocationOperator(ordered, cell_start, lattice, order=20)
-        self.dense = self.size <= DENSE_CROSSOVER
+        self.dense = len(ordered) <= DENSE_CROSSOVER
         self.factors = None
         self.least_squares = False  # True where the dense matrix is nearly singular (see dense_factors)
         if self.trivial:
             return
-        if self.dense:
-            check_dense_fits(self.size)
-            self.factors, self.least_squares = dense_factors(assemble(ordered)[0], lambda: assemble(ordered)[0])
-        else:
-            self.factors = SkeletonFactorization(ordered, compression_tolerance(self.size), progress=progress)
+        if not self.dense:
+            try:
+                self.factors = SkeletonFactorization(ordered, compression_tolerance(len(ordered)), progress=progress)
+                return
+            except SingularSystemError:  # coinciding curves: the dense solve shares them out, if not too large
+                if len(ordered) > DENSE_FALLBACK:
+                    raise
+                self.dense = True
+        check_dense_fits(len(ordered))
+        self.factors, self.least_squares = dense_factors(assemble(ordered)[0], lambda: assemble(ordered)[0])
 
     def right_hand_side(self, jump: np.ndarray, mean: np.ndarray) -> np.ndarray:
         """The system's right-hand side ``(n, 3)`` for segment colours ``jump`` and ``mean`` (input order)."""
         operator = self.operator
         rhs = operator.right_hand_side(jump[self.order], mean[self.order])
-        return _unsorted(rhs, self.order)
+        return self._unsorted(rhs)
 
     def accuracy(self, iterate: bool = True) -> float:
         """Relative accuracy of ``solve``'s unknowns (roughly: the dense solve's rounding, GMRES's
@@ -319,17 +339,45 @@ class BoundarySolver:
         change of a few colours.  The dense solve is always exact.
         """
         if self.trivial:
-            return np.zeros((self.size, 3))
+            return np.zeros((self.size, *rhs.shape[1:]))
         ordered = rhs[self.order]
         if self.dense:
-            return _unsorted(self.factors(ordered), self.order)
+            return self._unsorted(self.factors(ordered))
         if not iterate:
-            return _unsorted(self.factors.solve(ordered), self.order)
+            return self._unsorted(self._finite(self.factors.solve(ordered)))
         unknown, report = gmres(self.operator, ordered, self.factors, progress=progress)
         if report.residual > UNCONVERGED:
             warnings.warn(f"the boundary solve stopped at relative residual {report.residual:.1e} after "
                           f"{report.iterations} iterations; colours may be off", RuntimeWarning, stacklevel=2)
-        return _unsorted(unknown, self.order)
+        return self._unsorted(self._finite(unknown))
+
+    def _finite(self, unknown: np.ndarray) -> np.ndarray:
+        """``unknown``, checked: the compressed factorisation of a nearly singular system may overflow."""
+        if not np.isfinite(unknown).all():
+            raise SingularSystemError(f"{len(self.order):,} boundary segments: their system is singular "
+                                      "(curves coincide or nearly coincide); the iterative solve gave no finite answer")
+        return unknown
+
+    def _unsorted(self, values: np.ndarray) -> np.ndarray:
+        """``values`` of the segments taking part (cell order) back in input order; 0 on the others."""
+        out = np.zeros((self.size, *values.shape[1:]))
+        out[self.order] = values
+        return out
+
+
+def solved_segments(segments: Segments) -> np.ndarray:
+    """Indices of the segments the system solves for: the border and every curve segment longer than a point.
+
+    A curve segment shorter than ``POINT_LENGTH`` times the extent of the
+    geometry (zero-length ones above all) has no field of its own worth the
+    name (``S`` and ``D`` vanish with its length) and its own equation would
+    make the system singular or overflow its density: it keeps ``E = 0``.
+    """
+    lengths = segments.lengths
+    if len(lengths) == 0:
+        return np.zeros(0, np.int64)
+    extent = float(np.ptp(np.concatenate([segments.p, segments.q]), axis=0).max())
+    return np.flatnonzero(segments.on_border | (lengths > POINT_LENGTH * max(extent, 1.0)))
 
 
 def _unsorted(values: np.ndarray, order: np.ndarray) -> np.ndarray:

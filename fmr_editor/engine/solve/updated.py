@@ -36,7 +36,7 @@ from ..fmm.lattice import Lattice, cell_order
 from ..geometry.segments import Segments
 from .dense import assemble, trivial
 from .entries import CollocationEntries
-from .solver import BoundarySolver, CollocationOperator
+from .solver import BoundarySolver, CollocationOperator, solved_segments
 
 #: Reciprocal condition number below which a small factor of the update counts as singular: the new
 #: system is then (nearly) singular itself and is left to a fresh factorisation, which handles that.
@@ -114,10 +114,13 @@ def updated_solver(base: BoundarySolver, base_segments: Segments, segments: Segm
     """An ``UpdatedSolver`` for ``segments``, or None when a new factorisation is the better choice.
 
     That is when ``base`` holds no curves (its system is trivial), when
-    ``segments`` hold none (theirs is), or when more than ``max_replaced``
+    ``segments`` hold none (theirs is), when either holds a segment as short
+    as a point (``solved_segments``), or when more than ``max_replaced``
     segments differ from ``base_segments``.
     """
-    if base.trivial or base.least_squares or trivial(segments):
+    if base.trivial or base.least_squares or base.points or trivial(segments):
+        return None
+    if len(solved_segments(segments)) < len(segments):  # a segment as short as a point: the base drops it
         return None
     kept_base, kept = match_segments(base_segments, segments)
     if base.size - len(kept) + len(segments) - len(kept) > max_replaced:
