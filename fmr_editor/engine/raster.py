@@ -7,12 +7,18 @@ so ``s = 1`` samples the pixel centre.
 
 Samples lie on a tensor grid (sorted ``xs`` by ``ys``), so each fine cell
 holds a run of columns times a run of rows, and both fields are computed cell
-by cell in compiled kernels (``grid.far_field_grid``,
-``grid.near_field_grid``): the far field is the cell polynomial by Horner's
-rule, the near field the closed-form integrals over the 3x3 block's segments,
-gathered once per cell.  ``far_field`` here is the numpy form of the far field
-(two small matrix products per cell, batched), kept as a reference.  Work
-proceeds in bands of rows so memory stays bounded.
+by cell in compiled kernels that write into the output.  The segments' field
+comes from ``subcells.subcell_field_grid`` in one pass: the cell's local
+expansion evaluated per sample (no polynomial tensor is formed) plus the
+closed-form integrals over the 3x3 block's segments; a cell holding many
+samples is cut into sub-cells (``split_for``), each taking the block
+segments far from it into its expansion and summing only the others per
+sample.  Diffusion points add their polynomials by Horner's rule
+(``grid.far_field_grid``) and their near sum.  ``far_field_reference``
+here is the numpy form of a polynomial far field (two small matrix products
+per cell, batched), kept as a reference.  Work proceeds in bands of rows;
+with one sample a pixel the bands are written into the image directly, with
+more each band's samples go through one buffer and are averaged into it.
 """
 
 from __future__ import annotations
@@ -22,7 +28,7 @@ from collections.abc import Callable
 import numpy as np
 
 from .composite import Composite, compose
-from .kernels.grid import far_field_grid, near_field_grid
+from .kernels.subcells import SEPARATION, subcell_field_grid
 from .kernels.segment_sums import direct_sum, near_sum
 from .points.gauss import gaussian_sum_reference
 from .points.near import near_at
@@ -30,6 +36,22 @@ from .representation import Representation
 
 #: Samples per band: bounds the memory of one step (some 50 bytes a sample).
 BAND_SAMPLES = 1 << 20
+#: Sub-cells of a fine cell span at least this many samples a side (``split_for``).
+SUB_CELL_SAMPLES = 8
+
+
+def split_for(samples_per_cell: float) -> tuple[int, float]:
+    """Sub-cells per side and separation for ``subcell_field_grid`` at ``samples_per_cell`` samples a cell side.
+
+    The largest power of two leaving sub-cells of at least ``SUB_CELL_SAMPLES``
+    samples a side (each expanded segment costs about as much as a few dozen
+    sample pairs); without a split no segment is expanded.  Measured on the
+    Hilbert benchmark at 1024^2: 32 samples a cell 4 x 4 sub-cells, 16 two.
+    """
+    split = 1
+    while samples_per_cell / (2 * split) >= SUB_CELL_SAMPLES:
+        split *= 2
+    return split, (SEPARATION if split > 1 else float("inf"))
 
 
 def sample_coordinates(output: int, canvas: int, samples: int) -> np.ndarray:
@@ -142,38 +164,47 @@ def rasterise(
         raise ValueError(f"unknown method {method!r}; use 'fmr' or 'direct'")
     xs = sample_coordinates(width, rep.width, samples)
     ys = sample_coordinates(height, rep.height, samples)
-    sources = rep.representations if isinstance(rep, Composite) else (rep,)
-    polys = {id(source): source.polynomials(order) for source in sources} if method == "fmr" else {}
+    density = min(len(xs) / rep.width, len(ys) / rep.height)  # samples a document pixel
     image = np.empty((height, width, 3))
     band = max(1, BAND_SAMPLES // (len(xs) * samples))
+    buffer = None if samples == 1 else np.empty((band * samples, len(xs), 3))
     for row in range(0, height, band):
         rows = slice(row, min(row + band, height))
         band_ys = ys[rows.start * samples : rows.stop * samples]
+        target = image[rows] if samples == 1 else buffer[: len(band_ys)]
 
-        def field(source: Representation) -> np.ndarray:
+        def field(source: Representation, out: np.ndarray | None = None) -> np.ndarray:
+            out = np.empty((len(band_ys), len(xs), 3)) if out is None else out
             if method == "direct":
-                return _direct_samples(source, xs, band_ys)
-            return _fmr_samples(source, polys[id(source)], xs, band_ys)
+                out[...] = _direct_samples(source, xs, band_ys)
+            else:
+                _fmr_samples(source, order, xs, band_ys, density, out)
+            return out
 
         if isinstance(rep, Composite):
-            values = compose(rep, field, (len(band_ys), len(xs), 3))
+            target[...] = compose(rep, field, target.shape)
         else:
-            values = field(rep)
-        image[rows] = values if samples == 1 else _average_blocks(values, samples)
+            field(rep, target)
+        if samples > 1:
+            image[rows] = _average_blocks(target, samples)
         if progress:
             progress("rasterise", rows.stop / height)
     return image
 
 
-def _fmr_samples(rep: Representation, poly: np.ndarray, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
-    """The FMR on the grid ``ys x xs``: cell polynomials, near segments and near points; ``(len(ys), len(xs), 3)``."""
+def _fmr_samples(rep: Representation, order: int | None, xs: np.ndarray, ys: np.ndarray, density: float,
+                 out: np.ndarray) -> None:
+    """The FMR on the grid ``ys x xs`` into ``out (len(ys), len(xs), 3)``: far field, near segments and points.
+
+    ``density``: samples a document pixel of the whole raster (a band's sub-cells are the whole's).
+    """
     seg, lattice = rep.segments, rep.lattice
-    values = far_field_grid(poly, xs, ys, lattice.cell_size)
-    near_field_grid(xs, ys, lattice.cells_per_side, lattice.cell_size, rep.cell_start,
-                    seg.p, seg.q, seg.flux, seg.jump, out=values)
+    order = rep.order if order is None else order
+    split, separation = split_for(lattice.cell_size * density)
+    subcell_field_grid(rep.local, order, xs, ys, lattice.cell_size, rep.cell_start, seg.p, seg.q, seg.flux, seg.jump,
+                       split=split, separation=separation, out=out, tables=rep.near_tables)
     if rep.points is not None:
-        rep.points.add_near_grid(xs, ys, values)
-    return values
+        rep.points.add_grid(order, xs, ys, out)
 
 
 def _direct_samples(rep: Representation, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:

@@ -3,5 +3,7 @@
 ``potentials`` is the plain numpy reference (DESIGN section 3),
 ``fastmath`` the vectorisable scalar maths every compiled loop shares,
 ``segment_sums`` the sums over segments at arbitrary points (direct, near
-field, collocation) and ``grid`` the same on tensor grids of samples.
+field, collocation) and ``grid`` the same on tensor grids of samples
+(``single``: its float32 near field); ``subcells`` rasterises an FMR's
+segments in one pass, cells of many samples in sub-cells.
 """

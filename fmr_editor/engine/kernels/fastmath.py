@@ -118,6 +118,20 @@ def log_r2(x, y, px, py):
 
 
 @numba.njit(cache=True, inline="always", fastmath=POLY_MATH, error_model="numpy")
+def subtended_angle(v0x, v0y, v1x, v1y):
+    """The signed angle from ``v0`` to ``v1`` (end points minus target), 0 where they are collinear and not apart.
+
+    ``atan2(cross, dot)``, taken as 0 where the cross product is 0 and the dot
+    product not positive (at an end point, and inside the segment when the
+    rounded cross product is exactly 0); never ``atan2(0, 0)``.  Branch-free.
+    """
+    cross = v0x * v1y - v0y * v1x
+    dot = v0x * v1x + v0y * v1y
+    subtends = cross != 0.0 or dot > 0.0
+    return atan2_poly(cross if subtends else 0.0, dot if subtends else 1.0)
+
+
+@numba.njit(cache=True, inline="always", fastmath=POLY_MATH, error_model="numpy")
 def potentials_from(x, y, px, py, qx, qy, tx, ty, h, log_p):
     """Single and double layer of one segment at (x, y) given ``log|p - x|^2``; also ``log|q - x|^2``.
 
@@ -125,24 +139,24 @@ def potentials_from(x, y, px, py, qx, qy, tx, ty, h, log_p):
     arctangents of the single layer differ by the angle the segment subtends,
     which the double layer computes anyway, so one ``atan2`` and two
     logarithms serve both.  Guards: the logarithms' arguments are at least
-    1e-300 (a target on an end point), and the angle is taken as 0 where the
-    cross product is 0 and the dot product not positive (at an end point, and
-    inside the segment when the rounded cross product is exactly 0; otherwise
-    a target on the segment gets one side's +-1/2, and callers wanting the
-    principal value there select it themselves).  Branch-free, so a loop over
-    targets or segments vectorises.  Consecutive segments of a curve share an
-    end point, so a caller may pass one segment's ``log_q`` on as the next
-    one's ``log_p``.
+    1e-300 (a target on an end point), and the angle is ``subtended_angle``'s
+    (a target on the segment gets one side's +-1/2 unless the rounded cross
+    product is 0, and callers wanting the principal value there select it
+    themselves).  Branch-free, so a loop over targets or segments vectorises.
+    Consecutive segments of a curve share an end point, so a caller may pass
+    one segment's ``log_q`` on as the next one's ``log_p``.
     """
     v0x, v0y = px - x, py - y
     v1x, v1y = qx - x, qy - y
     a = -(v0x * tx + v0y * ty)
     b_abs = abs(v0x * ty - v0y * tx)
-    cross = v0x * v1y - v0y * v1x
-    dot = v0x * v1x + v0y * v1y
-    # atan2(0, 1) = 0 where the angle is taken as 0: never atan2(0, 0)
-    subtends = cross != 0.0 or dot > 0.0
-    angle = atan2_poly(cross if subtends else 0.0, dot if subtends else 1.0)
+    angle = subtended_angle(v0x, v0y, v1x, v1y)
     log_q = log_poly(max(v1x * v1x + v1y * v1y, 1e-300))
     single = ((h - a) * log_q + a * log_p - 2.0 * h + 2.0 * b_abs * abs(angle)) * INV_FOUR_PI
     return single, angle * INV_TWO_PI, log_q
+
+
+@numba.njit(cache=True, inline="always", fastmath=POLY_MATH, error_model="numpy")
+def double_layer(x, y, px, py, qx, qy):
+    """The double layer alone of one segment at (x, y): ``potentials_from``'s second value, without logarithms."""
+    return subtended_angle(px - x, py - y, qx - x, qy - y) * INV_TWO_PI

@@ -9,8 +9,9 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from .fastmath import POLY_MATH, log_r2, potentials_from
-from .segment_sums import segment_frames
+from .fastmath import POLY_MATH, double_layer, log_r2, potentials_from
+from .segment_sums import near_tables, segment_potentials
+from .single import gather_single, samples_inner_single
 
 # --- Near field on a tensor grid of samples -------------------------------------------
 #
@@ -21,53 +22,66 @@ from .segment_sums import segment_frames
 
 #: Fast-math flags of the grid kernels: no reassociation (the compensated sums rely on order).
 GRID_MATH = POLY_MATH
+#: Groups of cells of about equal cost per thread; threads take them as they finish (dynamic
+#: scheduling keeps both cores busy when one is slowed down by other work on the machine).
+GROUPS_PER_THREAD = 8
+#: Cells with fewer samples than this run their block's segments innermost (the samples' loop is too short to
+#: vectorise).
+FEW_SAMPLES = 8
+#: The segments of such a block are padded to a multiple of this many (a vector loop's step).
+_PAD = 4
+#: Rows of the gathered block table: p, q, tangent, length (as ``segment_sums.segment_table``),
+#: the three channels of E, then of C.
+_GEOMETRY, _ROWS = 7, 13
 
 
-@numba.njit(cache=True, fastmath=GRID_MATH, error_model="numpy")
-def _near_cell(cy, cx, xs, ys, x_start, y_start, n, cell_start, p, q, tangent, length, flux, jump, out):
-    """Add the near field of fine cell (cy, cx) to its samples ``out[y_start[cy]:..., x_start[cx]:...]``.
+@numba.njit(cache=True, inline="always", fastmath=GRID_MATH, error_model="numpy")
+def _gather_cell_block(cy, cx, n, cell_start, table, weights, seg, shares_p, flux_free):
+    """Copy the 3x3 block's segments of cell (cy, cx) into ``seg (13, >= m)``; their number m.
 
-    The 3x3 block's segments are gathered once into a contiguous table and the
-    cell's samples into flat coordinate arrays; the inner loop runs over
-    samples (it vectorises), the outer one over segments.
+    ``shares_p[k]``: segment k starts where segment k - 1 ends (its logarithm
+    there is known); ``flux_free[k]``: its E is 0 in every channel (the canvas
+    border's), so it has no single layer.
     """
-    ya, yb = y_start[cy], y_start[cy + 1]
-    xa, xb = x_start[cx], x_start[cx + 1]
-    width = xb - xa
-    count = (yb - ya) * width
     first, last = max(cx - 1, 0), min(cx + 2, n)
-    m = 0
-    for row in range(max(cy - 1, 0), min(cy + 2, n)):
-        m += cell_start[row * n + last] - cell_start[row * n + first]
-    if m == 0 or count == 0:
-        return
-    # columns: p, q, tangent, length, flux, jump
-    seg = np.empty((m, 13))
-    shares_p = np.zeros(m, np.bool_)
     k = 0
     for row in range(max(cy - 1, 0), min(cy + 2, n)):
         for j in range(cell_start[row * n + first], cell_start[row * n + last]):
-            seg[k, 0], seg[k, 1], seg[k, 2], seg[k, 3] = p[j, 0], p[j, 1], q[j, 0], q[j, 1]
-            seg[k, 4], seg[k, 5], seg[k, 6] = tangent[j, 0], tangent[j, 1], length[j]
-            for c in range(3):
-                seg[k, 7 + c] = flux[j, c]
-                seg[k, 10 + c] = jump[j, c]
-            shares_p[k] = k > 0 and seg[k, 0] == seg[k - 1, 2] and seg[k, 1] == seg[k - 1, 3]
+            for c in range(_GEOMETRY):
+                seg[c, k] = table[c, j]
+            for c in range(6):
+                seg[_GEOMETRY + c, k] = weights[c, j]
+            shares_p[k] = k > 0 and seg[0, k] == seg[2, k - 1] and seg[1, k] == seg[3, k - 1]
+            flux_free[k] = weights[0, j] == 0.0 and weights[1, j] == 0.0 and weights[2, j] == 0.0
             k += 1
-    sx = np.empty(count)
-    sy = np.empty(count)
-    for a in range(yb - ya):
-        for b in range(width):
-            sx[a * width + b] = xs[xa + b]
-            sy[a * width + b] = ys[ya + a]
-    acc = np.zeros((3, count))
-    logs = np.empty((2, count))
-    current = 0
+    return k
+
+
+@numba.njit(cache=True, inline="always", fastmath=GRID_MATH, error_model="numpy")
+def _by_samples(m, count, seg, shares_p, flux_free, sx, sy, acc, logs):
+    """``acc (3, count)`` = the near field of ``m`` gathered segments at ``count`` samples, samples innermost.
+
+    A segment continuing the previous one takes its logarithm at p from it; a
+    flux-free one costs its double layer only.
+    """
+    for c in range(3):
+        for i in range(count):
+            acc[c, i] = 0.0
+    current, known = 0, False  # logs[current] holds log|p - x|^2 of segment k when known
     for k in range(m):
-        px, py, qx, qy = seg[k, 0], seg[k, 1], seg[k, 2], seg[k, 3]
-        tx, ty, h = seg[k, 4], seg[k, 5], seg[k, 6]
-        e0, e1, e2, c0, c1, c2 = seg[k, 7], seg[k, 8], seg[k, 9], seg[k, 10], seg[k, 11], seg[k, 12]
-        if shares_p[k]:
+        px, py, qx, qy = seg[0, k], seg[1, k], seg[2, k], seg[3, k]
+        c0, c1, c2 = seg[10, k], seg[11, k], seg[12, k]
+        if flux_free[k]:
+            for i in range(count):
+                d = double_layer(sx[i], sy[i], px, py, qx, qy)
+                acc[0, i] -= c0 * d
+                acc[1, i] -= c1 * d
+                acc[2, i] -= c2 * d
+            known = False
+            continue
+        tx, ty, h = seg[4, k], seg[5, k], seg[6, k]
+        e0, e1, e2 = seg[7, k], seg[8, k], seg[9, k]
+        if shares_p[k] and known:
             current = 1 - current  # the previous segment's log at q is this one's log at p
         else:
             for i in range(count):
@@ -78,6 +92,90 @@ def _near_cell(cy, cx, xs, ys, x_start, y_start, n, cell_start, p, q, tangent, l
             acc[0, i] += e0 * s - c0 * d
             acc[1, i] += e1 * s - c1 * d
             acc[2, i] += e2 * s - c2 * d
+        known = True
+
+
+@numba.njit(cache=True, inline="always", fastmath=GRID_MATH, error_model="numpy")
+def _by_segments(m, count, seg, sx, sy, acc, lanes):
+    """As ``_by_samples``, segments innermost (for few samples), ``_PAD`` at a time side by side.
+
+    ``seg`` is padded to a multiple of ``_PAD`` with weightless copies of its
+    last segment; each lane of ``lanes (3, _PAD)`` sums its own segments, so
+    the fixed-size inner loop vectorises without reassociating a sum.
+    """
+    padded = (m + _PAD - 1) // _PAD * _PAD
+    for k in range(m, padded):
+        for c in range(_GEOMETRY):
+            seg[c, k] = seg[c, m - 1]
+        for c in range(_GEOMETRY, _ROWS):
+            seg[c, k] = 0.0
+    for i in range(count):
+        x, y = sx[i], sy[i]
+        for j in range(_PAD):
+            lanes[0, j], lanes[1, j], lanes[2, j] = 0.0, 0.0, 0.0
+        for first in range(0, padded, _PAD):
+            for j in range(_PAD):
+                k = first + j
+                s, d = segment_potentials(x, y, seg[0, k], seg[1, k], seg[2, k], seg[3, k],
+                                          seg[4, k], seg[5, k], seg[6, k])
+                lanes[0, j] += seg[7, k] * s - seg[10, k] * d
+                lanes[1, j] += seg[8, k] * s - seg[11, k] * d
+                lanes[2, j] += seg[9, k] * s - seg[12, k] * d
+        for c in range(3):
+            total = 0.0
+            for j in range(_PAD):
+                total += lanes[c, j]
+            acc[c, i] = total
+
+
+@numba.njit(cache=True, inline="always", fastmath=GRID_MATH, error_model="numpy")
+def _samples_single(cy, cx, m, count, width, ya, xa, xs, ys, cell_size, seg, shares_p, flux_free, scratch, acc):
+    """``_by_samples`` through ``single``'s float32 kernel into the float64 ``acc (3, count)``."""
+    block, sx, sy, acc32, logs = scratch
+    inv_size = 1.0 / cell_size
+    xc, yc = (cx + 0.5) * cell_size, (cy + 0.5) * cell_size
+    t0, t1, t2 = gather_single(m, seg, xc, yc, inv_size, cell_size, block)
+    for i in range(count):
+        sx[i] = np.float32((xs[xa + i % width] - xc) * inv_size)
+        sy[i] = np.float32((ys[ya + i // width] - yc) * inv_size)
+    samples_inner_single(m, count, block, shares_p, flux_free, sx, sy, acc32, logs)
+    for i in range(count):
+        acc[0, i] = acc32[0, i] + t0
+        acc[1, i] = acc32[1, i] + t1
+        acc[2, i] = acc32[2, i] + t2
+
+
+@numba.njit(cache=True, inline="always", fastmath=GRID_MATH, error_model="numpy")
+def _near_cell(cy, cx, xs, ys, x_start, y_start, n, cell_start, cell_size, table, weights, out, few, single,
+               seg, shares_p, flux_free, sx, sy, acc, logs, lanes, scratch):
+    """Add the near field of fine cell (cy, cx) to its samples ``out[y_start[cy]:..., x_start[cx]:...]``.
+
+    The 3x3 block's segments are gathered once into ``seg`` and the cell's
+    samples into the flat ``sx, sy``; a cell of fewer than ``few`` samples
+    runs the segments innermost, others the samples (either loop vectorises),
+    in float32 when ``single``.  ``seg, shares_p, flux_free, sx, sy, acc,
+    logs, lanes`` and the float32 ``scratch`` are scratch arrays of the calling thread.
+    """
+    ya, yb = y_start[cy], y_start[cy + 1]
+    xa, xb = x_start[cx], x_start[cx + 1]
+    width = xb - xa
+    count = (yb - ya) * width
+    if count == 0:
+        return
+    m = _gather_cell_block(cy, cx, n, cell_start, table, weights, seg, shares_p, flux_free)
+    if m == 0:
+        return
+    if count >= few and single:
+        _samples_single(cy, cx, m, count, width, ya, xa, xs, ys, cell_size, seg, shares_p, flux_free, scratch, acc)
+    else:
+        for a in range(yb - ya):
+            for b in range(width):
+                sx[a * width + b] = xs[xa + b]
+                sy[a * width + b] = ys[ya + a]
+        if count < few:
+            _by_segments(m, count, seg, sx, sy, acc, lanes)
+        else:
+            _by_samples(m, count, seg, shares_p, flux_free, sx, sy, acc, logs)
     for a in range(yb - ya):
         for b in range(width):
             for c in range(3):
@@ -85,12 +183,21 @@ def _near_cell(cy, cx, xs, ys, x_start, y_start, n, cell_start, p, q, tangent, l
 
 
 @numba.njit(parallel=True, cache=True, error_model="numpy")
-def _near_grid(xs, ys, x_start, y_start, n, cell_start, p, q, tangent, length, flux, jump, cells, group_start, out):
+def _near_grid(xs, ys, x_start, y_start, n, cell_start, cell_size, table, weights, cells, group_start, capacity, most,
+               few, single, out):
     for g in numba.prange(group_start.shape[0] - 1):
+        seg = np.empty((_ROWS, capacity + _PAD))
+        shares_p = np.empty(capacity, np.bool_)
+        flux_free = np.empty(capacity, np.bool_)
+        sx, sy = np.empty(most), np.empty(most)
+        acc, logs, lanes = np.empty((3, most)), np.empty((2, most)), np.empty((3, _PAD))
+        most32 = most if single else 0
+        scratch32 = (np.empty((_ROWS, capacity), np.float32), np.empty(most32, np.float32),
+                     np.empty(most32, np.float32), np.empty((3, most32), np.float32), np.empty((2, most32), np.float32))
         for item in range(group_start[g], group_start[g + 1]):
             cell = cells[item]
-            _near_cell(cell // n, cell % n, xs, ys, x_start, y_start, n, cell_start,
-                       p, q, tangent, length, flux, jump, out)
+            _near_cell(cell // n, cell % n, xs, ys, x_start, y_start, n, cell_start, cell_size, table, weights, out,
+                       few, single, seg, shares_p, flux_free, sx, sy, acc, logs, lanes, scratch32)
 
 
 def grid_arrays(xs: np.ndarray, ys: np.ndarray, out: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -122,6 +229,43 @@ def grid_cell_runs(coords: np.ndarray, cell_size: float, cells_per_side: int) ->
     return np.searchsorted(cells, np.arange(cells_per_side + 1)).astype(np.int64)
 
 
+@numba.njit(cache=True)
+def _near_plan(n, cell_start, x_start, y_start, groups):
+    """Cells whose samples have segments near, in runs of about equal cost, and the scratch sizes.
+
+    A cell costs about its samples x (its block's segments + 1).  Returns
+    ``(cells, group_start, capacity, most)``: flat cell indices, offsets of
+    ``groups`` runs of them (fewer if there are fewer cells), the most
+    segments in a block and the most samples in a cell.
+    """
+    cost = np.zeros(n * n)
+    total, capacity, most = 0.0, 0, 0
+    for cy in range(n):
+        rows = y_start[cy + 1] - y_start[cy]
+        for cx in range(n):
+            samples = rows * (x_start[cx + 1] - x_start[cx])
+            if samples == 0:
+                continue
+            m = 0
+            for row in range(max(cy - 1, 0), min(cy + 2, n)):
+                m += cell_start[row * n + min(cx + 2, n)] - cell_start[row * n + max(cx - 1, 0)]
+            if m > 0:
+                cost[cy * n + cx] = samples * (m + 1.0)
+                total += cost[cy * n + cx]
+                capacity, most = max(capacity, m), max(most, samples)
+    cells = np.flatnonzero(cost)
+    groups = max(1, min(groups, len(cells)))
+    group_start = np.full(groups + 1, len(cells), np.int64)
+    group_start[0] = 0
+    running, g = 0.0, 1
+    for item in range(len(cells)):
+        while g < groups and running >= total * g / groups:
+            group_start[g] = item
+            g += 1
+        running += cost[cells[item]]
+    return cells, group_start, capacity, most
+
+
 def near_field_grid(
     xs: np.ndarray,
     ys: np.ndarray,
@@ -133,6 +277,9 @@ def near_field_grid(
     flux: np.ndarray,
     jump: np.ndarray,
     out: np.ndarray | None = None,
+    tables: tuple[np.ndarray, np.ndarray] | None = None,
+    few_samples: int = FEW_SAMPLES,
+    precision: str = "double",
 ) -> np.ndarray:
     """``near_sum`` on the tensor grid ``ys x xs``, ``(len(ys), len(xs), 3)``.
 
@@ -149,29 +296,31 @@ def near_field_grid(
     out : numpy.ndarray, optional
         ``(len(ys), len(xs), 3)`` float64 C-contiguous; the near field is
         *added* to it (the far field, say) and it is returned.
+    tables : tuple of numpy.ndarray, optional
+        ``segment_sums.near_tables(p, q, flux, jump)``, when kept from an earlier call.
+    few_samples : int
+        Cells with fewer samples run their segments innermost.
+    precision : {"double", "single"}
+        ``"single"`` sums the cells of at least ``few_samples`` samples in float32 (``single``;
+        about 1e-7 relative a pair), the rest as ``"double"``.
     """
+    if precision not in ("double", "single"):
+        raise ValueError(f"unknown precision {precision!r}; use 'double' or 'single'")
     xs, ys, out = grid_arrays(xs, ys, out)
     n = int(cells_per_side)
     if out.size == 0 or len(p) == 0:
         return out
     x_start = grid_cell_runs(xs, cell_size, n)
     y_start = grid_cell_runs(ys, cell_size, n)
-    counts = np.diff(cell_start).reshape(n, n)
-    padded = np.pad(counts, 1)
-    block = sum(padded[1 + dy : 1 + dy + n, 1 + dx : 1 + dx + n] for dy in (-1, 0, 1) for dx in (-1, 0, 1))
-    # a cell costs about its samples x (its block's segments + 1); empty blocks are skipped
-    cost = np.where(block > 0, block + 1, 0) * np.diff(y_start)[:, None] * np.diff(x_start)[None, :]
-    cells = np.flatnonzero(cost)
+    cell_start = np.asarray(cell_start, np.int64)
+    cells, group_start, capacity, most = _near_plan(n, cell_start, x_start, y_start,
+                                                    GROUPS_PER_THREAD * numba.get_num_threads())
     if len(cells) == 0:
         return out
-    total = np.cumsum(cost.ravel()[cells])
-    groups = max(1, min(numba.get_num_threads(), len(cells)))
-    bounds = np.searchsorted(total, total[-1] * np.arange(1, groups) / groups)
-    group_start = np.concatenate([[0], bounds, [len(cells)]]).astype(np.int64)
-    tangent, length = segment_frames(p, q)
-    _near_grid(xs, ys, x_start, y_start, n, cell_start, p, q, tangent, length,
-               np.ascontiguousarray(flux, dtype=np.float64), np.ascontiguousarray(jump, dtype=np.float64),
-               cells, group_start, out)
+    table, weights = tables or near_tables(p, q, flux, jump)
+    with numba.parallel_chunksize(1):
+        _near_grid(xs, ys, x_start, y_start, n, cell_start, float(cell_size), table, weights, cells, group_start,
+                   capacity, most, few_samples, precision == "single", out)
     return out
 
 
@@ -179,9 +328,9 @@ def near_field_grid(
 
 
 @numba.njit(parallel=True, cache=True, fastmath=GRID_MATH, error_model="numpy")
-def _far_grid(poly, xs, ys, x_start, y_start, cell_size, out):
-    """Horner in eta, then in xi; the inner loops run over a cell's samples so they vectorise."""
-    n, degree = poly.shape[0], poly.shape[-1] - 1
+def _far_grid(poly, degree, xs, ys, x_start, y_start, cell_size, out, add):
+    """Horner in eta, then in xi, up to ``degree`` per axis; the inner loops run over a cell's samples so they vectorise."""
+    n = poly.shape[0]
     for cy in numba.prange(n):
         ya, yb = y_start[cy], y_start[cy + 1]
         rows = yb - ya
@@ -216,11 +365,16 @@ def _far_grid(poly, xs, ys, x_start, y_start, cell_size, out):
                     for i in range(degree - 1, -1, -1):
                         for b in range(cols):
                             values[b] = values[b] * xi[b] + partial[i, a]
-                    for b in range(cols):
-                        out[ya + a, xa + b, c] = values[b]
+                    if add:
+                        for b in range(cols):
+                            out[ya + a, xa + b, c] += values[b]
+                    else:
+                        for b in range(cols):
+                            out[ya + a, xa + b, c] = values[b]
 
 
-def far_field_grid(poly: np.ndarray, xs: np.ndarray, ys: np.ndarray, cell_size: float) -> np.ndarray:
+def far_field_grid(poly: np.ndarray, xs: np.ndarray, ys: np.ndarray, cell_size: float,
+                   order: int | None = None, out: np.ndarray | None = None) -> np.ndarray:
     """Cell polynomials on the tensor grid ``ys x xs``, ``(len(ys), len(xs), 3)``.
 
     Compiled twin of ``raster.far_field_reference``.
@@ -232,13 +386,17 @@ def far_field_grid(poly: np.ndarray, xs: np.ndarray, ys: np.ndarray, cell_size: 
         the position in the cell relative to its centre, in cell sizes.
     xs, ys : numpy.ndarray
         Sorted (non-decreasing) sample coordinates in document pixels.
+    cell_size : float
+    order : int, optional
+        Only the terms ``i, j <= order`` (all by default; a higher order adds nothing).
+    out : numpy.ndarray, optional
+        C-contiguous float64 ``(len(ys), len(xs), 3)``: the polynomials are *added* to it.
     """
-    xs = np.ascontiguousarray(xs, dtype=np.float64)
-    ys = np.ascontiguousarray(ys, dtype=np.float64)
-    if (np.diff(xs) < 0).any() or (np.diff(ys) < 0).any():
-        raise ValueError("grid coordinates must be sorted")
-    n = poly.shape[0]
-    out = np.empty((len(ys), len(xs), 3))
-    _far_grid(np.ascontiguousarray(poly, dtype=np.float64), xs, ys,
-              grid_cell_runs(xs, cell_size, n), grid_cell_runs(ys, cell_size, n), float(cell_size), out)
+    fresh = out is None
+    xs, ys, out = grid_arrays(xs, ys, out)
+    n, own = poly.shape[0], poly.shape[-1] - 1
+    degree = own if order is None else min(int(order), own)
+    if out.size:
+        _far_grid(np.ascontiguousarray(poly, dtype=np.float64), degree, xs, ys,
+                  grid_cell_runs(xs, cell_size, n), grid_cell_runs(ys, cell_size, n), float(cell_size), out, not fresh)
     return out

@@ -17,6 +17,7 @@ import numpy as np
 
 from ...model import DiffusionPoint
 from ..fmm.lattice import Lattice
+from ..kernels.grid import far_field_grid
 from .gauss import GaussPoints, PointSettings, changed_cells, cutoff_radii, expansion_ratios
 from .increments import add_to_tensor
 from .near import NearPoints, near_at, near_grid, near_points, polynomials_at
@@ -90,8 +91,10 @@ class PointField:
         pad = order - own
         return np.pad(self.tensor, [(0, 0)] * 3 + [(0, pad), (0, pad)])
 
-    def add_near_grid(self, xs: np.ndarray, ys: np.ndarray, out: np.ndarray) -> None:
-        """Add the near points' exact sum on the grid ``ys x xs`` to ``out``."""
+    def add_grid(self, order: int, xs: np.ndarray, ys: np.ndarray, out: np.ndarray) -> None:
+        """Add the points' field on the grid ``ys x xs`` to ``out``: the polynomials at degree ``order``
+        (as ``polynomials(order)``) and the near points' exact sum."""
+        far_field_grid(self.tensor, xs, ys, self.near.lattice.cell_size, order=order, out=out)
         near_grid(self.near, xs, ys, out=out)
 
     def at(self, targets: np.ndarray, order: int) -> np.ndarray:

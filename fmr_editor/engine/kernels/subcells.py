@@ -1,0 +1,395 @@
+"""Rasterising a fine cell in sub-cells: far field and near field of the tensor grid in one pass (compiled).
+
+A fine cell of size ``r`` holding many samples pays for every sample against
+every segment of its 3x3 block (``grid.near_field_grid``).  Here the cell is
+cut into ``split x split`` sub-cells of size ``s = r / split``.  For each
+sub-cell of centre ``zs``:
+
+- the cell's local expansion is re-centred on ``zs`` (a Taylor shift of the
+  degree-``order`` polynomial: exact, no truncation);
+- a block segment at least ``separation * s`` from ``zs`` is folded into that
+  expansion (P2L: the Taylor series of its single and double layer about
+  ``zs``, closed-form for a straight segment, truncated at ``order``; samples
+  are within ``s / sqrt 2`` of ``zs``, so the series' ratio is at most
+  ``1 / (sqrt 2 separation)``);
+- the other segments are summed exactly at the sub-cell's samples, as in
+  ``grid``.
+
+With ``w = (z - zs) / s``, ``v = (z0 - zs) / s`` on a segment from ``p`` to
+``q`` (unit tangent ``t``, normal ``n0 = -i t``; DESIGN section 4)::
+
+    L_0 = 2 pi (E S(zs) - C D(zs))                 (real part only counts)
+    L_l = -E s J_l / l - C n0 J_(l+1),   l >= 1
+    J_1 = log(vq / vp) / t,   J_m = (vp^(1-m) - vq^(1-m)) / ((m - 1) t)
+
+and the field is ``(1/2pi) Re sum_l L_l w^l`` as for ``fmm.expansions``'s
+scaled local expansions.  ``p2l_reference`` is the plain numpy form of the
+expansions, ``local_field_reference`` of the cells' polynomials; with
+``split = 1`` and ``separation = inf`` the kernel is the latter plus
+``grid.near_field_grid`` (the exact near sum).
+
+Measured at 1024 x 1024 on the Hilbert benchmark (bench/bench_paper.py,
+2,048 pieces at level 5, 32 samples a cell side): 4 x 4 sub-cells cut the
+sample-segment pairs summed exactly from 51.6 M to 5.2 M, for 0.73 M
+expansions; the image moved by at most 0.0013/255 from the exact split.
+"""
+
+from __future__ import annotations
+
+
+import numba
+import numpy as np
+
+from .fastmath import FAST_MATH, INV_TWO_PI, POLY_MATH, TWO_PI, log_r2, potentials_from
+from .grid import _PAD, _ROWS, FEW_SAMPLES, _by_samples, _by_segments, _gather_cell_block, grid_arrays, grid_cell_runs
+from .segment_sums import near_tables
+
+#: Default separation, in sub-cell sizes, from a sub-cell's centre beyond which a segment is expanded:
+#: the series' ratio is at most 1 / (2 sqrt 2) = 0.35 (0.35^9 = 9e-5 at order 8).
+SEPARATION = 2.0
+
+
+def local_field_reference(local: np.ndarray, order: int, xs: np.ndarray, ys: np.ndarray,
+                          cell_size: float) -> np.ndarray:
+    """``(1/2pi) Re sum_{l <= order} L_l w^l`` of each sample's cell on the grid ``ys x xs``, ``(len(ys), len(xs), 3)``.
+
+    Plain numpy (the far field alone); a sample's cell is ``floor(coord / cell_size)`` clamped to the
+    lattice, as in ``grid.grid_cell_runs``; ``w`` is its offset from the cell centre in cell sizes.
+    """
+    n = local.shape[0]
+    column = np.clip(np.floor(xs / cell_size).astype(np.int64), 0, n - 1)
+    row = np.clip(np.floor(ys / cell_size).astype(np.int64), 0, n - 1)
+    w = (xs / cell_size - (column + 0.5))[None, :] + 1j * (ys / cell_size - (row + 0.5))[:, None]
+    coeffs = local[row[:, None], column[None, :], :, : order + 1]  # (ys, xs, 3, order + 1)
+    return (coeffs * w[..., None, None] ** np.arange(order + 1)).sum(-1).real / (2 * np.pi)
+
+
+def p2l_reference(p: np.ndarray, q: np.ndarray, flux: np.ndarray, jump: np.ndarray, centre: complex, size: float,
+                  order: int) -> np.ndarray:
+    """Scaled local expansion ``(3, order + 1)`` about ``centre`` (cell ``size``) of straight segments; plain numpy.
+
+    ``(1/2pi) Re sum_l L_l ((z - centre) / size)^l`` approximates their field
+    ``sum E S - C D`` near ``centre``; ``L_0`` is real (its field at the centre
+    times 2 pi).  The segments must stay away from ``centre``.
+    """
+    from .potentials import direct_sum_reference
+
+    pz, qz = p[:, 0] + 1j * p[:, 1], q[:, 0] + 1j * q[:, 1]
+    h = np.abs(qz - pz)
+    t = (qz - pz) / h
+    vp, vq = (pz - centre) / size, (qz - centre) / size
+    j = [None, np.log(vq / vp) / t]
+    for m in range(2, order + 2):
+        j.append((vp ** (1 - m) - vq ** (1 - m)) / ((m - 1) * t))
+    out = np.zeros((3, order + 1), complex)
+    out[:, 0] = TWO_PI * direct_sum_reference(np.array([[centre.real, centre.imag]]), p, q, flux, jump)[0]
+    n0 = -1j * t
+    for order_l in range(1, order + 1):
+        out[:, order_l] = (-flux.T * size * j[order_l] / order_l - jump.T * n0 * j[order_l + 1]).sum(axis=1)
+    return out
+
+
+@numba.njit(cache=True, inline="always", fastmath=POLY_MATH, error_model="numpy")
+def _distance2(x, y, seg, k):
+    """Squared distance from (x, y) to segment ``k`` of the gathered table ``seg``."""
+    px, py, tx, ty, h = seg[0, k], seg[1, k], seg[4, k], seg[5, k], seg[6, k]
+    along = min(max((x - px) * tx + (y - py) * ty, 0.0), h)
+    dx, dy = px + along * tx - x, py + along * ty - y
+    return dx * dx + dy * dy
+
+
+@numba.njit(cache=True, inline="always", fastmath=POLY_MATH, error_model="numpy")
+def _p2l_state(count, far, xc, yc, size, state):
+    """Per segment of ``far (13, count)``, what its expansion about (xc, yc) starts from, into ``state (12, count)``.
+
+    Rows: ``S`` and ``D`` at the centre, ``J_1`` (re, im) and ``1 / vp``, ``1 / vq`` (re, im); rows 8 to
+    11 are ``_p2l_sums``' scratch.  The
+    logarithms and the angle are the layers' own (``fastmath.potentials_from``): ``log(vq / vp)`` is
+    ``(log|q - zs|^2 - log|p - zs|^2) / 2 + i angle``.  Branch-free, so the loop vectorises.
+    """
+    for k in range(count):
+        px, py, qx, qy, tx, ty = far[0, k], far[1, k], far[2, k], far[3, k], far[4, k], far[5, k]
+        log_p = log_r2(xc, yc, px, py)
+        single, double, log_q = potentials_from(xc, yc, px, py, qx, qy, tx, ty, far[6, k], log_p)
+        ratio, angle = 0.5 * (log_q - log_p), double * TWO_PI
+        state[0, k], state[1, k] = single, double
+        state[2, k], state[3, k] = ratio * tx + angle * ty, angle * tx - ratio * ty  # log(vq / vp) conj(t)
+        vx, vy = px - xc, py - yc
+        scale = size / (vx * vx + vy * vy)
+        state[4, k], state[5, k] = vx * scale, -vy * scale
+        vx, vy = qx - xc, qy - yc
+        scale = size / (vx * vx + vy * vy)
+        state[6, k], state[7, k] = vx * scale, -vy * scale
+
+
+@numba.njit(cache=True, fastmath=FAST_MATH, error_model="numpy")
+def _p2l_sums(count, far, state, size, order, coeffs):
+    """Add the expansions of ``far (13, count)`` (from ``_p2l_state``) to ``coeffs (3, order + 1)``.
+
+    ``J_m = (vp^(1-m) - vq^(1-m)) conj(t) / (m - 1)`` for ``m >= 2``; ``L_l`` takes ``-size J_l / l`` times
+    E and ``-n0 J_(l+1)`` times C.  Not inlined: its reassociating flags let the sums over segments
+    vectorise (it overwrites ``state``'s rows 2, 3 and 8 to 11).
+    """
+    for c in range(3):
+        total = 0.0
+        for k in range(count):
+            total += far[7 + c, k] * state[0, k] - far[10 + c, k] * state[1, k]
+        coeffs[c, 0] += TWO_PI * total
+    for k in range(count):
+        state[8, k], state[9, k], state[10, k], state[11, k] = state[4, k], state[5, k], state[6, k], state[7, k]
+    for m in range(1, order + 2):
+        if m > 1:  # J_m into rows 2, 3; vp^(1-m), vq^(1-m) on to the next power
+            inv = 1.0 / (m - 1)
+            for k in range(count):
+                tx, ty = far[4, k], far[5, k]
+                pr, pi, qr, qi = state[8, k], state[9, k], state[10, k], state[11, k]
+                dr, di = pr - qr, pi - qi
+                state[2, k], state[3, k] = (dr * tx + di * ty) * inv, (di * tx - dr * ty) * inv
+                ar, ai, br, bi = state[4, k], state[5, k], state[6, k], state[7, k]
+                state[8, k], state[9, k] = pr * ar - pi * ai, pr * ai + pi * ar
+                state[10, k], state[11, k] = qr * br - qi * bi, qr * bi + qi * br
+        er0 = er1 = er2 = ei0 = ei1 = ei2 = cr0 = cr1 = cr2 = ci0 = ci1 = ci2 = 0.0
+        for k in range(count):
+            tx, ty, jr, ji = far[4, k], far[5, k], state[2, k], state[3, k]
+            nr, ni = ty * jr + tx * ji, ty * ji - tx * jr  # n0 J, n0 = -i t
+            e0, e1, e2, c0, c1, c2 = far[7, k], far[8, k], far[9, k], far[10, k], far[11, k], far[12, k]
+            er0 += e0 * jr
+            ei0 += e0 * ji
+            er1 += e1 * jr
+            ei1 += e1 * ji
+            er2 += e2 * jr
+            ei2 += e2 * ji
+            cr0 += c0 * nr
+            ci0 += c0 * ni
+            cr1 += c1 * nr
+            ci1 += c1 * ni
+            cr2 += c2 * nr
+            ci2 += c2 * ni
+        if m <= order:
+            f = -size / m
+            coeffs[0, m] += complex(f * er0, f * ei0)
+            coeffs[1, m] += complex(f * er1, f * ei1)
+            coeffs[2, m] += complex(f * er2, f * ei2)
+        if m >= 2:
+            coeffs[0, m - 1] -= complex(cr0, ci0)
+            coeffs[1, m - 1] -= complex(cr1, ci1)
+            coeffs[2, m - 1] -= complex(cr2, ci2)
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def _shift(parent, order, dx, dy, split, coeffs):
+    """``coeffs (3, order + 1)`` = ``parent``'s polynomial in ``w`` re-expanded in ``w' = split (w - d)``, ``d = dx + i dy``."""
+    d = complex(dx, dy)
+    for c in range(3):
+        for l in range(order + 1):
+            coeffs[c, l] = parent[c, l]
+        if split == 1:  # d = 0: the parent's own polynomial
+            continue
+        for i in range(order):
+            for j in range(order - 1, i - 1, -1):
+                coeffs[c, j] += d * coeffs[c, j + 1]
+        scale = 1.0
+        for l in range(order + 1):
+            coeffs[c, l] *= scale
+            scale /= split
+
+
+@numba.njit(cache=True, inline="always", fastmath=POLY_MATH, error_model="numpy")
+def _polynomial(coeffs, order, count, sx, sy, xc, yc, inv_size, acc, powers):
+    """``acc (3, count)`` = ``(1/2pi) Re sum_l coeffs[:, l] w^l`` at ``w = ((sx, sy) - (xc, yc)) inv_size``.
+
+    Samples innermost (the loop vectorises); ``powers (4, >= count)`` is scratch.
+    """
+    xi, eta, re, im = powers[0], powers[1], powers[2], powers[3]
+    for i in range(count):
+        xi[i], eta[i] = (sx[i] - xc) * inv_size, (sy[i] - yc) * inv_size
+        re[i], im[i] = 1.0, 0.0
+        acc[0, i], acc[1, i], acc[2, i] = 0.0, 0.0, 0.0
+    for l in range(order + 1):
+        r0, r1, r2 = coeffs[0, l].real * INV_TWO_PI, coeffs[1, l].real * INV_TWO_PI, coeffs[2, l].real * INV_TWO_PI
+        i0, i1, i2 = coeffs[0, l].imag * INV_TWO_PI, coeffs[1, l].imag * INV_TWO_PI, coeffs[2, l].imag * INV_TWO_PI
+        for i in range(count):
+            p, q = re[i], im[i]
+            acc[0, i] += r0 * p - i0 * q
+            acc[1, i] += r1 * p - i1 * q
+            acc[2, i] += r2 * p - i2 * q
+            re[i], im[i] = p * xi[i] - q * eta[i], p * eta[i] + q * xi[i]
+
+
+@numba.njit(cache=True, inline="always")
+def _sub_runs(coords, start, stop, origin, inv_sub, split, runs):
+    """``runs (split + 1,)``: offsets in ``coords[start:stop]`` of each sub-cell's samples (cell from ``origin``)."""
+    runs[0] = start
+    i = start
+    for part in range(split):
+        while i < stop and min(int((coords[i] - origin) * inv_sub), split - 1) <= part:
+            i += 1
+        runs[part + 1] = i
+    runs[split] = stop
+
+
+@numba.njit(cache=True, fastmath=POLY_MATH, error_model="numpy")
+def _cells(cells, lo, hi, local, order, xs, ys, x_start, y_start, n, cell_size, split, reach, cell_start, table,
+           weights, out, seg, shares_p, flux_free, sub, sub_shares, sub_ff, far_seg, state, sx, sy, acc, far, powers,
+           logs, lanes, coeffs, parent, xruns, yruns):
+    """Write the field (far + near) of the samples of ``cells[lo:hi]`` into ``out``; the rest are the thread's scratch.
+
+    One call per run of cells: a call passes some thirty arrays (reference counts and all).
+    """
+    for item in range(lo, hi):
+        cy, cx = cells[item] // n, cells[item] % n
+        ya0, yb0, xa0, xb0 = y_start[cy], y_start[cy + 1], x_start[cx], x_start[cx + 1]
+        if ya0 == yb0 or xa0 == xb0:
+            continue
+        m = _gather_cell_block(cy, cx, n, cell_start, table, weights, seg, shares_p, flux_free)
+        for c in range(3):
+            for l in range(order + 1):
+                parent[c, l] = local[cy, cx, c, l]
+        size = cell_size / split
+        _sub_runs(xs, xa0, xb0, cx * cell_size, 1.0 / size, split, xruns)
+        _sub_runs(ys, ya0, yb0, cy * cell_size, 1.0 / size, split, yruns)
+        for a in range(split):
+            ya, yb = yruns[a], yruns[a + 1]
+            for b in range(split):
+                xa, xb = xruns[b], xruns[b + 1]
+                width = xb - xa
+                count = (yb - ya) * width
+                if count == 0:
+                    continue
+                xc, yc = cx * cell_size + (b + 0.5) * size, cy * cell_size + (a + 0.5) * size
+                _shift(parent, order, (b + 0.5) / split - 0.5, (a + 0.5) / split - 0.5, split, coeffs)
+                near, count_far = 0, 0
+                reach2 = (reach * size) ** 2
+                for k in range(m):
+                    if _distance2(xc, yc, seg, k) >= reach2:
+                        for c in range(_ROWS):
+                            far_seg[c, count_far] = seg[c, k]
+                        count_far += 1
+                    else:
+                        for c in range(_ROWS):
+                            sub[c, near] = seg[c, k]
+                        sub_shares[near] = near > 0 and shares_p[k] and sub[0, near] == sub[2, near - 1] and \
+                            sub[1, near] == sub[3, near - 1]
+                        sub_ff[near] = flux_free[k]
+                        near += 1
+                if count_far > 0:
+                    _p2l_state(count_far, far_seg, xc, yc, size, state)
+                    _p2l_sums(count_far, far_seg, state, size, order, coeffs)
+                for i in range(yb - ya):
+                    for j in range(width):
+                        sx[i * width + j] = xs[xa + j]
+                        sy[i * width + j] = ys[ya + i]
+                _polynomial(coeffs, order, count, sx, sy, xc, yc, 1.0 / size, far, powers)
+                if near > 0:
+                    if count < FEW_SAMPLES:
+                        _by_segments(near, count, sub, sx, sy, acc, lanes)
+                    else:
+                        _by_samples(near, count, sub, sub_shares, sub_ff, sx, sy, acc, logs)
+                    for c in range(3):
+                        for i in range(count):
+                            far[c, i] += acc[c, i]
+                for i in range(yb - ya):
+                    for j in range(width):
+                        for c in range(3):
+                            out[ya + i, xa + j, c] = far[c, i * width + j]
+
+
+@numba.njit(parallel=True, cache=True, error_model="numpy")
+def _subcell_grid(local, order, xs, ys, x_start, y_start, n, cell_size, split, reach, cell_start, table, weights,
+                  cells, group_start, capacity, most, out):
+    for g in numba.prange(group_start.shape[0] - 1):
+        seg = np.empty((_ROWS, capacity + _PAD))
+        sub = np.empty((_ROWS, capacity + _PAD))
+        shares_p, flux_free = np.empty(capacity, np.bool_), np.empty(capacity, np.bool_)
+        sub_shares, sub_ff = np.empty(capacity, np.bool_), np.empty(capacity, np.bool_)
+        far_seg, state = np.empty((_ROWS, capacity)), np.empty((12, capacity))
+        powers = np.empty((4, most))
+        sx, sy = np.empty(most), np.empty(most)
+        acc, far, logs = np.empty((3, most)), np.empty((3, most)), np.empty((2, most))
+        lanes = np.empty((3, _PAD))
+        coeffs, parent = np.empty((3, order + 1), np.complex128), np.empty((3, order + 1), np.complex128)
+        xruns, yruns = np.empty(split + 1, np.int64), np.empty(split + 1, np.int64)
+        _cells(cells, group_start[g], group_start[g + 1], local, order, xs, ys, x_start, y_start, n, cell_size, split,
+               reach, cell_start, table, weights, out, seg, shares_p, flux_free, sub, sub_shares, sub_ff, far_seg,
+               state, sx, sy, acc, far, powers, logs, lanes, coeffs, parent, xruns, yruns)
+
+
+@numba.njit(cache=True)
+def _plan(n, cell_start, x_start, y_start, groups):
+    """Cells with samples in runs of about equal cost, the most segments in a block and samples in a cell."""
+    cost = np.zeros(n * n)
+    total, capacity, most = 0.0, 1, 1
+    for cy in range(n):
+        rows = y_start[cy + 1] - y_start[cy]
+        for cx in range(n):
+            samples = rows * (x_start[cx + 1] - x_start[cx])
+            if samples == 0:
+                continue
+            m = 0
+            for row in range(max(cy - 1, 0), min(cy + 2, n)):
+                m += cell_start[row * n + min(cx + 2, n)] - cell_start[row * n + max(cx - 1, 0)]
+            cost[cy * n + cx] = samples * (m / 8.0 + 4.0) + 8.0 * m
+            total += cost[cy * n + cx]
+            capacity, most = max(capacity, m), max(most, samples)
+    cells = np.flatnonzero(cost)
+    groups = max(1, min(groups, len(cells)))
+    group_start = np.full(groups + 1, len(cells), np.int64)
+    group_start[0] = 0
+    running, g = 0.0, 1
+    for item in range(len(cells)):
+        while g < groups and running >= total * g / groups:
+            group_start[g] = item
+            g += 1
+        running += cost[cells[item]]
+    return cells, group_start, capacity, most
+
+
+#: Groups of cells per thread (taken dynamically).
+GROUPS_PER_THREAD = 8
+
+
+def subcell_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.ndarray, cell_size: float,
+                       cell_start: np.ndarray, p: np.ndarray, q: np.ndarray, flux: np.ndarray, jump: np.ndarray,
+                       split: int = 1, separation: float = SEPARATION, out: np.ndarray | None = None,
+                       tables: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+    """The field of an FMR's segments (far and near) on the tensor grid ``ys x xs``, ``(len(ys), len(xs), 3)``.
+
+    Parameters
+    ----------
+    local : numpy.ndarray
+        ``(n, n, 3, > order)`` complex scaled local expansions of the fine cells.
+    order : int
+        Degree of the polynomials evaluated (and of the segments' expansions).
+    xs, ys : numpy.ndarray
+        Sorted (non-decreasing) sample coordinates in document pixels.
+    cell_size : float
+        Fine cell size in pixels.
+    cell_start, p, q, flux, jump : numpy.ndarray
+        The segments sorted by fine cell, as for ``segment_sums.near_sum``.
+    split : int
+        Sub-cells per side of a fine cell (1: none).
+    separation : float
+        Segments at least this many sub-cell sizes from a sub-cell's centre are expanded (``inf``: none).
+    out : numpy.ndarray, optional
+        C-contiguous float64 ``(len(ys), len(xs), 3)``, overwritten and returned.
+    tables : tuple of numpy.ndarray, optional
+        ``segment_sums.near_tables(p, q, flux, jump)``, when kept.
+    """
+    if not 0 <= order < local.shape[-1]:
+        raise ValueError(f"order must be between 0 and {local.shape[-1] - 1}")
+    if split < 1:
+        raise ValueError("split must be at least 1")
+    xs, ys, out = grid_arrays(xs, ys, out)
+    if out.size == 0:
+        return out
+    n = local.shape[0]
+    x_start, y_start = grid_cell_runs(xs, cell_size, n), grid_cell_runs(ys, cell_size, n)
+    cell_start = np.asarray(cell_start, np.int64)
+    cells, group_start, capacity, most = _plan(n, cell_start, x_start, y_start,
+                                               GROUPS_PER_THREAD * numba.get_num_threads())
+    table, weights = tables or near_tables(p, q, flux, jump)
+    with numba.parallel_chunksize(1):
+        _subcell_grid(np.asarray(local, np.complex128), int(order), xs, ys, x_start, y_start, n, float(cell_size),
+                      int(split), float(separation), cell_start, table, weights, cells, group_start, capacity, most,
+                      out)
+    return out

@@ -1,0 +1,196 @@
+"""The one-pass raster kernel (``kernels.subcells``) against plain references and the exact near split."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from shapes import circle_points, straight_chain
+from test_raster import chains_and_strays
+
+from fmr_editor.engine import Settings, build, raster, rasterise
+from fmr_editor.engine.fmm.lattice import Lattice, sort_into_cells
+from fmr_editor.engine.kernels.grid import far_field_grid, near_field_grid
+from fmr_editor.engine.kernels.potentials import direct_sum_reference
+from fmr_editor.engine.kernels.segment_sums import direct_sum
+from fmr_editor.engine.kernels.subcells import (
+    _p2l_state,
+    _p2l_sums,
+    local_field_reference,
+    p2l_reference,
+    subcell_field_grid,
+)
+from fmr_editor.engine.raster import far_field_reference, sample_coordinates
+from fmr_editor.model import ColorStop, DiffusionCurve, Document
+
+#: What the expansions of segments at least 2 sub-cells away may change (a 400th of an 8-bit level).
+EXPANSION_TOLERANCE = 1e-5
+
+
+@pytest.fixture(scope="module")
+def rep():
+    """A built 96 x 96 document: a circle and a chain, with colour gradients (levels 3: 12 px cells)."""
+    rng = np.random.default_rng(31)
+    stops = tuple(ColorStop(s, tuple(rng.random(3))) for s in (0.0, 1.0, 2.0))
+    curves = (DiffusionCurve(circle_points(45, 50, 30), left=stops, right=stops[::-1]),
+              DiffusionCurve(straight_chain([(8, 20), (50, 12), (90, 30)]), left=stops, right=stops))
+    return build(Document(96, 96, curves), Settings(levels=3))
+
+
+def exact(rep, xs, ys):
+    """Far field from the local expansions (numpy) plus the exact near sum of the 3x3 blocks."""
+    seg, lattice = rep.segments, rep.lattice
+    values = local_field_reference(rep.local, rep.order, xs, ys, lattice.cell_size)
+    return near_field_grid(xs, ys, lattice.cells_per_side, lattice.cell_size, rep.cell_start,
+                           seg.p, seg.q, seg.flux, seg.jump, out=np.ascontiguousarray(values))
+
+
+def kernel(rep, xs, ys, **options):
+    seg = rep.segments
+    return subcell_field_grid(rep.local, rep.order, xs, ys, rep.lattice.cell_size, rep.cell_start,
+                              seg.p, seg.q, seg.flux, seg.jump, **options)
+
+
+def test_local_field_reference_equals_the_cell_polynomials(rep):
+    xs, ys = sample_coordinates(50, 96, 1), sample_coordinates(41, 96, 2)
+    np.testing.assert_allclose(local_field_reference(rep.local, rep.order, xs, ys, rep.lattice.cell_size),
+                               far_field_reference(rep.polynomials(), xs, ys, rep.lattice.cell_size),
+                               rtol=0, atol=1e-11)
+
+
+@pytest.mark.parametrize("xs, ys", [(sample_coordinates(96, 96, 1), sample_coordinates(96, 96, 1)),
+                                    (sample_coordinates(40, 96, 3), sample_coordinates(23, 96, 3)[10:50]),
+                                    (np.sort(np.r_[np.random.default_rng(1).uniform(-2, 98, 37), 24.0, 24.0]),
+                                     np.arange(0.0, 96.5, 6.0))])
+def test_without_expansions_the_kernel_is_the_polynomial_plus_the_exact_near_sum(rep, xs, ys):
+    expected = exact(rep, xs, ys)
+    assert np.ptp(expected) > 0.3
+    for split in (1, 2, 3):
+        np.testing.assert_allclose(kernel(rep, xs, ys, split=split, separation=np.inf), expected, rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize("split", [2, 4])
+def test_expanded_segments_stay_within_the_tolerance_of_the_exact_split(rep, split):
+    xs = ys = sample_coordinates(96, 96, 3)
+    expected = exact(rep, xs, ys)
+    got = kernel(rep, xs, ys, split=split)
+    assert np.abs(got - expected).max() > 1e-14  # segments were expanded
+    np.testing.assert_allclose(got, expected, rtol=0, atol=EXPANSION_TOLERANCE)
+
+
+def test_the_kernel_overwrites_out_and_checks_its_input(rep):
+    xs, ys = sample_coordinates(30, 96, 1), sample_coordinates(20, 96, 1)
+    out = np.full((20, 30, 3), 7.0)
+    assert kernel(rep, xs, ys, split=2, out=out) is out
+    np.testing.assert_array_equal(out, kernel(rep, xs, ys, split=2))
+    with pytest.raises(ValueError, match="order"):
+        subcell_field_grid(rep.local, rep.local.shape[-1], xs, ys, 12.0, rep.cell_start, *([np.zeros((0, 2))] * 4))
+    with pytest.raises(ValueError, match="split"):
+        kernel(rep, xs, ys, split=0)
+    with pytest.raises(ValueError, match="sorted"):
+        kernel(rep, xs[::-1], ys)
+
+
+def random_segments(rng, count, radius):
+    """Segments with both ends beyond ``radius`` of the origin, random E and C."""
+    p = rng.uniform(-3 * radius, 3 * radius, (4 * count, 2))
+    q = p + rng.normal(0, radius / 3, p.shape)
+    keep = (np.hypot(*p.T) > radius) & (np.hypot(*q.T) > radius)
+    p, q = p[keep][:count], q[keep][:count]
+    # the whole segment beyond radius: its closest point to the origin
+    d = q - p
+    along = np.clip(-(p * d).sum(1) / (d * d).sum(1), 0, 1)
+    keep = np.hypot(*(p + along[:, None] * d).T) > radius
+    p, q = p[keep], q[keep]
+    return p, q, rng.normal(size=(len(p), 3)), rng.normal(size=(len(p), 3))
+
+
+def test_p2l_reference_converges_to_the_direct_sum():
+    rng = np.random.default_rng(32)
+    size = 8.0
+    p, q, flux, jump = random_segments(rng, 40, 2 * size)
+    targets = rng.uniform(-size / 2, size / 2, (60, 2))
+    w = (targets[:, 0] + 1j * targets[:, 1]) / size
+    expected = direct_sum_reference(targets, p, q, flux, jump)
+    errors = []
+    for order in (4, 8, 16):
+        coeffs = p2l_reference(p, q, flux, jump, 0j, size, order)
+        errors.append(np.abs((coeffs[None] * w[:, None, None] ** np.arange(order + 1)).sum(-1).real / (2 * np.pi)
+                             - expected).max())
+    ratio = 1 / (2 * np.sqrt(2))  # a corner of the cell against a segment 2 cells away
+    scale = np.abs(expected).max()
+    assert errors[0] > errors[1] > errors[2]
+    for order, error in zip((4, 8, 16), errors):
+        assert error < 40 * scale * ratio ** (order + 1)
+
+
+def test_compiled_expansions_equal_the_reference():
+    rng = np.random.default_rng(33)
+    p, q, flux, jump = random_segments(rng, 50, 5.0)
+    centre, size, order = (3.0, -2.0), 4.0, 9
+    d = q - p
+    h = np.hypot(*d.T)
+    table = np.concatenate([p.T, q.T, (d / h[:, None]).T, h[None], flux.T, jump.T])
+    coeffs = np.zeros((3, order + 1), complex)
+    _p2l_state(len(p), table, *centre, size, state := np.empty((12, len(p))))
+    _p2l_sums(len(p), table, state, size, order, coeffs)
+    expected = p2l_reference(p + 0.0, q + 0.0, flux, jump, complex(*centre), size, order)
+    expected[:, 0] = expected[:, 0].real
+    np.testing.assert_allclose(coeffs, expected, rtol=1e-11, atol=1e-11 * np.abs(expected).max())
+
+
+def test_rasterise_splits_cells_of_many_samples_within_the_tolerance(rep, monkeypatch):
+    assert raster.split_for(36.0) == (4, raster.SEPARATION)
+    assert raster.split_for(15.0) == (1, np.inf)
+    image = rasterise(rep, 288, 288, samples=1)  # 36 samples a cell side: 4 x 4 sub-cells
+    monkeypatch.setattr(raster, "SUB_CELL_SAMPLES", 10**9)
+    whole = rasterise(rep, 288, 288, samples=1)
+    assert np.abs(image - whole).max() > 1e-14
+    np.testing.assert_allclose(image, whole, rtol=0, atol=EXPANSION_TOLERANCE)
+    rng = np.random.default_rng(34)
+    pixels = rng.integers(0, 288, (200, 2))
+    seg = rep.segments
+    direct = direct_sum((pixels + 0.5) / 3, seg.p, seg.q, seg.flux, seg.jump)
+    assert np.abs(image[pixels[:, 1], pixels[:, 0]] - direct).max() < 1 / 255
+
+
+# --- the near-field kernel's variants (grid) ----------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def strays():
+    rng = np.random.default_rng(35)
+    lattice = Lattice(3, 64.0)
+    xs, ys = np.arange(0.25, 64, 1.5), np.arange(0.5, 64, 2.5)
+    seg, start = sort_into_cells(chains_and_strays(rng, 64, 64, np.array([xs[4], ys[3]])), lattice)
+    return lattice, xs, ys, seg, start
+
+
+def test_segments_innermost_equals_samples_innermost(strays):
+    lattice, xs, ys, seg, start = strays
+    args = (xs, ys, lattice.cells_per_side, lattice.cell_size, start, seg.p, seg.q, seg.flux, seg.jump)
+    by_samples = near_field_grid(*args, few_samples=0)
+    np.testing.assert_allclose(near_field_grid(*args, few_samples=10**9), by_samples, rtol=0, atol=1e-11)
+
+
+def test_single_precision_near_field_is_within_a_thousandth_of_a_level(strays):
+    lattice, xs, ys, seg, start = strays
+    args = (xs, ys, lattice.cells_per_side, lattice.cell_size, start, seg.p, seg.q, seg.flux, seg.jump)
+    double = near_field_grid(*args)
+    single = near_field_grid(*args, precision="single")
+    assert np.abs(single - double).max() > 0  # the float32 kernel ran
+    np.testing.assert_allclose(single, double, rtol=0, atol=1e-3 / 255)
+    with pytest.raises(ValueError, match="precision"):
+        near_field_grid(*args, precision="half")
+
+
+def test_far_field_grid_adds_and_truncates():
+    rng = np.random.default_rng(36)
+    poly = rng.normal(size=(8, 8, 3, 7, 7))
+    xs, ys = sample_coordinates(37, 64, 1), sample_coordinates(23, 64, 2)
+    truncated = poly.copy()
+    truncated[..., 4:, :] = 0
+    truncated[..., :, 4:] = 0
+    base = rng.normal(size=(len(ys), len(xs), 3))
+    out = base.copy()
+    assert far_field_grid(poly, xs, ys, 8.0, order=3, out=out) is out
+    np.testing.assert_allclose(out - base, far_field_reference(truncated, xs, ys, 8.0), rtol=0, atol=1e-12)
