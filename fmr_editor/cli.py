@@ -139,7 +139,7 @@ def render_one(source: str, output: str, args: argparse.Namespace) -> int:
     unless ``--order`` or ``--method direct`` ask for another.
     """
     from . import load, render_image
-    from .engine import LiveStack, Settings, rasterise
+    from .engine import LiveStack, Settings, check_image_memory, output_size, rasterise
     from .io import DocumentLoadError, load_fmr
     from .io.png import save_png
 
@@ -151,6 +151,7 @@ def render_one(source: str, output: str, args: argparse.Namespace) -> int:
         return 2
     progress = StderrProgress()
     try:
+        check_image_memory(*output_size(document.width, document.height, args.width, args.height))
         if saved is not None and args.order is None and args.method == "fmr":
             picture = saved.composite  # every representation saved: no solve
             if picture is None:

@@ -90,9 +90,9 @@ def test_a_singular_system_falls_back_to_the_least_squares_solution(monkeypatch)
     np.testing.assert_allclose(got[4], got[5], atol=1e-9)  # shared, not blown up
 
 
-def test_the_bucket_filter_finds_every_pair_a_full_search_finds(monkeypatch):
+def test_the_bucket_search_finds_every_pair_a_full_search_finds():
     """Collinear pieces in random directions (some just below pi: the wrap of the direction), tiny pieces,
-    and noise: the same pairs with ``_candidates`` as with every segment handed to shapely."""
+    repeated pieces and noise: the same pairs as the plain search over every segment (``reference_pairs``)."""
     from fmr_editor.engine.geometry import overlaps
     from fmr_editor.engine.geometry.segments import Segments
 
@@ -109,14 +109,21 @@ def test_the_bucket_filter_finds_every_pair_a_full_search_finds(monkeypatch):
         for rise in (2e-7, -2e-7):             # tolerance: their directions round to either end of [0, pi)
             lines.append((np.array([x, y]), np.array([x + 60, y + rise])))
     lines += [tuple(rng.uniform(0, 1500, (2, 2))) for _ in range(200)]
+    lines += [lines[i][::-1] if i % 2 else lines[i] for i in rng.integers(0, len(lines), 30)]  # repeated
     p, q = np.array([line[0] for line in lines]), np.array([line[1] for line in lines])
     n = len(p)
     segments = Segments(p, q, np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(n, bool), np.zeros((n, 3)))
 
-    def pairs():
-        found = overlapping_pairs(segments)
-        return sorted(zip(*(np.round(values, 9).tolist() for values in found)))
+    def covered(found):
+        return drop_covered_parts(segments, pairs=found)
 
-    filtered = pairs()
-    monkeypatch.setattr(overlaps, "_candidates", lambda segments, among=None: np.arange(len(segments)))
-    assert filtered == pairs() and len(filtered) > 10
+    fast, plain = covered(overlapping_pairs(segments)), covered(overlaps.reference_pairs(segments))
+    assert len(fast) < n - 20
+    np.testing.assert_array_equal(fast.p, plain.p)
+    np.testing.assert_array_equal(fast.q, plain.q)
+    # a repeated segment pairs with its last twin only; every other pair as the full search finds it
+    twins = overlaps.last_twins(segments)
+    plain_pairs = [(a, b, start, end) for a, b, start, end in
+                   zip(*(np.round(v, 9).tolist() for v in overlaps.reference_pairs(segments)))
+                   if twins[a] == b or (twins[a] == a and twins[b] == b)]
+    assert sorted(zip(*(np.round(v, 9).tolist() for v in overlapping_pairs(segments)))) == sorted(plain_pairs)

@@ -19,6 +19,7 @@ from .fmm.expansions import local_polynomials  # noqa: E402
 from .fmm.lattice import Lattice  # noqa: E402
 from .geometry.segments import Segments  # noqa: E402
 from .live import LiveRepresentation, Progress, Update  # noqa: E402
+from .memory import available_memory, check_image_memory  # noqa: E402
 from .points.field import PointField  # noqa: E402
 from .points.gauss import GaussPoints  # noqa: E402
 from .raster import evaluate_points, output_size, rasterise  # noqa: E402
@@ -31,5 +32,5 @@ __all__ = [
     "MAX_LEVELS", "Composite", "GaussPoints", "LayerFields", "Lattice", "LiveRepresentation", "LiveStack",
     "PointField", "Progress", "Representation", "SeamlessClone", "Segments", "Settings", "Similarity", "StackUpdate",
     "Update", "build",
-    "clone_points", "composite_of", "evaluate_points", "local_polynomials", "output_size", "rasterise",
+    "available_memory", "check_image_memory", "clone_points", "composite_of", "evaluate_points", "local_polynomials", "output_size", "rasterise",
 ]

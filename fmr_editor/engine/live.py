@@ -37,6 +37,7 @@ from .geometry.curve_cache import CurveSegments
 from .geometry.discretise import boundary_segments, with_curve_colors
 from .geometry.segments import Segments
 from .kept_states import KeptStates, State
+from .memory import affordable_levels, check_build_memory
 from .points.field import (
     LivePoints, changed_point_cells, lattice_radius, point_levels, sorted_radii_after, warm_up_points,
 )
@@ -158,7 +159,7 @@ class LiveRepresentation:
         """
         if self.settings.levels:
             return self.settings.levels
-        return max(choose_levels(curves, self._side), self._point_levels)
+        return affordable_levels(max(choose_levels(curves, self._side), self._point_levels))
 
     def _rebuild(self, document: Document, progress: Progress | None) -> None:
         report = progress or (lambda stage, fraction: None)
@@ -201,6 +202,7 @@ class LiveRepresentation:
         self._point_levels = point_levels(lattice_radius(self._radii), self._side)
         self.lattice = Lattice(self._levels(self._curves), self._side)
         self._boundary = boundary_segments(self._curves, document, self.lattice.cell_size, self.settings.border_spacing)
+        check_build_memory(len(self._boundary), self.lattice.levels)
 
     def _resume(self, document: Document, saved: Representation) -> bool:
         """Take the solution and expansions of ``saved`` (of ``document``); False if they do not fit it."""

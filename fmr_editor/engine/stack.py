@@ -20,6 +20,7 @@ import numpy as np
 
 from ..model import Document
 from ..model.layer import Layer
+from ..model.limits import check_document
 from .cloning import LiveClone
 from .composite import Composite, LayerFields
 from .live import LiveRepresentation, Progress, Update
@@ -93,6 +94,11 @@ class LiveStack:
     memory : int
         Bytes the kept states of all fields may take, shared among them.
 
+    Raises
+    ------
+    LimitError
+        When ``document`` exceeds ``model.limits``, before any work.
+
     Attributes
     ----------
     document : Document
@@ -106,6 +112,7 @@ class LiveStack:
     def __init__(self, document: Document, settings: Settings = Settings(), progress: Progress | None = None,
                  saved: Sequence[tuple[Representation | None, Representation | None]] | None = None,
                  memory: int = 500 * 2**20) -> None:
+        check_document(document)
         self.settings = settings
         self._memory = memory
         self.document = document
@@ -165,7 +172,15 @@ class LiveStack:
         return None
 
     def update(self, document: Document, progress: Progress | None = None, exact: bool = True) -> StackUpdate:
-        """Bring every field to ``document``; see ``LiveRepresentation.update`` for ``exact``."""
+        """Bring every field to ``document``; see ``LiveRepresentation.update`` for ``exact``.
+
+        Raises
+        ------
+        LimitError
+            When ``document`` exceeds ``model.limits`` (nothing changes then).
+        """
+        if document.layers is not self.document.layers:
+            check_document(document)
         start = time.perf_counter()
         updates = self._follow(document, progress, {}, exact)
         self._blend(document, updates)
@@ -292,4 +307,5 @@ def build(document: Document, settings: Settings = Settings(), progress: Progres
     """
     if not document.is_flat:
         raise ValueError("build takes a document of one plain layer; LiveStack(document).composite draws layers")
+    check_document(document)
     return LiveRepresentation(document, settings, progress).representation

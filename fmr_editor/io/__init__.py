@@ -45,12 +45,16 @@ def load_document(path: str | os.PathLike) -> Document:
     raise DocumentLoadError(name, f"unsupported file type {suffix or '(no suffix)'!r}; supported: .fmr, .xml")
 
 
-def open_live(path: str | os.PathLike, settings: Settings | None = None, progress: Progress | None = None) -> LiveStack:
+def open_live(path: str | os.PathLike, settings: Settings | None = None, progress: Progress | None = None,
+              notes: list[str] | None = None) -> LiveStack:
     """The document in ``path`` with the live representations of its layers and masks, ready to edit.
 
     A ``.fmr`` file's saved representations are taken as they are (no solve),
-    with the settings they were built with; anything else is built with
-    ``settings`` (default ``Settings()``).
+    with the settings they were built with, when they check out against the
+    document; a representation that does not (damaged, of another document,
+    of a newer engine) is rebuilt, and ``notes`` (a list, when given) gets a
+    line saying so.  Anything else is built with ``settings`` (default
+    ``Settings()``).
 
     Raises
     ------
@@ -58,7 +62,16 @@ def open_live(path: str | os.PathLike, settings: Settings | None = None, progres
         When the file cannot be read.
     """
     settings = settings or Settings()
-    if Path(path).suffix.lower() == ".fmr":
-        saved = load_fmr(path)
-        return LiveStack(saved.document, saved.settings or settings, progress, saved.fields)
-    return LiveStack(load_document(path), settings, progress)
+    if Path(path).suffix.lower() != ".fmr":
+        return LiveStack(load_document(path), settings, progress)
+    saved = load_fmr(path)
+    live = LiveStack(saved.document, saved.settings or settings, progress, saved.fields)
+    found = list(saved.notes)
+    for layer, reps in zip(saved.document.layers, saved.fields):
+        for kind, rep in zip(("image", "mask", "source"), reps):
+            field = live.fields.get((layer.id, kind))
+            if rep is not None and field is not None and "resume" not in field.timings:
+                found.append(f"the saved {kind} of {layer.name} does not match the document; it was rebuilt")
+    if notes is not None:
+        notes.extend(found)
+    return live

@@ -30,7 +30,9 @@ from __future__ import annotations
 import json
 
 from ..model import BlurStop, ColorStop, DiffusionCurve, DiffusionPoint, Document, Layer, Mask
+from ..model import limits
 from ..model.clone import MAX_REGION, Clone, Similarity, region_on_canvas
+from ..model.limits import shortened
 from ..model.layer import MAX_LAYERS, MAX_NAME
 from ..model.color_transform import ColorTransform
 from .json_checks import (
@@ -54,7 +56,7 @@ SCHEMA_VERSION = 3
 version that holds it, so that a file without clone layers still opens in an editor of version 2."""
 
 
-MAX_CANVAS_SIZE = 32768
+MAX_CANVAS_SIZE = limits.MAX_CANVAS_SIDE
 """Largest canvas width or height accepted (as the Orzan reader)."""
 
 
@@ -166,13 +168,22 @@ def loads_document(data: bytes) -> Document:
 
 
 def document_from_data(data: object) -> Document:
-    """The document described by parsed JSON ``data``.
+    """The document described by parsed JSON ``data``, within ``model.limits``.
 
     Raises
     ------
     SchemaError
-        If ``data`` does not follow the schema; the message names the place.
+        If ``data`` does not follow the schema or exceeds a limit; the message names the place.
     """
+    document = _document(data)
+    try:
+        limits.check_document(document)
+    except limits.LimitError as error:
+        raise SchemaError(str(error)) from None
+    return document
+
+
+def _document(data: object) -> Document:
     root = as_object(data, "the top level")
     if root.get("format") != FORMAT_NAME:
         raise SchemaError(f"format is {root.get('format')!r:.60}, expected {FORMAT_NAME!r}")
@@ -196,6 +207,9 @@ def _items(item: dict, where: str) -> tuple[tuple[DiffusionCurve, ...], tuple[Di
     prefix = f"{where}." if where else ""
     curves = as_list(item.get("curves", []), f"{prefix}curves")
     points = as_list(item.get("points", []), f"{prefix}points")
+    for values, most, what in ((curves, limits.MAX_CURVES, "curves"), (points, limits.MAX_POINTS, "points")):
+        if len(values) > most:
+            raise SchemaError(f"{prefix}{what} holds {len(values):,}; at most {most:,} are read")
     return (tuple(_curve(value, f"{prefix}curves[{i}]") for i, value in enumerate(curves)),
             tuple(_point(value, f"{prefix}points[{i}]") for i, value in enumerate(points)))
 
@@ -214,7 +228,7 @@ def _layer(value: object, where: str, canvas: tuple[int, int]) -> Layer:
         raise SchemaError(f"{where}.name must be text of at most {MAX_NAME} characters")
     opacity = finite(item.get("opacity", 1.0), f"{where}.opacity")
     if not 0.0 <= opacity <= 1.0:
-        raise SchemaError(f"{where}.opacity must lie in [0, 1], got {opacity!r}")
+        raise SchemaError(f"{where}.opacity must lie in [0, 1], got {shortened(opacity)}")
     transform = as_object(item.get("transform", {}), f"{where}.transform")
     matrix = finite_rows(transform.get("matrix", [[1, 0, 0], [0, 1, 0], [0, 0, 1]]), 3, f"{where}.transform.matrix")
     if len(matrix) != 3:
@@ -262,7 +276,11 @@ def _clone(value: object, where: str, canvas: tuple[int, int]) -> Clone:
 
 def _curve(value: object, where: str) -> DiffusionCurve:
     item = as_object(value, where)
-    points = finite_rows(required(item, "control_points", where), 2, f"{where}.control_points")
+    listed = as_list(required(item, "control_points", where), f"{where}.control_points")
+    if len(listed) > limits.MAX_CURVE_CONTROL_POINTS:
+        raise SchemaError(f"{where}.control_points holds {len(listed):,}; at most "
+                          f"{limits.MAX_CURVE_CONTROL_POINTS:,} are read")
+    points = finite_rows(listed, 2, f"{where}.control_points")
     if len(points) < 4 or (len(points) - 1) % 3:
         raise SchemaError(
             f"{where}.control_points has {len(points)} points; a chain of cubic Beziers needs 3k+1 (4, 7, 10, ...)"
@@ -294,7 +312,7 @@ def _point(value: object, where: str) -> DiffusionPoint:
     position = finite_tuple(required(item, "position", where), 2, f"{where}.position")
     radius = finite(required(item, "radius", where), f"{where}.radius")
     if not radius > 0:
-        raise SchemaError(f"{where}.radius must be positive, got {radius!r}")
+        raise SchemaError(f"{where}.radius must be positive, got {shortened(radius)}")
     color = finite_tuple(required(item, "color", where), 3, f"{where}.color")
     amplitude = finite(item.get("amplitude", 1.0), f"{where}.amplitude")
     return DiffusionPoint(position, radius, color, amplitude)

@@ -339,19 +339,21 @@ def _read_field(archive: zipfile.ZipFile, prefix: str, document_bytes: bytes,
         check_version(manifest, "version", REPRESENTATION_VERSION, "representation format")
     except NewerVersionError as error:  # derived data a newer engine wrote: the document still opens
         return None, None, f"{entry}: {error}; the representation must be rebuilt"
-    except SchemaError as error:
-        raise _prefixed(error, entry) from None
+    except (SchemaError, ArchiveError) as error:
+        return None, None, f"{_prefixed(error, entry)}; the representation must be rebuilt"
     if manifest.get("document_sha256") != _digest(document_bytes):  # document.json edited after saving
         return None, None, f"{entry}: it was saved with another {DOCUMENT_ENTRY}; the representation must be rebuilt"
-    try:
+    try:  # derived data: whatever is wrong with it, the document opens and the representation is made anew
         layout = parse_manifest(manifest, target)
+        arrays = {
+            name: read_npy(archive, entry_name(name, prefix), dtype, shape)
+            for name, (dtype, shape) in layout.arrays().items()
+        }
+        return assemble(layout, arrays, target), layout.settings, None
     except SchemaError as error:
-        raise _prefixed(error, entry) from None
-    arrays = {
-        name: read_npy(archive, entry_name(name, prefix), dtype, shape)
-        for name, (dtype, shape) in layout.arrays().items()
-    }
-    return assemble(layout, arrays, target), layout.settings, None
+        return None, None, f"{_prefixed(error, entry)}; the representation must be rebuilt"
+    except (ArchiveError, RepresentationError) as error:
+        return None, None, f"{error}; the representation must be rebuilt"
 
 
 def _digest(document_bytes: bytes) -> str:

@@ -74,13 +74,14 @@ from xml.etree.ElementTree import Element, ParseError
 import defusedxml.ElementTree as defused_et
 from defusedxml import DefusedXmlException, EntitiesForbidden
 
-from ..model import BlurStop, ColorStop, DiffusionCurve, Document
+from ..model import BlurStop, ColorStop, DiffusionCurve, Document, limits
+from ..model.limits import shortened
 from .errors import DocumentLoadError
 
 MAX_FILE_BYTES = 256 * 1024 * 1024
 """Larger files are refused before anything is read."""
 
-MAX_CANVAS_SIZE = 32768
+MAX_CANVAS_SIZE = limits.MAX_CANVAS_SIDE
 """Largest accepted ``image_width`` / ``image_height``."""
 
 DEFAULT_CANVAS_SIZE = 512
@@ -200,8 +201,15 @@ def _document_from_root(root: Element) -> Document:
     width = _canvas_size(size_holders, "image_width")
     height = _canvas_size(size_holders, "image_height")
     elements = [curve for curve_set in curve_sets for curve in curve_set.findall("curve")]
+    if len(elements) > limits.MAX_CURVES:
+        raise _FormatError(f"at most {limits.MAX_CURVES:,} curves are read, got {len(elements):,}")
     curves = [_parse_curve(element, index, convention) for index, element in enumerate(elements, 1)]
-    return Document(width, height, tuple(curves))
+    document = Document(width, height, tuple(curves))
+    try:
+        limits.check_document(document)
+    except limits.LimitError as error:
+        raise _FormatError(str(error)) from None
+    return document
 
 
 def _canvas_size(holders: list[Element], attribute: str) -> int:
@@ -211,7 +219,7 @@ def _canvas_size(holders: list[Element], attribute: str) -> int:
             value = _number(element, attribute, f"<{element.tag}>")
             if value != int(value) or not 1 <= value <= MAX_CANVAS_SIZE:
                 raise _FormatError(
-                    f"canvas {attribute}={element.get(attribute)!r} is not a whole number "
+                    f"canvas {attribute}={shortened(element.get(attribute))} is not a whole number "
                     f"from 1 to {MAX_CANVAS_SIZE}"
                 )
             return int(value)
@@ -237,6 +245,9 @@ def _control_points(element: Element, where: str, convention: _Convention) -> li
     """The control points as document ``(x, y)``; their count must be 3k+1 with k >= 1."""
     children = element.findall("control_points_set/control_point")
     count = len(children)
+    if count > limits.MAX_CURVE_CONTROL_POINTS:
+        raise _FormatError(f"{where} has {count:,} control points; at most {limits.MAX_CURVE_CONTROL_POINTS:,} "
+                           "are read")
     if count < 4 or (count - 1) % 3:
         raise _FormatError(
             f"{where} has {count} control points; a chain of cubic Beziers needs 3k+1 (4, 7, 10, ...)"
@@ -289,7 +300,7 @@ def _number(element: Element, attribute: str, label: str) -> float:
     try:
         value = float(text)
     except ValueError:
-        raise _FormatError(f"{label}: {attribute}={text!r} is not a number") from None
+        raise _FormatError(f"{label}: {attribute}={shortened(text)} is not a number") from None
     if not math.isfinite(value):
-        raise _FormatError(f"{label}: {attribute}={text!r} is not a finite number")
+        raise _FormatError(f"{label}: {attribute}={shortened(text)} is not a finite number")
     return value

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..engine import MAX_LEVELS, GaussPoints, Lattice, PointField, Representation, Segments, Settings
+from ..engine import MAX_LEVELS, GaussPoints, Lattice, PointField, Representation, Segments, Settings, available_memory
 from ..model import Document
 from .json_checks import SchemaError, as_object, check_version, finite, required, whole
 
@@ -44,6 +44,9 @@ MAX_PROPAGATION_ORDER = 60
 
 MAX_ARRAY_BYTES = 4 << 30
 """No array entry may unpack to more than this."""
+
+MEMORY_SHARE = 0.25
+"""A representation's arrays may take at most this share of the memory available (``engine.available_memory``)."""
 
 SEGMENT_FIELDS = ("p", "q", "jump", "mean", "on_border", "flux")
 
@@ -204,9 +207,14 @@ def parse_manifest(data: object, document: Document) -> ArrayLayout:
     segment_count = whole(required(root, "segment_count", ""), "segment_count", 0, most)
     settings = _settings(root.get("settings"), levels, order, propagation_order)
     layout = ArrayLayout(levels, side, order, propagation_order, segment_count, settings)
-    for name, (dtype, shape) in layout.arrays().items():
-        if np.dtype(dtype).itemsize * math.prod(shape) > MAX_ARRAY_BYTES:
+    sizes = {name: np.dtype(dtype).itemsize * math.prod(shape) for name, (dtype, shape) in layout.arrays().items()}
+    for name, size in sizes.items():
+        if size > MAX_ARRAY_BYTES:
             raise SchemaError(f"{entry_name(name)} would be larger than {MAX_ARRAY_BYTES >> 30} GiB")
+    budget = MEMORY_SHARE * available_memory()
+    if sum(sizes.values()) > budget:  # before any of it is read: a small file may declare huge arrays
+        raise SchemaError(f"its arrays would take {sum(sizes.values()) / 2**30:.1f} GiB, more than the "
+                          f"{budget / 2**30:.1f} GiB this machine has to spare")
     return layout
 
 

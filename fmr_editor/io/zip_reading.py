@@ -31,6 +31,12 @@ MAX_DIRECTORY_BYTES = 1 << 20
 MAX_NPY_HEADER = 4096
 """Largest ``.npy`` header accepted (``np.save`` writes 128 bytes for these arrays)."""
 
+MAX_RATIO = 100
+"""An entry declared larger than ``RATIO_FLOOR`` must not unpack to more than this many times its packed size:
+real entries (JSON, float arrays) deflate by less than ten, a bomb of zeros by a thousand."""
+
+RATIO_FLOOR = 64 << 20
+
 _CHUNK = 1 << 22
 _END = struct.Struct("<4s4H2LH")  # end of central directory record
 _END_SIGNATURE = b"PK\x05\x06"
@@ -115,6 +121,9 @@ def entry_info(archive: zipfile.ZipFile, name: str) -> zipfile.ZipInfo:
         raise ArchiveError(
             f"the entry {name} uses compression method {info.compress_type}; only stored and deflated are read"
         )
+    if info.file_size > RATIO_FLOOR and info.file_size > MAX_RATIO * info.compress_size:
+        raise ArchiveError(f"the entry {name} would unpack {_size(info.compress_size)} to {_size(info.file_size)}, "
+                           f"more than {MAX_RATIO} times as much (a ZIP bomb)")
     return info
 
 
@@ -195,8 +204,9 @@ def _opened(archive: zipfile.ZipFile, info: zipfile.ZipInfo) -> Iterator[BinaryI
     try:
         with archive.open(info) as entry:
             yield entry
-    except (zipfile.BadZipFile, zlib.error, EOFError, NotImplementedError) as error:
-        raise ArchiveError(f"the entry {info.filename} is damaged ({_first_line(error)})") from None
+    except (zipfile.BadZipFile, zlib.error, EOFError, NotImplementedError, UnicodeDecodeError) as error:
+        # UnicodeDecodeError: the local header's name is flagged UTF-8 but is not
+        raise ArchiveError(f"the entry {info.filename[:60]} is damaged ({_first_line(error)})") from None
 
 
 def _npy_header(entry: BinaryIO, name: str) -> tuple[np.dtype, bool, tuple[int, ...]]:

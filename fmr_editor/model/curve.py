@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .identity import checked_id
+from .limits import MAX_COLOR
 
 Color = tuple[float, float, float]
 
@@ -57,6 +58,8 @@ def _normalised_stops(stops, piece_count: int) -> tuple:
     """Sort stops by position and clamp their positions to ``[0, piece_count]``."""
     if not all(np.isfinite(float(stop.position)) for stop in stops):
         raise ValueError("stop positions must be finite")
+    if not all((np.abs(stop.color) <= MAX_COLOR).all() for stop in stops if isinstance(stop, ColorStop)):
+        raise ValueError(f"stop colours must be finite and at most {MAX_COLOR:g} in size")
     clamped = [
         type(stop)(min(max(float(stop.position), 0.0), float(piece_count)), *_payload(stop))
         for stop in stops

@@ -10,6 +10,7 @@ import math
 from dataclasses import dataclass, field
 
 from .identity import checked_id
+from .limits import MAX_COLOR
 
 Color = tuple[float, float, float]
 
@@ -49,7 +50,10 @@ class DiffusionPoint:
         object.__setattr__(self, "position", tuple(v + 0.0 for v in position))
         object.__setattr__(self, "color", tuple(v + 0.0 for v in color))
         object.__setattr__(self, "radius", radius)
-        object.__setattr__(self, "amplitude", _finite(self.amplitude, "amplitude") + 0.0)
+        amplitude = _finite(self.amplitude, "amplitude")
+        if max(abs(amplitude), *map(abs, color)) > MAX_COLOR:
+            raise ValueError(f"a point's colour and amplitude must be at most {MAX_COLOR:g} in size")
+        object.__setattr__(self, "amplitude", amplitude + 0.0)
         object.__setattr__(self, "id", checked_id(self.id))
 
 

@@ -68,6 +68,8 @@ class DocumentTabs:
         self._activate(workspace)
         if blank is not None and blank.path is None and blank.history.index == 0 and not blank.history.modified:
             self._drop(blank)
+        if opened.notes:
+            self.status_label.setText(f"{workspace.name}: " + "; ".join(opened.notes))
 
     def _if_active(self, workspace: Workspace, slot: Callable, *args) -> None:
         if workspace is self.workspace:

@@ -16,7 +16,7 @@ from PySide6.QtWidgets import (
     QCheckBox, QDialog, QDialogButtonBox, QFormLayout, QHBoxLayout, QLineEdit, QPushButton, QSpinBox, QWidget,
 )
 
-from ..engine import Composite, LiveStack, Representation, Settings, rasterise
+from ..engine import Composite, LiveStack, Representation, Settings, check_image_memory, rasterise
 from ..io.png import save_png
 from ..model import Document
 from .files import ask_png_path
@@ -49,6 +49,7 @@ class ExportOptions:
 def export_png(options: ExportOptions, document: Document, picture: Composite | Representation | None,
                settings: Settings = Settings(), progress: Callable[[str, float], None] | None = None) -> Path:
     """Rasterise ``picture`` (``document``'s, built first if None) and write the PNG; returns the path written."""
+    check_image_memory(options.width, options.height)
     if picture is None:
         picture = LiveStack(document, settings, progress).composite
     image = rasterise(picture, options.width, options.height, samples=options.samples, progress=progress)

@@ -13,13 +13,15 @@ from pathlib import Path
 from PySide6.QtCore import QSettings
 from PySide6.QtWidgets import QDialog, QDialogButtonBox, QFileDialog, QFormLayout, QMessageBox, QSpinBox
 
+from ..model.limits import MAX_CANVAS_SIDE
+
 #: Suffixes the editor opens.
 OPENABLE = (".fmr", ".xml")
 OPEN_FILTER = "Documents (*.fmr *.xml);;FMR documents (*.fmr);;Orzan curve sets (*.xml);;All files (*)"
 SAVE_FILTER = "FMR documents (*.fmr)"
 PNG_FILTER = "PNG images (*.png)"
 #: Largest canvas side the new-canvas dialog offers, pixels.
-MAX_CANVAS = 16384
+MAX_CANVAS = MAX_CANVAS_SIDE
 
 
 def openable(path: str | os.PathLike) -> bool:

@@ -42,19 +42,22 @@ class Opened:
         The first frame (every cell changed).
     path : pathlib.Path or None
         The file it came from; None for a new document.
+    notes : tuple of str
+        What was not taken from the file and why (a saved representation rebuilt).
     """
 
     live: LiveStack
     frame: Frame
     path: Path | None
+    notes: tuple[str, ...] = ()
 
     @property
     def document(self) -> Document:
         return self.live.document
 
 
-def _opened(live: LiveStack, path: Path | None) -> Opened:
-    return Opened(live, Frame.first(live), path)
+def _opened(live: LiveStack, path: Path | None, notes: list[str] = ()) -> Opened:
+    return Opened(live, Frame.first(live), path, tuple(notes))
 
 
 def open_file(path: str | os.PathLike, progress: Progress | None = None) -> Opened:
@@ -68,7 +71,8 @@ def open_file(path: str | os.PathLike, progress: Progress | None = None) -> Open
         When the file cannot be read.
     """
     path = Path(path).absolute()
-    return _opened(open_live(path, progress=progress), path)
+    notes: list[str] = []
+    return _opened(open_live(path, progress=progress, notes=notes), path, notes)
 
 
 def background_curve(width: float, height: float, color=BACKGROUND) -> DiffusionCurve:

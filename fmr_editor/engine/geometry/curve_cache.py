@@ -14,9 +14,15 @@ from __future__ import annotations
 import numpy as np
 
 from ...model import DiffusionCurve, Document
-from .discretise import clip_to_canvas, flatten_curve, from_curve
+from ...model.limits import LimitError
+from ..memory import check_build_memory
+from .discretise import clip_to_canvas, flatten_curve, flattened_count, from_curve
 from .overlaps import drop_covered_parts, overlapping_pairs
 from .segments import Segments, concatenate, empty_segments
+
+
+#: Most segments the curves of a document may be flattened into (roses: 70,000).
+MAX_SEGMENTS = 2_000_000
 
 
 class CurveSegments:
@@ -31,7 +37,7 @@ class CurveSegments:
     def __init__(self, tolerance: float, max_length: float) -> None:
         self.tolerance, self.max_length = tolerance, max_length
         self._clipped: dict[tuple[DiffusionCurve, float, float], Segments] = {}
-        self._last: tuple | None = None  # (curves, canvas, segments per curve, pairs) of the last document
+        self._last: tuple | None = None  # (curves, canvas, segments per curve, pairs, twins among them) of the last document
 
     def _clip(self, curve: DiffusionCurve, width: float, height: float) -> Segments:
         key = (curve, width, height)
@@ -55,21 +61,34 @@ class CurveSegments:
     def segments(self, document: Document) -> Segments:
         """The document's curve segments, as ``segments.curve_segments(document, tolerance, max_length)``."""
         canvas = (float(document.width), float(document.height))
+        self._check_size(document.curves, canvas)
         pieces = [self._clip(curve, *canvas) for curve in document.curves]
         counts = np.array([len(piece) for piece in pieces], np.int64)
         clipped = concatenate([empty_segments(), *pieces])
         clipped = from_curve(clipped, 0)
         clipped.origin[:, 0] = np.repeat(np.array([curve.id for curve in document.curves], np.float64), counts)
         pairs = self._pairs(document.curves, canvas, counts, clipped)
-        self._last = (document.curves, canvas, counts, pairs)
+        self._last = (document.curves, canvas, counts, pairs, _has_twins(clipped, pairs))
         return drop_covered_parts(clipped, pairs=pairs)
+
+    def _check_size(self, curves: tuple[DiffusionCurve, ...], canvas: tuple[float, float]) -> None:
+        """Refuse ``curves`` that would make more segments than the limit or the memory allow, before the new
+        ones are flattened."""
+        kept = [self._clipped.get((curve, *canvas)) for curve in curves]
+        new = [curve for curve, segments in zip(curves, kept) if segments is None]
+        count = sum(len(segments) for segments in kept if segments is not None)
+        count += flattened_count(new, self.tolerance, self.max_length)
+        if count > MAX_SEGMENTS:
+            raise LimitError(f"the curves make about {count:,} segments, more than the {MAX_SEGMENTS:,} allowed")
+        check_build_memory(count, 2)
 
     def _pairs(self, curves: tuple, canvas: tuple, counts: np.ndarray, clipped: Segments):
         """The overlapping pairs of ``clipped``: those among curves kept from the last document, plus new ones."""
         last = self._last
-        if last is None or last[1] != canvas:
+        if last is None or last[1] != canvas or last[4]:
+            # repeated segments only pair with their last twin: search everything again when there were some
             return overlapping_pairs(clipped)
-        last_curves, _, last_counts, last_pairs = last
+        last_curves, _, last_counts, last_pairs, _ = last
         position = {id(curve): i for i, curve in enumerate(last_curves)}
         was = np.array([position.get(id(curve), -1) for curve in curves], np.int64)
         kept = was[was >= 0]
@@ -87,3 +106,11 @@ class CurveSegments:
                                                                                 for a in last_pairs)
         return tuple(np.concatenate([kept_values, new_values]) for kept_values, new_values in
                      zip((earlier[still], later[still], last_pairs[2][still], last_pairs[3][still]), found))
+
+
+def _has_twins(segments: Segments, pairs: tuple) -> bool:
+    """Whether ``pairs`` (of ``segments``) hold two segments with the same end points (``overlaps.last_twins``)."""
+    earlier, later = pairs[0], pairs[1]
+    same = np.all(segments.p[earlier] == segments.p[later], axis=1) & np.all(segments.q[earlier] == segments.q[later], axis=1)
+    crossed = np.all(segments.p[earlier] == segments.q[later], axis=1) & np.all(segments.q[earlier] == segments.p[later], axis=1)
+    return bool(np.any(same | crossed))

@@ -1,0 +1,117 @@
+"""How much memory this process may still take: what builds and readers check their estimates against."""
+
+from __future__ import annotations
+
+import os
+import resource
+
+from ..model.limits import LimitError
+
+
+def available_memory() -> int:
+    """Bytes this process may still allocate, as far as can be told.
+
+    The least of the system's ``MemAvailable`` (else its physical memory),
+    what the address-space limit (``RLIMIT_AS``, as a worker under a memory
+    cap has) leaves above what is mapped now, and what the control group's
+    ``memory.max`` leaves above its ``memory.current``.
+    """
+    limits = [_meminfo("MemAvailable") or os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")]
+    soft, _ = resource.getrlimit(resource.RLIMIT_AS)
+    if soft != resource.RLIM_INFINITY:
+        limits.append(max(soft - _status("VmSize"), 0))
+    group = _read_number("/sys/fs/cgroup/memory.max")
+    if group is not None:
+        limits.append(max(group - (_read_number("/sys/fs/cgroup/memory.current") or 0), 0))
+    return min(limits)
+
+
+def _meminfo(key: str) -> int | None:
+    return _field("/proc/meminfo", key)
+
+
+def _status(key: str) -> int:
+    return _field("/proc/self/status", key) or 0
+
+
+def _field(path: str, key: str) -> int | None:
+    """A ``key: N kB`` line of a ``/proc`` file, in bytes."""
+    try:
+        with open(path) as lines:
+            for line in lines:
+                if line.startswith(key + ":"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    return None
+
+
+def _read_number(path: str) -> int | None:
+    """A file holding one number (``max`` and absent files: None)."""
+    try:
+        with open(path) as file:
+            text = file.read().strip()
+        return int(text) if text.isdigit() else None
+    except (OSError, ValueError):
+        return None
+
+
+#: Bytes a build holds at its peak per boundary unknown (the solve's factorisation and products): roses,
+#: 90,000 unknowns, peaks at 1.1 GB.
+BYTES_PER_UNKNOWN = 12_000
+#: Bytes a build holds at its peak per fine cell of its lattice: the local and the fine multipole expansions
+#: (3 channels, 17 complex terms each), the coarser levels' and the passes' temporaries.
+BYTES_PER_CELL = 4 * 3 * 17 * 16
+#: Share of the available memory a build plans to use (the rest: the document, the image, the interface).
+BUILD_SHARE = 0.75
+
+
+def affordable_levels(levels: int, available: int | None = None) -> int:
+    """``levels``, or fewer when a lattice that deep would not fit in memory (at least 2).
+
+    A coarser lattice only puts more segments in each cell (pixels cost
+    more), so a huge canvas is built on the lattice the memory allows.
+    """
+    budget = BUILD_SHARE * (available_memory() if available is None else available)
+    while levels > 2 and 4**levels * BYTES_PER_CELL > budget:
+        levels -= 1
+    return levels
+
+
+def check_build_memory(unknowns: int, levels: int, available: int | None = None) -> None:
+    """Refuse a build of ``unknowns`` boundary segments on a lattice of ``levels`` that would not fit in memory.
+
+    Raises
+    ------
+    LimitError
+        Naming the estimate and the memory available.
+    """
+    available = available_memory() if available is None else available
+    need = unknowns * BYTES_PER_UNKNOWN + 4**levels * BYTES_PER_CELL
+    if need > BUILD_SHARE * available:
+        raise LimitError(f"building this document needs about {_gigabytes(need)} of memory "
+                         f"({unknowns:,} boundary segments), more than the {_gigabytes(available)} available")
+
+
+#: Bytes a render holds at its peak per output pixel: the image of 3 float64 channels and the far and near
+#: fields summed into it.
+BYTES_PER_PIXEL = 4 * 3 * 8
+
+
+def check_image_memory(width: int, height: int, available: int | None = None) -> None:
+    """Refuse to render a ``width x height`` image that would not fit in memory.
+
+    Raises
+    ------
+    LimitError
+        Naming the size, the estimate and the memory available.
+    """
+    available = available_memory() if available is None else available
+    need = width * height * BYTES_PER_PIXEL
+    if need > BUILD_SHARE * available:
+        raise LimitError(f"rendering {width:,} x {height:,} pixels needs about {_gigabytes(need)} of memory, "
+                         f"more than the {_gigabytes(available)} available")
+
+
+def _gigabytes(count: int) -> str:
+    return f"{count / 2**30:.1f} GB"

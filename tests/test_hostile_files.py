@@ -1,0 +1,175 @@
+"""Each finding of the fuzzing campaign of issue 16, kept as a small file under ``tests/data/hostile``.
+
+``tests/data/hostile/make.py`` made the files; the large inputs are made here.  A hostile input gives
+the documented error with one short message, or opens and renders finite colours; either way no work
+grows with a coordinate, a repetition or a declared size (checked by what is never called or allocated,
+not by the clock).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from cli_runs import run
+from shapes import circle_points
+
+from fmr_editor.engine import build, evaluate_points, rasterise
+from fmr_editor.engine.geometry import curve_cache
+from fmr_editor.engine.memory import affordable_levels, check_build_memory, check_image_memory
+from fmr_editor.io import DocumentLoadError, load_document, load_fmr
+from fmr_editor.model import ColorStop, DiffusionCurve, Document
+from fmr_editor.model.limits import LimitError
+
+HOSTILE = Path(__file__).parent / "data" / "hostile"
+GB = 1 << 30
+
+
+def refused(path: Path, *words: str) -> str:
+    """The load error of ``path``; it names the file and ``words`` and stays short."""
+    with pytest.raises(DocumentLoadError) as caught:
+        load_fmr(path) if path.suffix == ".fmr" else load_document(path)
+    message = str(caught.value)
+    assert path.name in message and all(word in message for word in words), message
+    assert len(message) < 300, message
+    return message
+
+
+def finite_image(document: Document) -> np.ndarray:
+    image = rasterise(build(document), 64, 64, samples=1)
+    assert np.isfinite(image).all()
+    return image
+
+
+# --- unclean load errors and NaN pixels -------------------------------------------------------------------
+
+
+def test_an_entry_name_flagged_utf8_that_is_not_is_a_load_error():
+    refused(HOSTILE / "utf8-name.fmr", "utf-8")
+
+
+def test_a_colour_of_1e308_is_refused():
+    refused(HOSTILE / "huge-colour.fmr", "colours must be finite")
+
+
+def test_a_representation_with_shifted_segments_is_rebuilt_with_a_note():
+    opened = load_fmr(HOSTILE / "shifted-segments.fmr")
+    assert opened.representation is None
+    assert any("rebuilt" in note for note in opened.notes), opened.notes
+    finite_image(opened.document)
+
+
+# --- coordinates ----------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("name", ["far-coordinates.xml", "scaled-coordinates.xml", "one-point-far.xml"])
+def test_coordinates_far_off_the_canvas_are_refused(name):
+    refused(HOSTILE / name, "off the canvas")
+
+
+def test_coordinates_within_reach_are_clipped_not_sampled_out_there():
+    """A curve reaching 4 canvas sides out is flattened as far as the canvas keeps it... and renders."""
+    far = circle_points(256.0, 256.0, 60.0)
+    far[4] = (256.0, 512.0 * 4.9)
+    document = Document(512, 512, [DiffusionCurve(far, left=(ColorStop(0.0, (1, 0, 0)),),
+                                                  right=(ColorStop(0.0, (0, 0, 1)),))])
+    image = finite_image(document)
+    assert image.min() >= -0.02 and image.max() <= 1.02  # the maximum principle
+
+
+# --- canvases ---------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("name, words", [("huge-canvas.xml", ("16384",)), ("thin-canvas.xml", ("16384",)),
+                                         ("thin-largest-canvas.xml", ("64 times",))])
+def test_canvases_too_large_or_too_thin_are_refused(name, words):
+    refused(HOSTILE / name, *words)
+
+
+def test_a_huge_canvas_gets_the_lattice_the_memory_allows():
+    assert affordable_levels(11, available=64 * GB) == 11
+    assert affordable_levels(11, available=3 * GB) == 9  # 2048 x 2048 cells would take 3.4 GB
+    assert affordable_levels(11, available=0) == 2
+
+
+def test_builds_and_renders_that_would_not_fit_are_refused_before_they_start():
+    check_build_memory(90_000, 8, available=3 * GB)  # roses
+    with pytest.raises(LimitError, match="needs about"):
+        check_build_memory(400_000, 8, available=3 * GB)
+    with pytest.raises(LimitError, match="16,384 x 16,384 pixels"):
+        check_image_memory(16384, 16384, available=16 * GB)
+
+
+def test_rendering_the_largest_canvas_at_its_size_is_refused_before_any_build(tmp_path):
+    out = tmp_path / "largest.png"
+    code, _, err = run("render", str(HOSTILE / "largest-canvas.xml"), "-o", str(out))
+    assert code == 2 and "16,384 x 16,384 pixels needs about" in err and not out.exists()
+
+
+# --- degenerate and repeated geometry --------------------------------------------------------------------
+
+
+def test_tiny_curves_solve_to_finite_colours():
+    finite_image(load_document(HOSTILE / "tiny-curves.xml"))
+
+
+def test_a_curve_repeated_300_times_renders_as_one_copy():
+    document = load_document(HOSTILE / "duplicated.xml")
+    curve = document.curves[0]
+    once = len(curve.control_points) // 300 + 1
+    single = Document(document.width, document.height,
+                      [DiffusionCurve(curve.control_points[:once], left=curve.left, right=curve.right)])
+    probes = np.random.default_rng(5).uniform(0, 512, (200, 2))
+    np.testing.assert_allclose(evaluate_points(build(document), probes),
+                               evaluate_points(build(single), probes), atol=1e-9)
+
+
+def test_curves_on_the_canvas_border_render_within_their_colours():
+    image = finite_image(load_document(HOSTILE / "border-curves.xml"))
+    assert image.min() >= -0.02 and image.max() <= 1.02
+
+
+# --- sizes ------------------------------------------------------------------------------------------------
+
+
+def orzan_file(path: Path, curves: list[np.ndarray], width: int = 400, height: int = 300) -> Path:
+    parts = [f'<curve_set image_width="{width}" image_height="{height}">']
+    for points in curves:
+        xy = "".join(f'<control_point x="{y:.3f}" y="{x:.3f}"/>' for x, y in points)
+        parts.append(f"<curve><control_points_set>{xy}</control_points_set><left_colors_set>"
+                     '<left_color G="0" R="0" B="255" globalID="0"/></left_colors_set><right_colors_set>'
+                     '<right_color G="0" R="255" B="0" globalID="0"/></right_colors_set></curve>')
+    path.write_text("".join(parts) + "</curve_set>")
+    return path
+
+
+def test_a_curve_of_300001_control_points_is_refused_on_reading(tmp_path):
+    points = np.random.default_rng(1).uniform((0, 0), (400, 300), (300_001, 2))
+    refused(orzan_file(tmp_path / "many-points.xml", [points]), "30,001", "300,001")
+
+
+def test_100000_curves_are_refused_on_reading(tmp_path):
+    square = np.array([[10.0, 10.0], [11.0, 10.0], [11.0, 11.0], [10.0, 11.0]])
+    refused(orzan_file(tmp_path / "many-curves.xml", [square] * 100_000), "50,000", "100,000")
+
+
+def test_curves_that_would_flatten_into_millions_of_segments_are_refused_before_flattening(monkeypatch):
+    points = np.random.default_rng(1).uniform((0, 0), (400, 300), (30_001, 2))
+    document = Document(400, 300, [DiffusionCurve(points, left=(ColorStop(0.0, (1, 0, 0)),))])
+
+    def never(*args):
+        raise AssertionError("flattened")
+
+    monkeypatch.setattr(curve_cache, "flatten_curve", never)
+    with pytest.raises(LimitError, match="segments, more than the 2,000,000 allowed"):
+        build(document)
+
+
+def test_a_50_megabyte_number_stays_out_of_the_message(tmp_path):
+    path = tmp_path / "long-number.xml"
+    path.write_text('<curve_set image_width="100" image_height="100"><curve><control_points_set>'
+                    f'<control_point x="{"1" * 50_000_000}" y="5"/>' + '<control_point x="5" y="5"/>' * 3 +
+                    '</control_points_set></curve></curve_set>')
+    message = refused(path)
+    assert "111..." in message
