@@ -14,15 +14,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .fmm.lattice import (
-    Lattice,
-    cell_order,
-    changed_runs,
-    coarser_multipoles,
-    downward_pass,
-    fine_multipoles,
-    sort_into_cells,
-)
+from .fmm.lattice import Lattice, cell_order, changed_runs, fine_multipoles, sort_into_cells
+from .fmm.orders import PassOrders, pass_orders, uniform_orders
+from .fmm.passes import build_passes
 from .fmm.sparse_downward import delta_local
 from .geometry.segments import Segments
 
@@ -47,30 +41,54 @@ class Cells:
     local : numpy.ndarray
         ``(2^L, 2^L, 3, P + 1)`` complex scaled local expansions of each fine
         cell's far field.
+    orders : PassOrders or None
+        The terms each translation carried (``orders.pass_orders``); edits carry
+        their change with the same.  None: every term.
     """
 
     segments: Segments
     cell_start: np.ndarray
     fine: np.ndarray
     local: np.ndarray
+    orders: PassOrders | None = None
 
     @classmethod
-    def build(cls, solved: Segments, lattice: Lattice, order: int,
-              lap: Callable[[str], None] = lambda stage: None) -> Cells:
-        """The cells of ``solved`` segments: P2M, M2M (``lap("upward")``), M2L and L2L (``lap("downward")``)."""
+    def build(cls, solved: Segments, lattice: Lattice, order: int, lap: Callable[[str], None] = lambda stage: None,
+              pixel_order: int | None = None) -> Cells:
+        """The cells of ``solved`` segments: P2M, M2M (``lap("upward")``), M2L and L2L (``lap("downward")``).
+
+        Parameters
+        ----------
+        solved : Segments
+        lattice : Lattice
+        order : int
+            Highest term of the expansions kept (``Settings.propagation_order``).
+        lap : callable, optional
+            Called after each pass with its name.
+        pixel_order : int or None
+            Degree of the pixels' polynomials (``Settings.order``): each translation carries the terms
+            the pixels' accuracy needs (``orders.pass_orders``), 2-3x faster at L 9 than every term.  None
+            (default): every term up to ``order``, as saved representations were made (a file's expansions
+            then equal a rebuild's to rounding).
+        """
         segments, cell_start = sort_into_cells(solved, lattice)
-        fine = fine_multipoles(segments, cell_start, lattice, order)
-        multipoles = coarser_multipoles(fine, order)
-        lap("upward")
-        local = downward_pass(multipoles, lattice, order)
+        orders = (uniform_orders(lattice.levels, order) if pixel_order is None
+                  else pass_orders(lattice.levels, min(pixel_order, order), order))
+        fine, local = build_passes(segments, cell_start, lattice, orders, lap)
         lap("downward")
-        return cls(segments, cell_start, fine, local)
+        return cls(segments, cell_start, fine, local, None if pixel_order is None else orders)
 
     @classmethod
-    def resume(cls, solved: Segments, lattice: Lattice, order: int, local: np.ndarray) -> Cells:
-        """The cells of ``solved`` segments whose local expansions ``local`` are known (a saved file)."""
+    def resume(cls, solved: Segments, lattice: Lattice, order: int, local: np.ndarray,
+               pixel_order: int | None = None) -> Cells:
+        """The cells of ``solved`` segments whose local expansions ``local`` are known (a saved file).
+
+        Edits carry their change with the orders a build for ``pixel_order`` uses (``build``'s parameter), so
+        that they equal a rebuild's.
+        """
         segments, cell_start = sort_into_cells(solved, lattice)
-        return cls(segments, cell_start, fine_multipoles(segments, cell_start, lattice, order), local)
+        orders = None if pixel_order is None else pass_orders(lattice.levels, min(pixel_order, order), order)
+        return cls(segments, cell_start, fine_multipoles(segments, cell_start, lattice, order), local, orders)
 
     @property
     def nbytes(self) -> int:
@@ -113,8 +131,8 @@ def propagated(cells: Cells, solved: Segments, lattice: Lattice, order: int, acc
     scale = max(largest_part(fresh), 1e-300)
     moved = largest_part(delta, axis=(2, 3)) > NEGLIGIBLE * accuracy * scale
     delta[~moved] = 0.0
-    local_change = delta_local(delta, lattice, order)
-    new = Cells(segments, cell_start, cells.fine + delta, cells.local + local_change)
+    local_change = delta_local(delta, lattice, order, cells.orders)
+    new = Cells(segments, cell_start, cells.fine + delta, cells.local + local_change, cells.orders)
     return new, largest_part(local_change, axis=(2, 3)), moved
 
 

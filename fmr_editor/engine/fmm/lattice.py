@@ -12,6 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from functools import lru_cache
 
+import numba
 import numpy as np
 
 from ..geometry.discretise import cell_cuts
@@ -33,6 +34,18 @@ def interaction_offsets(px: int, py: int) -> tuple[tuple[int, int], ...]:
         for dx in range(-3, 4)
         if max(abs(dx), abs(dy)) >= 2 and abs((px + dx) // 2) <= 1 and abs((py + dy) // 2) <= 1
     )
+
+
+@lru_cache(maxsize=None)
+def offset_parities() -> tuple[np.ndarray, np.ndarray]:
+    """Every M2L offset ``(dx, dy)``, ``(k, 2)``, with the ``(k, 2, 2)`` masks of target parities ``[py, px]`` using it."""
+    masks: dict[tuple[int, int], np.ndarray] = {}
+    for py in (0, 1):
+        for px in (0, 1):
+            for offset in interaction_offsets(px, py):
+                masks.setdefault(offset, np.zeros((2, 2), bool))[py, px] = True
+    offsets = sorted(masks)
+    return np.array(offsets, dtype=np.int64), np.array([masks[o] for o in offsets])
 
 
 def child_offset(px: int, py: int) -> complex:
@@ -102,10 +115,30 @@ def cell_order(segments: Segments, lattice: Lattice) -> tuple[np.ndarray, np.nda
 
 
 def _midpoint_order(midpoints: np.ndarray, lattice: Lattice) -> tuple[np.ndarray, np.ndarray]:
-    cells = lattice.cell_of(midpoints)
-    flat = cells[:, 0] * lattice.cells_per_side + cells[:, 1]
-    counts = np.bincount(flat, minlength=lattice.cells_per_side**2)
-    return np.argsort(flat, kind="stable"), np.concatenate([[0], np.cumsum(counts)])
+    """``cell_order`` of segments with these midpoints (a counting sort: ``numpy.argsort(kind="stable")`` of
+    the flat cells, measured 10-20x slower on 772,844 segments, is the reference)."""
+    n = lattice.cells_per_side
+    cell_start = np.zeros(n * n + 1, np.int64)
+    order = np.empty(len(midpoints), np.int64)
+    _counting_sort(np.ascontiguousarray(midpoints, dtype=np.float64), lattice.cell_size, n, cell_start, order)
+    return order, cell_start
+
+
+@numba.njit(cache=True)
+def _counting_sort(midpoints, size, n, cell_start, order):
+    """``cell_start`` (zeros in, CSR offsets out) and the stable ``order`` of the midpoints' fine cells."""
+    flat = np.empty(len(midpoints), np.int64)
+    for i in range(len(midpoints)):
+        column = min(max(np.int64(np.floor(midpoints[i, 0] / size)), 0), n - 1)
+        row = min(max(np.int64(np.floor(midpoints[i, 1] / size)), 0), n - 1)
+        flat[i] = row * n + column
+        cell_start[flat[i] + 1] += 1
+    for c in range(n * n):
+        cell_start[c + 1] += cell_start[c]
+    filled = cell_start[:-1].copy()
+    for i in range(len(midpoints)):
+        order[filled[flat[i]]] = i
+        filled[flat[i]] += 1
 
 
 def sort_into_cells(segments: Segments, lattice: Lattice) -> tuple[Segments, np.ndarray]:
@@ -204,8 +237,20 @@ def coarser_multipoles(fine: np.ndarray, order: int) -> list[np.ndarray | None]:
     return multipoles
 
 
-def downward_pass(multipoles: list[np.ndarray], lattice: Lattice, order: int) -> np.ndarray:
-    """Scaled local expansions of the far field of every fine cell (M2L, L2L).
+def downward_pass(multipoles: list[np.ndarray], lattice: Lattice, order: int, orders=None) -> np.ndarray:
+    """Scaled local expansions of the far field of every fine cell (M2L, L2L); the reference of ``passes``.
+
+    Parameters
+    ----------
+    multipoles : list of numpy.ndarray
+        ``coarser_multipoles`` of the fine cells.
+    lattice : Lattice
+    order : int
+        Terms of the expansions, minus one.
+    orders : orders.PassOrders, optional
+        Each M2L keeps the multipole terms ``<= m`` and writes the local terms
+        ``<= q`` of its level and offset, and each level keeps the local terms
+        ``<= orders.kept(level)``.  Default: every term up to ``order``.
 
     Returns
     -------
@@ -227,10 +272,22 @@ def downward_pass(multipoles: list[np.ndarray], lattice: Lattice, order: int) ->
                 for dx, dy in interaction_offsets(px, py):
                     row0, col0 = _PAD // 2 + (py + dy) // 2, _PAD // 2 + (px + dx) // 2
                     window = sources[(py + dy) % 2][(px + dx) % 2][row0 : row0 + half, col0 : col0 + half]
-                    rows += window.reshape(half, -1, order + 1) @ m2l_matrix(complex(dx, dy), order, log_size)
+                    matrix = m2l_matrix(complex(dx, dy), order, log_size)
+                    if orders is not None:
+                        matrix = _truncated(matrix, *orders.of(level, (dx, dy)))
+                    rows += window.reshape(half, -1, order + 1) @ matrix
+                if orders is not None:
+                    target[..., orders.kept(level) + 1 :] = 0.0
                 level_local[py::2, px::2] = target
         local = level_local
     return local
+
+
+def _truncated(matrix: np.ndarray, multipole: int, local: int) -> np.ndarray:
+    """``matrix`` with the rows past ``multipole`` and the columns past ``local`` zero."""
+    kept = np.zeros_like(matrix)
+    kept[: multipole + 1, : local + 1] = matrix[: multipole + 1, : local + 1]
+    return kept
 
 
 def times(expansions: np.ndarray, matrix: np.ndarray) -> np.ndarray:

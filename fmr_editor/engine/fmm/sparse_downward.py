@@ -27,24 +27,12 @@ import numpy as np
 from scipy.special import comb
 
 from .expansions import l2l_matrix, m2m_matrix
-from .lattice import Lattice, child_offset, coarser_multipoles, downward_pass, interaction_offsets, times
+from .lattice import Lattice, child_offset, coarser_multipoles, downward_pass, offset_parities, times
 
 #: Share of fine cells changed above which the whole-level passes are faster (measured at L = 6, 7).
 SPARSE_SOURCES = 0.25
 #: Targets per task of the compiled M2L loop.
 _CHUNK = 16
-
-
-@lru_cache(maxsize=None)
-def offset_parities() -> tuple[np.ndarray, np.ndarray]:
-    """Every M2L offset ``(dx, dy)``, ``(k, 2)``, with the ``(k, 2, 2)`` masks of target parities ``[py, px]`` using it."""
-    masks: dict[tuple[int, int], np.ndarray] = {}
-    for py in (0, 1):
-        for px in (0, 1):
-            for offset in interaction_offsets(px, py):
-                masks.setdefault(offset, np.zeros((2, 2), bool))[py, px] = True
-    offsets = sorted(masks)
-    return np.array(offsets, dtype=np.int64), np.array([masks[o] for o in offsets])
 
 
 def _planes(values: np.ndarray) -> np.ndarray:
@@ -251,7 +239,18 @@ def sparse_local(cells: np.ndarray, moments: np.ndarray, lattice: Lattice, order
     return dense.reshape((n, n) + local.shape[1:])
 
 
-def delta_local(delta_fine: np.ndarray, lattice: Lattice, order: int) -> np.ndarray:
+def _truncated_tables(order: int, log_size: float, orders, level: int) -> tuple[np.ndarray, ...]:
+    """``_m2l_tables`` with each offset's multipole terms past ``m`` and local terms past ``q`` of ``orders`` at
+    ``level`` zero (in ``pre`` and ``post``: the translation truncated as ``lattice.downward_pass`` does)."""
+    pre, pascal, post, log = _m2l_tables(order, log_size)
+    pre, post = pre.copy(), post.copy()
+    k = np.arange(order + 1)
+    pre *= k[None, None, :] <= orders.multipole[level][:, None, None]
+    post *= k[None, None, :] <= orders.local[level][:, None, None]
+    return pre, pascal, post, log
+
+
+def delta_local(delta_fine: np.ndarray, lattice: Lattice, order: int, orders=None) -> np.ndarray:
     """Change of the fine local expansions for a change ``delta_fine`` of the fine multipoles.
 
     Every cell's expansion may change, so L2L runs over whole levels; M2L
@@ -263,18 +262,20 @@ def delta_local(delta_fine: np.ndarray, lattice: Lattice, order: int) -> np.ndar
         ``(2^L, 2^L, 3, order + 1)`` complex, zero where nothing changed.
     lattice : Lattice
     order : int
+    orders : orders.PassOrders, optional
+        The build's orders (``downward_pass``'s): each translation truncated alike.  Default: every term.
 
     Returns
     -------
     numpy.ndarray
         ``(2^L, 2^L, 3, order + 1)`` complex; equals ``downward_pass`` of
-        ``coarser_multipoles(delta_fine)`` up to rounding.
+        ``coarser_multipoles(delta_fine)`` (with ``orders``) up to rounding.
     """
     n = delta_fine.shape[0]
     flat = delta_fine.reshape(n * n, *delta_fine.shape[2:])
     cells = np.flatnonzero(np.any(flat != 0, axis=(1, 2)))
     if len(cells) > SPARSE_SOURCES * n * n:
-        return downward_pass(coarser_multipoles(delta_fine, order), lattice, order)  # most cells changed
+        return downward_pass(coarser_multipoles(delta_fine, order), lattice, order, orders)  # most cells changed
     sources = _upward(cells, flat[cells], lattice, order)
     offsets, masks = offset_parities()
     local = None
@@ -287,9 +288,12 @@ def delta_local(delta_fine: np.ndarray, lattice: Lattice, order: int) -> np.ndar
                     level_local[py::2, px::2] = times(local, l2l_matrix(child_offset(px, py), order))
         targets = _reached(source_level.cells, size)
         reached = np.zeros((len(targets),) + flat.shape[1:], complex)
-        _gathered_m2l(size, targets, source_level.row_of, _planes(multipoles), offsets, masks,
-                      *_m2l_tables(order, float(np.log(lattice.level_size(depth)))), reached)
+        log_size = float(np.log(lattice.level_size(depth)))
+        tables = _m2l_tables(order, log_size) if orders is None else _truncated_tables(order, log_size, orders, depth)
+        _gathered_m2l(size, targets, source_level.row_of, _planes(multipoles), offsets, masks, *tables, reached)
         level_local.reshape(size * size, *flat.shape[1:])[targets] += reached
+        if orders is not None:
+            level_local[..., orders.kept(depth) + 1 :] = 0.0
         local = level_local
     return local
 

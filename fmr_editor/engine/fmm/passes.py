@@ -1,0 +1,219 @@
+"""A build's upward and downward passes, compiled, each translation at the orders of ``orders.pass_orders``.
+
+``lattice.upward_pass`` and ``lattice.downward_pass`` (with the same
+orders) are the reference.  The work follows the occupied cells:
+
+- P2M only in occupied fine cells; their moments at full width are what
+  ``Cells`` keeps (``fine``), the passes read the first ``carried`` terms.
+- A level is *dense* when at least ``DENSE_SHARE`` of its cells are
+  occupied, else *sparse* (``level_kernels``): dense levels run M2M and M2L
+  as row sweeps over whole grids, sparse ones M2M from the occupied children
+  and M2L gathered per target from the occupied members of its list.  Coarser
+  levels are never sparser, so the dense ones are the top of the tree.
+- Every target cell gets its local expansion (pixels need all of them), with
+  ``orders.kept(level)`` terms; the fine level's are written straight into
+  the array ``Cells`` keeps, zero past ``kept``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import lru_cache
+
+import numpy as np
+
+from . import level_kernels as kernels
+from .expansions import l2l_matrix, m2l_matrix, m2m_matrix
+from .lattice import Lattice, child_offset, interaction_offsets
+from .moments import cell_moments
+from .orders import PassOrders
+
+#: Occupied share of a level's cells from which its passes run as row sweeps over the whole level: the
+#: crossover of the two M2L kernels (at L9 a dense fine level's sweep cost 0.71-0.82 s of one core, the
+#: gather at 7% occupied 0.32 s).
+DENSE_SHARE = 0.15
+
+_NO_GRID = np.zeros((0,) * 6)
+_NO_SOURCES = np.zeros((0, 0, 0))
+_NO_INDEX = np.zeros((0, 0), np.int64)
+_NO_PLANES = np.zeros((0, 0, 0, 0))
+_NO_FINE = np.zeros((0, 0, 0, 0), complex)
+
+
+@dataclass(frozen=True)
+class LevelSources:
+    """One level's multipoles as the kernels read them: a grid (dense level) or its occupied cells (sparse)."""
+
+    grid_re: np.ndarray = field(default_factory=lambda: _NO_GRID)
+    grid_im: np.ndarray = field(default_factory=lambda: _NO_GRID)
+    src_re: np.ndarray = field(default_factory=lambda: _NO_SOURCES)
+    src_im: np.ndarray = field(default_factory=lambda: _NO_SOURCES)
+    index: np.ndarray = field(default_factory=lambda: _NO_INDEX)
+
+    @property
+    def dense(self) -> bool:
+        return self.grid_re.size > 0
+
+
+def _even(terms: int) -> int:
+    return terms + terms % kernels.PAIR
+
+
+def _carried_terms(orders: PassOrders, level: int) -> int:
+    """Multipole terms (even) the cells of ``level`` carry."""
+    return _even(orders.carried(level) + 1)
+
+
+def _index_map(cells: np.ndarray, size: int) -> np.ndarray:
+    """``(size + 2 INDEX_PAD)^2`` map from a cell to its position in ``cells`` (flat, sorted), -1 elsewhere."""
+    index = np.full((size + 2 * kernels.INDEX_PAD,) * 2, -1, np.int64)
+    rows, columns = np.divmod(cells, size)
+    index[rows + kernels.INDEX_PAD, columns + kernels.INDEX_PAD] = np.arange(len(cells))
+    return index
+
+
+def _empty_grid(size: int, terms: int) -> tuple[np.ndarray, np.ndarray]:
+    side = size // 2 + 2 * kernels.GRID_PAD
+    return np.zeros((2, 2, side, terms, 3, side)), np.zeros((2, 2, side, terms, 3, side))
+
+
+@lru_cache(maxsize=64)
+def _m2m_tables(child_terms: int, parent_terms: int, width: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(4, child_terms, parent_terms)`` M2M matrices of the child parities ``2 py + px``."""
+    matrices = np.zeros((4, child_terms, parent_terms), complex)
+    order = max(child_terms, parent_terms, width + 1) - 1
+    for parity in range(4):
+        full = m2m_matrix(child_offset(parity % 2, parity // 2), order)
+        matrices[parity] = full[:child_terms, :parent_terms]
+    return np.ascontiguousarray(matrices.real), np.ascontiguousarray(matrices.imag)
+
+
+def upward(segments, cell_start: np.ndarray, lattice: Lattice, orders: PassOrders
+           ) -> tuple[np.ndarray, list[LevelSources | None]]:
+    """P2M and M2M: the fine multipoles at full width ``(2^L, 2^L, 3, width + 1)`` and every level's sources."""
+    n, width = lattice.cells_per_side, orders.width
+    cells = np.flatnonzero(np.diff(cell_start))
+    centres = lattice.cell_centres(np.stack(np.divmod(cells, n), axis=1))
+    moments = cell_moments(cell_start, centres, lattice.cell_size, segments.p, segments.q, segments.flux,
+                           segments.jump, width, cells=cells)
+    fine = np.zeros((n, n, 3, width + 1), complex)
+    kernels.scatter_dense(cells, moments, fine)
+    values_re = values_im = None  # the sparse levels' multipoles, as planes
+    sources: list[LevelSources | None] = [None] * (lattice.levels + 1)
+    grid = None
+    for level in range(lattice.levels, 1, -1):
+        size, terms = 2**level, _carried_terms(orders, level)
+        if grid is None and len(cells) >= _dense_count(size):
+            grid = _empty_grid(size, terms)
+            position = _index_map(cells, size)[kernels.INDEX_PAD:-kernels.INDEX_PAD, kernels.INDEX_PAD:-kernels.INDEX_PAD]
+            if values_re is None:
+                kernels.fill_grid_complex(position, moments, *grid)
+            else:
+                kernels.fill_grid(position, values_re, values_im, *grid)
+        if grid is not None:
+            sources[level] = LevelSources(grid_re=grid[0], grid_im=grid[1])
+            if level > 2:
+                parent_terms = _carried_terms(orders, level - 1)
+                parent = _empty_grid(size // 2, parent_terms)
+                kernels.grid_m2m(*grid, *_m2m_tables(terms, parent_terms, width), *parent)
+                grid = parent
+            continue
+        index = _index_map(cells, size)
+        if values_re is None:
+            values_re, values_im = _split(moments, terms)
+        sources[level] = LevelSources(src_re=values_re, src_im=values_im, index=index)
+        if level > 2:
+            parents = np.unique(_parent_cells(cells, size))
+            parent_terms = _carried_terms(orders, level - 1)
+            values_re, values_im = (np.zeros((len(parents), 3, parent_terms)) for _ in range(2))
+            kernels.compact_m2m(size, parents, index, sources[level].src_re, sources[level].src_im,
+                                *_m2m_tables(terms, parent_terms, width), values_re, values_im)
+            cells = parents
+    return fine, sources
+
+
+def _dense_count(size: int) -> int:
+    """Occupied cells from which a level of ``size`` cells per side counts as dense."""
+    return int(np.ceil(DENSE_SHARE * size * size))
+
+
+def _parent_cells(cells: np.ndarray, size: int) -> np.ndarray:
+    rows, columns = np.divmod(cells, size)
+    return (rows // 2) * (size // 2) + columns // 2
+
+
+def _split(moments: np.ndarray, terms: int) -> tuple[np.ndarray, np.ndarray]:
+    """Real and imaginary planes ``(cells, 3, terms)`` of the first terms of complex ``moments``, zero-padded."""
+    head = moments[..., :terms]
+    planes = np.zeros((2,) + moments.shape[:-1] + (terms,))
+    planes[0, ..., : head.shape[-1]] = head.real
+    planes[1, ..., : head.shape[-1]] = head.imag
+    return planes[0], planes[1]
+
+
+@lru_cache(maxsize=None)
+def _static_offset_table() -> tuple[np.ndarray, np.ndarray]:
+    """``level_kernels.offset_table`` rows (orders left zero) of every parity, and where each parity starts."""
+    rows, starts = [], [0]
+    for parity in range(4):
+        py, px = divmod(parity, 2)
+        for dx, dy in interaction_offsets(px, py):
+            rows.append((dx, dy, (py + dy) % 2, (px + dx) % 2, (py + dy) // 2, (px + dx) // 2, 0, 0))
+        starts.append(len(rows))
+    return np.array(rows, np.int64), np.array(starts, np.int64)
+
+
+@lru_cache(maxsize=64)
+def _level_tables(orders: PassOrders, level: int, log_size: float) -> tuple[np.ndarray, ...]:
+    """The offset table, its starts and the truncated M2L matrices ``(rows, K, Q)`` (planes) of ``level``."""
+    table, starts = _static_offset_table()
+    table = table.copy()
+    terms = _carried_terms(orders, level)
+    kept = orders.kept(level) + 1
+    matrices = np.zeros((len(table), terms, kept), complex)
+    for row, (dx, dy) in enumerate(table[:, :2]):
+        m, q = orders.of(level, (int(dx), int(dy)))
+        table[row, kernels.PAIRS] = (m + kernels.PAIR) // kernels.PAIR
+        table[row, kernels.LOCAL] = q
+        matrices[row, : m + 1, : q + 1] = m2l_matrix(complex(dx, dy), orders.width, log_size)[: m + 1, : q + 1]
+    return table, starts, np.ascontiguousarray(matrices.real), np.ascontiguousarray(matrices.imag)
+
+
+@lru_cache(maxsize=64)
+def _l2l_tables(parent_terms: int, child_terms: int, width: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(4, parent_terms, child_terms)`` L2L matrices of the child parities ``2 py + px``."""
+    matrices = np.zeros((4, parent_terms, child_terms), complex)
+    for parity in range(4):
+        full = l2l_matrix(child_offset(parity % 2, parity // 2), width)
+        matrices[parity, : min(parent_terms, width + 1), :child_terms] = full[:parent_terms, :child_terms]
+    return np.ascontiguousarray(matrices.real), np.ascontiguousarray(matrices.imag)
+
+
+def downward(sources: list[LevelSources | None], lattice: Lattice, orders: PassOrders) -> np.ndarray:
+    """M2L and L2L: the fine cells' local expansions ``(2^L, 2^L, 3, width + 1)`` complex, zero past ``kept``."""
+    n = lattice.cells_per_side
+    local = np.zeros((n, n, 3, orders.width + 1), complex)
+    parent_re = parent_im = _NO_PLANES
+    l2l = (np.zeros((0, 0, 0)), np.zeros((0, 0, 0)))
+    for level in range(2, lattice.levels + 1):
+        size, kept = 2**level, orders.kept(level) + 1
+        level_sources = sources[level]
+        if level > 2:
+            l2l = _l2l_tables(parent_re.shape[1], kept, orders.width)
+        fine = level == lattice.levels
+        coarse = (_NO_PLANES, _NO_PLANES) if fine else (np.zeros((size, _even(kept), 3, size)),
+                                                         np.zeros((size, _even(kept), 3, size)))
+        tables = _level_tables(orders, level, float(np.log(lattice.level_size(level))))
+        kernels.level_local(size, parent_re, parent_im, *l2l, level_sources.grid_re, level_sources.grid_im,
+                            level_sources.src_re, level_sources.src_im, level_sources.index, *tables, kept,
+                            *coarse, local if fine else _NO_FINE)
+        parent_re, parent_im = coarse
+    return local
+
+
+def build_passes(segments, cell_start: np.ndarray, lattice: Lattice, orders: PassOrders,
+                 lap=lambda stage: None) -> tuple[np.ndarray, np.ndarray]:
+    """Fine multipoles and fine local expansions of sorted ``segments`` (``lap("upward")`` between the passes)."""
+    fine, sources = upward(segments, cell_start, lattice, orders)
+    lap("upward")
+    return fine, downward(sources, lattice, orders)
