@@ -227,11 +227,3 @@ def fill_grid_complex(position, values, grid_re, grid_im):
                     if s >= 0:
                         grid_re[py, px, gy + GRID_PAD, k, ch, gx + GRID_PAD] = values[s, ch, k].real
                         grid_im[py, px, gy + GRID_PAD, k, ch, gx + GRID_PAD] = values[s, ch, k].imag
-
-
-@numba.njit(parallel=True, cache=True)
-def scatter_dense(cells, values, out):
-    """``out.reshape(-1, 3, W)[cells] = values``: the fine multipoles into the dense array ``Cells`` keeps."""
-    flat = out.reshape(-1, out.shape[2], out.shape[3])
-    for i in numba.prange(len(cells)):
-        flat[cells[i]] = values[i]

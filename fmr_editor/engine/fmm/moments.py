@@ -7,11 +7,12 @@ import numpy as np
 
 
 @numba.njit(parallel=True, cache=True)
-def _cell_moments(occupied, cell_start, centres, size, p, q, flux, jump, out):
+def _cell_moments(occupied, rows, cell_start, centres, size, p, q, flux, jump, out):
+    """``out[rows[c]] +=`` the moments of cell ``occupied[c]`` (centre ``centres[c]``)."""
     order = out.shape[2] - 1
     inverse = 1.0 / np.arange(1, order + 2)  # divisions cost: 1/k once
     for c in numba.prange(occupied.shape[0]):
-        cell = occupied[c]
+        cell, row = occupied[c], rows[c]
         cx, cy = centres[c, 0], centres[c, 1]
         for j in range(cell_start[cell], cell_start[cell + 1]):
             zp = complex((p[j, 0] - cx) / size, (p[j, 1] - cy) / size)
@@ -23,14 +24,14 @@ def _cell_moments(occupied, cell_start, centres, size, p, q, flux, jump, out):
             power_p, power_q = zp, zq
             previous = complex(h, 0.0)  # int zeta^0 ds
             for ch in range(3):
-                out[c, ch, 0] += flux[j, ch] * h
+                out[row, ch, 0] += flux[j, ch] * h
             for k in range(1, order + 1):
                 power_p *= zp
                 power_q *= zq
                 integral = (power_q - power_p) * reach * inverse[k]
                 weight = dipole * previous
                 for ch in range(3):
-                    out[c, ch, k] += -flux[j, ch] * inverse[k - 1] * integral + jump[j, ch] * weight
+                    out[row, ch, k] += -flux[j, ch] * inverse[k - 1] * integral + jump[j, ch] * weight
                 previous = integral
 
 
@@ -61,8 +62,17 @@ def cell_moments(
     if len(occupied):
         sums = np.zeros((len(occupied), 3, order + 1), complex)
         _cell_moments(
-            wanted[occupied], cell_start, np.ascontiguousarray(centres[occupied]), float(size),
-            p, q, np.ascontiguousarray(flux), np.ascontiguousarray(jump), sums,
+            wanted[occupied], np.arange(len(occupied)), cell_start, np.ascontiguousarray(centres[occupied]),
+            float(size), p, q, np.ascontiguousarray(flux), np.ascontiguousarray(jump), sums,
         )
         out[occupied] = sums
     return out
+
+
+def fine_moments_into(cell_start: np.ndarray, cells: np.ndarray, centres: np.ndarray, size: float,
+                      p: np.ndarray, q: np.ndarray, flux: np.ndarray, jump: np.ndarray, out: np.ndarray) -> None:
+    """``cell_moments`` of the occupied ``cells`` (flat) added straight into ``out (cells of the level, 3, P + 1)``
+    at their rows (no array of the occupied cells' moments on the side: 190 MB at L9, 524,288 pieces)."""
+    cells = np.asarray(cells, np.int64)
+    _cell_moments(cells, cells, cell_start, np.ascontiguousarray(centres), float(size), p, q,
+                  np.ascontiguousarray(flux), np.ascontiguousarray(jump), out)

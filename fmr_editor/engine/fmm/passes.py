@@ -25,7 +25,7 @@ import numpy as np
 from . import level_kernels as kernels
 from .expansions import l2l_matrix, m2l_matrix, m2m_matrix
 from .lattice import Lattice, child_offset, interaction_offsets
-from .moments import cell_moments
+from .moments import fine_moments_into
 from .orders import PassOrders
 
 #: Occupied share of a level's cells from which its passes run as row sweeps over the whole level: the
@@ -94,10 +94,10 @@ def upward(segments, cell_start: np.ndarray, lattice: Lattice, orders: PassOrder
     n, width = lattice.cells_per_side, orders.width
     cells = np.flatnonzero(np.diff(cell_start))
     centres = lattice.cell_centres(np.stack(np.divmod(cells, n), axis=1))
-    moments = cell_moments(cell_start, centres, lattice.cell_size, segments.p, segments.q, segments.flux,
-                           segments.jump, width, cells=cells)
     fine = np.zeros((n, n, 3, width + 1), complex)
-    kernels.scatter_dense(cells, moments, fine)
+    moments = fine.reshape(n * n, 3, width + 1)  # a view: P2M writes the fine multipoles in place
+    fine_moments_into(cell_start, cells, centres, lattice.cell_size, segments.p, segments.q, segments.flux,
+                      segments.jump, moments)
     values_re = values_im = None  # the sparse levels' multipoles, as planes
     sources: list[LevelSources | None] = [None] * (lattice.levels + 1)
     grid = None
@@ -105,11 +105,12 @@ def upward(segments, cell_start: np.ndarray, lattice: Lattice, orders: PassOrder
         size, terms = 2**level, _carried_terms(orders, level)
         if grid is None and len(cells) >= _dense_count(size):
             grid = _empty_grid(size, terms)
-            position = _index_map(cells, size)[kernels.INDEX_PAD:-kernels.INDEX_PAD, kernels.INDEX_PAD:-kernels.INDEX_PAD]
-            if values_re is None:
+            if values_re is None:  # the fine level: ``moments`` holds every cell at its flat index
+                position = np.where(np.diff(cell_start) > 0, np.arange(n * n), -1).reshape(n, n)
                 kernels.fill_grid_complex(position, moments, *grid)
             else:
-                kernels.fill_grid(position, values_re, values_im, *grid)
+                pad = kernels.INDEX_PAD
+                kernels.fill_grid(_index_map(cells, size)[pad:-pad, pad:-pad], values_re, values_im, *grid)
         if grid is not None:
             sources[level] = LevelSources(grid_re=grid[0], grid_im=grid[1])
             if level > 2:
@@ -120,7 +121,7 @@ def upward(segments, cell_start: np.ndarray, lattice: Lattice, orders: PassOrder
             continue
         index = _index_map(cells, size)
         if values_re is None:
-            values_re, values_im = _split(moments, terms)
+            values_re, values_im = _split(moments[cells], terms)
         sources[level] = LevelSources(src_re=values_re, src_im=values_im, index=index)
         if level > 2:
             parents = np.unique(_parent_cells(cells, size))
