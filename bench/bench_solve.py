@@ -1,11 +1,12 @@
 """Boundary-solve benchmark: every Orzan sample built and rendered, and the dense/fast crossover.
 
-    python bench/bench_solve.py [FILES...] [--repeat N] [--dense-max N] [--crossover | --crossover-only]
+    python bench/bench_solve.py [FILES...] [--repeat N] [--samples K] [--dense-max N] [--crossover | --crossover-only]
 
 For each file, in a fresh process (so its peak memory is its own): load,
 build (discretise, solve, upward, downward), render at its canvas size with
-3x3 samples; the best of N builds (N = 1 above 20,000 segments: say so), the
-solver used, GMRES iterations, the peak resident memory, and, where the dense
+K x K samples a pixel (1 by default, as issue 15 measures); the best of N
+builds (N = 1 above 20,000 segments: say so), the solver used, the GMRES
+iterations of the build's solve, the peak resident memory, and, where the dense
 solve fits (``--dense-max`` segments), the largest relative difference of the
 solved E and C from the dense solve's.  ``--crossover`` times the dense and
 the fast solve side by side on synthetic documents of growing size.  A second
@@ -19,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import resource
 import subprocess
 import sys
@@ -42,6 +44,17 @@ from fmr_editor.engine.solve.skeleton import SkeletonFactorization  # noqa: E402
 ORZAN = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "orzan_xml"
 STAGES = ("discretise", "solve", "upward", "downward")
 SINGLE_RUN_ABOVE = 20_000
+
+
+def counted_gmres(*args, **kwargs):
+    """``solver.gmres``, keeping its iteration count in ``counted_gmres.iterations``."""
+    unknown, report = _GMRES(*args, **kwargs)
+    counted_gmres.iterations.append(report.iterations)
+    return unknown, report
+
+
+counted_gmres.iterations = []
+_GMRES = fast_solve.gmres
 
 
 class TimedFactorization(SkeletonFactorization):
@@ -74,17 +87,19 @@ def fast_and_dense(segments, lattice):
     return fast_time, time.perf_counter() - start, fast.unknowns(), dense.unknowns(), report
 
 
-def one_file(path: Path, repeat: int, dense_max: int) -> dict:
+def one_file(path: Path, repeat: int, dense_max: int, samples: int = 1) -> dict:
     """Measure one file in this process; a JSON-able dict."""
     warm_up()
     runs = 1 if len(boundary_system(fmr_editor.load(path))[0]) > SINGLE_RUN_ABOVE else repeat
     best = dict.fromkeys(("load", *STAGES, "factor", "gmres", "render"), float("inf"))
     fast_solve.SkeletonFactorization = TimedFactorization  # what solve_fmm constructs
+    fast_solve.gmres = counted_gmres  # what BoundarySolver.solve calls
     for _ in range(runs):
         start = time.perf_counter()
         document = fmr_editor.load(path)
         best["load"] = min(best["load"], time.perf_counter() - start)
         TimedFactorization.seconds.clear()
+        counted_gmres.iterations.clear()
         rep = build(document)
         for stage in STAGES:
             best[stage] = min(best[stage], rep.timings[stage])
@@ -92,10 +107,11 @@ def one_file(path: Path, repeat: int, dense_max: int) -> dict:
             best["factor"] = min(best["factor"], TimedFactorization.seconds[0])
             best["gmres"] = min(best["gmres"], rep.timings["solve"] - TimedFactorization.seconds[0])
         start = time.perf_counter()
-        image = rasterise(rep, document.width, document.height, samples=3)
+        image = rasterise(rep, document.width, document.height, samples=samples)
         best["render"] = min(best["render"], time.perf_counter() - start)
     result = {"segments": len(rep.segments), "runs": runs, "size": f"{document.width}x{document.height}",
-              "finite": bool(np.isfinite(image).all()), **best,
+              "finite": bool(np.isfinite(image).all()), **best, "samples": samples,
+              "build_iterations": counted_gmres.iterations[0] if counted_gmres.iterations else None,
               "peak_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}  # before the dense check
     if len(rep.segments) <= dense_max and len(rep.segments) > fast_solve.DENSE_CROSSOVER:
         segments, lattice = boundary_system(document)
@@ -105,18 +121,19 @@ def one_file(path: Path, repeat: int, dense_max: int) -> dict:
     return result
 
 
-def file_table(files: list[Path], repeat: int, dense_max: int) -> tuple[list[str], list[str]]:
+def file_table(files: list[Path], repeat: int, dense_max: int, samples: int = 1) -> tuple[list[str], list[str]]:
     """One row per file, each measured in a subprocess; and the fast solves' factor/GMRES split."""
-    split = ["| file | solve | factorisation | GMRES (and right-hand side) |", "|---|---:|---:|---:|"]
+    split = ["| file | solve | factorisation | GMRES (and right-hand side) | GMRES iterations |", "|---|---:|---:|---:|---:|"]
     rows = ["| file | canvas | segments | solver | load | discretise | solve | upward | downward | build total "
-            "| peak memory | 3x3 render | E vs dense |", "|---|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+            f"| peak memory | {samples}x{samples} render | build and render | E vs dense |",
+            "|---|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for path in files:
         log(f"{path.name} ...")
         done = subprocess.run([sys.executable, __file__, "--one", str(path), "--repeat", str(repeat),
-                               "--dense-max", str(dense_max)], capture_output=True, text=True)
+                               "--dense-max", str(dense_max), "--samples", str(samples)], capture_output=True, text=True)
         if done.returncode:
             message = (done.stderr.strip().splitlines() or ["failed"])[-1]
-            rows.append(f"| {path.name} | | | failed: {message} |" + " |" * 9)
+            rows.append(f"| {path.name} | | | failed: {message} |" + " |" * 10)
             continue
         r = json.loads(done.stdout.strip().splitlines()[-1])
         total = r["load"] + sum(r[stage] for stage in STAGES)
@@ -126,11 +143,12 @@ def file_table(files: list[Path], repeat: int, dense_max: int) -> tuple[list[str
         rows.append(
             f"| {path.name}{runs} | {r['size']} | {r['segments']:,} | {solver} | {r['load']:.2f} | "
             f"{r['discretise']:.2f} | {r['solve']:.2f} | {r['upward']:.2f} | {r['downward']:.2f} | "
-            f"**{total:.2f}** | {r['peak_mb']:,.0f} MB | {r['render']:.2f}{'' if r['finite'] else ' (NaN!)'} | "
-            f"{difference} |"
+            f"{total:.2f} | {r['peak_mb']:,.0f} MB | {r['render']:.2f}{'' if r['finite'] else ' (NaN!)'} | "
+            f"**{total + r['render']:.2f}** | {difference} |"
         )
         if np.isfinite(r["factor"]):
-            split.append(f"| {path.name}{runs} | {r['solve']:.2f} | {r['factor']:.2f} | {r['gmres']:.2f} |")
+            split.append(f"| {path.name}{runs} | {r['solve']:.2f} | {r['factor']:.2f} | {r['gmres']:.2f} | "
+                         f"{r['build_iterations']} |")
     return rows, split
 
 
@@ -159,21 +177,24 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("files", nargs="*", type=Path, help="XML files (default: every file under orzan_xml/)")
     parser.add_argument("--repeat", type=int, default=3, help="runs per measurement; the best is reported")
+    parser.add_argument("--samples", type=int, default=1, help="render with K x K samples a pixel")
     parser.add_argument("--dense-max", type=int, default=12_000, help="largest system also solved densely")
     parser.add_argument("--crossover", action="store_true", help="also time dense against fast on synthetic documents")
     parser.add_argument("--crossover-only", action="store_true", help="only the dense/fast comparison")
     parser.add_argument("--one", type=Path, help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.one:
-        print(json.dumps(one_file(args.one, args.repeat, args.dense_max)))
+        print(json.dumps(one_file(args.one, args.repeat, args.dense_max, args.samples)))
         return
     files = args.files or sorted(ORZAN.rglob("*.xml"))
-    print(f"Machine: {machine()}. Best of {args.repeat} runs unless marked; seconds.\n")
+    print(f"Machine: {machine()}; load average {os.getloadavg()[0]:.1f} at the start. "
+          f"Best of {args.repeat} runs unless marked; seconds.\n")
     if not args.crossover_only:
-        rows, split = file_table(files, args.repeat, args.dense_max)
+        rows, split = file_table(files, args.repeat, args.dense_max, args.samples)
         print("\n".join(rows))
         print("\nThe fast solves split (each column its own best):\n")
         print("\n".join(split))
+        print(f"\nLoad average {os.getloadavg()[0]:.1f} at the end.")
     if args.crossover or args.crossover_only:
         print("\nDense against fast solve (random circles on 128 to 512 px canvases):\n")
         print("\n".join(crossover_table(args.repeat)))

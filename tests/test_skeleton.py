@@ -13,7 +13,9 @@ from fmr_editor.engine.geometry.discretise import boundary_segments, curve_segme
 from fmr_editor.engine.solve import dense as bem
 from fmr_editor.engine.solve import skeleton
 from fmr_editor.engine.solve.dense import SolveTooLargeError, assemble
-from fmr_editor.engine.solve.entries import CollocationEntries
+from fmr_editor.engine.geometry.segments import Segments
+from fmr_editor.engine.kernels.potentials import pair_integrals
+from fmr_editor.engine.solve.entries import FAR, CollocationEntries
 from fmr_editor.engine.solve.linalg import interpolative
 from fmr_editor.engine.solve.skeleton import SkeletonFactorization
 
@@ -33,6 +35,24 @@ def test_entries_equal_the_dense_matrix(system):
     columns = np.concatenate([rows[:10], rng.choice(len(segments), 30, replace=False)])
     np.testing.assert_allclose(CollocationEntries(segments).block(rows, columns), matrix[np.ix_(rows, columns)],
                                rtol=1e-12, atol=1e-14)
+
+
+def test_far_entries_by_their_series_equal_the_closed_form():
+    """Around the distance where the entries switch from the closed form to the series, and well beyond."""
+    rng = np.random.default_rng(5)
+    lengths = np.array([0.3, 1.0, 2.0, 50.0])
+    angles = rng.uniform(0, 2 * np.pi, len(lengths))
+    p = rng.uniform(100, 200, (len(lengths), 2))
+    q = p + lengths[:, None] * np.stack([np.cos(angles), np.sin(angles)], axis=1)
+    n = len(p)
+    segments = Segments(p, q, np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(n, bool), np.zeros((n, 3)))
+    for j, h in enumerate(lengths):
+        radii = FAR * h * np.repeat([0.5, 0.99, 1.01, 1.5, 4.0, 30.0], 8)
+        turns = rng.uniform(0, 2 * np.pi, len(radii))
+        targets = 0.5 * (p[j] + q[j]) + radii[:, None] * np.stack([np.cos(turns), np.sin(turns)], axis=1)
+        got = CollocationEntries(segments).at(targets, np.array([j]))[:, 0]
+        expected = pair_integrals(targets, p[j:j + 1], q[j:j + 1])[0][:, 0]
+        np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-14 * np.abs(expected).max())
 
 
 @pytest.mark.parametrize("rows", [60, 400], ids=["square", "tall-sketched"])
