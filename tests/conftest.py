@@ -242,6 +242,7 @@ def editor(gl_display, qtbot, tmp_path, monkeypatch):
     from fmr_editor.ui.files import NewDocumentDialog
     from fmr_editor.ui.main_window import MainWindow
 
+    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path / "data"))  # autosaves (ui.autosave.default_folder)
     window = MainWindow(QSettings(str(tmp_path / "settings.ini"), QSettings.Format.IniFormat))
     driver = EditorDriver(qtbot, window)
     answers = driver.answers

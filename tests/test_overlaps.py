@@ -90,7 +90,7 @@ def test_a_singular_system_falls_back_to_the_least_squares_solution(monkeypatch)
     np.testing.assert_allclose(got[4], got[5], atol=1e-9)  # shared, not blown up
 
 
-def test_the_bucket_search_finds_every_pair_a_full_search_finds():
+def test_the_bucket_filter_finds_every_pair_a_full_search_finds():
     """Collinear pieces in random directions (some just below pi: the wrap of the direction), tiny pieces,
     repeated pieces and noise: the same pairs as the plain search over every segment (``reference_pairs``)."""
     from fmr_editor.engine.geometry import overlaps

@@ -44,7 +44,7 @@ def test_help_names_the_editor_and_the_render_command(capsys):
 
 
 @pytest.mark.gui
-def test_the_editor_opens_its_files_in_tabs_and_returns_when_closed(gl_display, qapp, tmp_path):
+def test_the_editor_opens_its_files_in_tabs_and_returns_when_closed(gl_display, qapp, tmp_path, monkeypatch):
     pytest.importorskip("pytestqt", reason="pytest-qt is in the [test] extra")
     from PySide6.QtCore import QSettings, QTimer
     from shapes import scattered_document
@@ -68,6 +68,7 @@ def test_the_editor_opens_its_files_in_tabs_and_returns_when_closed(gl_display, 
             QTimer.singleShot(50, close_when_open)
 
     QTimer.singleShot(50, close_when_open)
+    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path / "data"))  # its own autosave folder
     settings = QSettings(str(tmp_path / "settings.ini"), QSettings.Format.IniFormat)
     assert app.main([RIBBON, other], settings=settings) == 0
     assert seen == [("other.fmr \u2014 FMR Editor", ["ribbon.xml", "other.fmr"])]

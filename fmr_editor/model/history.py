@@ -208,6 +208,11 @@ class History:
         self._saved = self._index
         self._steps_changed()
 
+    def mark_unsaved(self) -> None:
+        """Forget the step on disk: no step is saved (a document recovered from an autosave)."""
+        self._saved = None
+        self._steps_changed()
+
     @property
     def modified(self) -> bool:
         """True when the current document differs from the last saved step."""

@@ -62,6 +62,7 @@ def main(paths=(), argv: list[str] | None = None, settings=None) -> int:
     app.setOrganizationName(ORGANISATION)
     window = MainWindow(settings if settings is not None else QSettings(ORGANISATION, "editor"))
     window.show()
+    window.offer_recovery()
     paths = [paths] if isinstance(paths, (str, os.PathLike)) else list(paths)
     if paths:
         window.open_paths([Path(path) for path in paths])

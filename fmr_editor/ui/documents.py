@@ -60,6 +60,7 @@ class DocumentTabs:
         workspace.engine_progress.connect(lambda *a, w=workspace: self._if_active(w, self._engine_progress, *a))
         workspace.message.connect(lambda text, w=workspace: self._if_active(w, self.status_label.setText, text))
         self.workspaces.append(workspace)
+        self.autosaver.watch(workspace, opened.recovered)
         self.tabs.blockSignals(True)  # shown once, by _activate
         self.tabs.addTab(workspace.name)
         self.tabs.blockSignals(False)
@@ -173,6 +174,7 @@ class DocumentTabs:
         index = self.workspaces.index(workspace)
         workspace.tools[self.tool_name].cancel()
         workspace.close()
+        self.autosaver.forget(workspace)
         self.workspaces.pop(index)
         self.tabs.blockSignals(True)
         self.tabs.removeTab(index)

@@ -16,9 +16,10 @@ from pathlib import Path
 from PySide6.QtCore import QTimer
 
 from ..io import DocumentLoadError, save_fmr
+from .autosave import RecoveryDialog
 from .export import ExportDialog, ExportOptions, export_png
 from .files import NewDocumentDialog, ask_open_path, ask_save_path, openable, show_error
-from .workspace import DEFAULT_SIZE, new_document, open_file
+from .workspace import DEFAULT_SIZE, new_document, open_file, recover
 
 
 def _reason(error: BaseException):
@@ -85,6 +86,44 @@ class FileCommands:
                 self.new_document(DEFAULT_SIZE)
 
         self._start(f"Opening {path.name}", lambda progress: open_file(path, progress), opened, failed)
+
+    def offer_recovery(self) -> bool:
+        """Offer the documents a crash left autosaved (``RecoveryDialog``, not blocking); False when there are none."""
+        entries = self.autosaver.folder.orphans()
+        if not entries:
+            return False
+        self.recovery = RecoveryDialog(entries, self)
+        self.recovery.finished.connect(lambda _, dialog=self.recovery: self._recovery_chosen(dialog))
+        self.recovery.open()
+        return True
+
+    def _recovery_chosen(self, dialog: RecoveryDialog) -> None:
+        if self.job is not None:  # the first document is still being opened: one job at a time
+            QTimer.singleShot(100, lambda: self._recovery_chosen(dialog))
+            return
+        self.recovery = None
+        if dialog.choice == "discard":
+            for entry in dialog.checked():
+                self.autosaver.folder.discard(entry.key)
+        elif dialog.choice == "recover":
+            self._recover(dialog.checked())
+
+    def _recover(self, entries: list) -> None:
+        """Open each autosaved entry in a tab of its own, one after the other, with its changes unsaved."""
+        if not entries:
+            return
+        entry, rest = entries[0], entries[1:]
+
+        def opened(result) -> None:
+            self._install(result)
+            self._recover(rest)
+
+        def failed(error: BaseException) -> None:
+            show_error(self, "Cannot Recover the Document", f"{entry.name}: {error}")
+            self._recover(rest)
+
+        folder = self.autosaver.folder
+        self._start(f"Recovering {entry.name}", lambda progress: recover(folder, entry, progress), opened, failed)
 
     def open_paths(self, paths: list) -> None:
         """Open each of ``paths`` in a tab, one after the other (a new canvas when none opens)."""

@@ -17,9 +17,11 @@ from PySide6.QtCore import QEvent, QSettings, Qt
 from PySide6.QtGui import QCursor
 from PySide6.QtWidgets import QDockWidget, QLabel, QMainWindow, QMenu, QMessageBox, QProgressBar
 
+from ..io.autosave import AutosaveFolder
 from ..model.clone_edits import canvas_region
 from ..tools import Selection, ToolOptions, delete_selection
 from ..tools.overlay import region_marks
+from .autosave import Autosaver, RecoveryDialog, default_folder
 from .canvas import Canvas
 from .clip_commands import ClipCommands
 from .documents import DocumentTabs
@@ -65,9 +67,12 @@ class MainWindow(FileCommands, LayerCommands, DocumentTabs, ClipCommands, QMainW
     actions : dict of str to QAction
     """
 
-    def __init__(self, settings: QSettings, parent=None) -> None:
+    def __init__(self, settings: QSettings, parent=None, autosave: Autosaver | None = None) -> None:
         super().__init__(parent)
         self.settings = settings
+        self.autosaver = autosave or Autosaver(AutosaveFolder(default_folder()))
+        self.autosaver.setParent(self)
+        self.recovery: RecoveryDialog | None = None  # the recovery dialog while it is open
         self.recent = RecentFiles(settings)
         self.options = ToolOptions()
         self.workspace: Workspace | None = None
@@ -107,6 +112,7 @@ class MainWindow(FileCommands, LayerCommands, DocumentTabs, ClipCommands, QMainW
         build_menus(self, self.actions, self.recent_menu, [d.toggleViewAction() for d in docks])
 
         self._build_status_bar()
+        self.autosaver.failed.connect(lambda message: self.status_label.setText(message))
 
         self.setAcceptDrops(True)
         self.resize(1200, 800)

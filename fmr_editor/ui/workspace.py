@@ -18,6 +18,7 @@ from PySide6.QtCore import QObject, Signal
 
 from ..engine import LiveStack, Progress, Settings, evaluate_points
 from ..io import open_live
+from ..io.autosave import Autosaved, AutosaveFolder
 from ..model import ColorStop, DiffusionCurve, Document
 from ..model.history import History
 from ..tools import ToolContext, ToolOptions, create_tools
@@ -44,12 +45,15 @@ class Opened:
         The file it came from; None for a new document.
     notes : tuple of str
         What was not taken from the file and why (a saved representation rebuilt).
+    recovered : str or None
+        The key of the autosaved copy it was recovered from (its changes are not saved).
     """
 
     live: LiveStack
     frame: Frame
     path: Path | None
     notes: tuple[str, ...] = ()
+    recovered: str | None = None
 
     @property
     def document(self) -> Document:
@@ -73,6 +77,18 @@ def open_file(path: str | os.PathLike, progress: Progress | None = None) -> Open
     path = Path(path).absolute()
     notes: list[str] = []
     return _opened(open_live(path, progress=progress, notes=notes), path, notes)
+
+
+def recover(folder: AutosaveFolder, entry: Autosaved, progress: Progress | None = None) -> Opened:
+    """Read and build the document autosaved in ``entry``; it keeps the path of the file it came from.
+
+    Raises
+    ------
+    DocumentLoadError
+        When the copy cannot be read.
+    """
+    live = LiveStack(folder.load(entry), Settings(), progress)
+    return Opened(live, Frame.first(live), entry.path, recovered=entry.key)
 
 
 def background_curve(width: float, height: float, color=BACKGROUND) -> DiffusionCurve:
@@ -151,6 +167,8 @@ class Workspace(QObject):
         self.path = opened.path
         self.settings = opened.live.settings
         self.history = History(opened.document)
+        if opened.recovered is not None:
+            self.history.mark_unsaved()
         self.context = ToolContext(self.history, sample=self.sample, choose_color=choose_color, options=options,
                                    say=self.message.emit)
         self.view = (None, True)

@@ -12,7 +12,7 @@ The search costs about linear time whatever the geometry: identical segments
 (a control-point set repeated 300 times) are grouped first and only the last
 of each group looks for other overlaps; the others pair with segments on
 nearby lines only (buckets of direction and offset), and a search that would
-still compare more than ``MAX_CANDIDATES`` pairs is refused.
+still compare more than ``CANDIDATES_PER_SEGMENT`` pairs a segment is refused.
 ``reference_pairs`` is the plain search (shapely over every segment) the
 tests compare with.
 """
@@ -22,21 +22,14 @@ from __future__ import annotations
 import numpy as np
 import shapely
 
-from ...model.limits import LimitError
 from .segments import Segments
 
 #: Distance in pixels under which end points count as on another segment's line.
 COLLINEAR_TOLERANCE = 1e-6
-#: Shortest segment whose direction is trusted (pixels): two collinear segments at least ``SHORT`` long differ
-#: by at most 2 tolerance / SHORT (1e-3 radians at the default tolerance) in direction, the angle bucket.
-SHORT = 2e-3
-#: Smallest bucket of line offset (pixels); larger canvases get larger ones (``_offset_bucket``).
-OFFSET_BUCKET = 4.0
-#: Most pairs of segments on nearby lines compared (about 40 bytes each).
-MAX_CANDIDATES = 10_000_000
-
-#: Range of each field packed into a bucket key (offset and position buckets stay within half of it).
-_FIELD = 1 << 20
+#: Buckets of line direction (radians) and offset from the canvas centre (pixels) for ``_candidates``: two
+#: collinear segments at least ``SHORT`` long differ by at most 2 tolerance / SHORT = 1e-3 radians in
+#: direction and so, within ``reach`` pixels of the centre, by at most 1e-3 reach in offset (the bucket grows).
+ANGLE_BUCKET, OFFSET_BUCKET, SHORT = 1e-3, 4.0, 2e-3
 
 
 def overlapping_pairs(segments: Segments, tolerance: float = COLLINEAR_TOLERANCE, among: np.ndarray | None = None):
@@ -50,21 +43,20 @@ def overlapping_pairs(segments: Segments, tolerance: float = COLLINEAR_TOLERANCE
         Segment indices, ``earlier < later``.
     start, end : numpy.ndarray
         The shared stretch as parameters ``0 <= start < end <= 1`` along ``earlier``.
-
-    Raises
-    ------
-    LimitError
-        When more than ``MAX_CANDIDATES`` pairs would be compared.
     """
     twin_of = last_twins(segments)
     searched = twin_of == np.arange(len(segments))
-    earlier, later = _nearby_pairs(segments, searched, tolerance, among)
+    if tolerance <= COLLINEAR_TOLERANCE:
+        chosen = np.intersect1d(_candidates(segments, among), np.flatnonzero(searched))
+    else:
+        chosen = np.flatnonzero(searched)
+    lines = shapely.linestrings(np.stack([segments.p[chosen], segments.q[chosen]], axis=1))
+    earlier, later = shapely.STRtree(lines).query(lines, predicate="dwithin", distance=tolerance)
+    earlier, later = chosen[earlier], chosen[later]
     repeated = np.flatnonzero(~searched)  # wholly covered by their last twin
     earlier, later = np.concatenate([earlier, repeated]), np.concatenate([later, twin_of[repeated]])
-    if among is not None:
-        wanted = among[earlier] | among[later]
-        earlier, later = earlier[wanted], later[wanted]
-    return _shared_stretches(segments, earlier, later, tolerance)
+    forward = earlier < later if among is None else (earlier < later) & (among[earlier] | among[later])
+    return _shared_stretches(segments, earlier[forward], later[forward], tolerance)
 
 
 def last_twins(segments: Segments) -> np.ndarray:
@@ -80,94 +72,40 @@ def last_twins(segments: Segments) -> np.ndarray:
     return last[group]
 
 
-def _nearby_pairs(segments: Segments, searched: np.ndarray, tolerance: float, among: np.ndarray | None):
-    """Candidate pairs ``earlier < later`` among ``searched`` segments: those sharing a bucket of line and of
-    position along it (``_bucket_keys``), and any segment near a short one (whose direction says little)."""
-    n = len(segments)
-    d = segments.q - segments.p
-    short = np.hypot(d[:, 0], d[:, 1]) < SHORT
-    keys, index = _bucket_keys(segments, np.flatnonzero(searched & ~short), 2 * tolerance / SHORT)
-    order = np.argsort(keys, kind="stable")
-    keys_sorted = keys[order]
-    found, total = [np.zeros(0, np.int64)], 0
-    for da in (-1, 0, 1):
-        for dc in (-1, 0, 1):
-            wanted = keys + (da * _FIELD + dc) * _FIELD
-            lo = np.searchsorted(keys_sorted, wanted, "left")
-            counts = np.searchsorted(keys_sorted, wanted, "right") - lo
-            total += int(counts.sum())
-            _check_candidates(total)
-            first = index[np.repeat(np.arange(len(keys)), counts)]
-            second = index[order[np.repeat(lo - np.cumsum(counts) + counts, counts) + np.arange(len(first))]]
-            forward = first < second if among is None else (first < second) & (among[first] | among[second])
-            found.append(np.unique(first[forward] * n + second[forward]))
-    tiny = np.flatnonzero(searched & short)
-    if len(tiny):
-        found.append(_pairs_with_tiny(segments, np.flatnonzero(searched), tiny, tolerance))
-    pairs = np.unique(np.concatenate(found))
-    earlier, later = pairs // max(n, 1), pairs % max(n, 1)
-    distinct = earlier < later
-    return earlier[distinct], later[distinct]
+def _candidates(segments: Segments, among: np.ndarray | None = None) -> np.ndarray:
+    """Indices of the segments that may overlap another collinearly (one of ``among``): a filter before shapely.
 
-
-def _pairs_with_tiny(segments: Segments, searched: np.ndarray, tiny: np.ndarray, tolerance: float) -> np.ndarray:
-    """Pairs ``earlier * n + later`` of each ``tiny`` segment with the ``searched`` ones whose box (widened by
-    ``tolerance``) holds its start: sorted by x, then checked in y."""
-    n = len(segments)
-    by_x = tiny[np.argsort(segments.p[tiny, 0])]
-    x = segments.p[by_x, 0]
-    low = np.minimum(segments.p[searched], segments.q[searched]) - tolerance
-    high = np.maximum(segments.p[searched], segments.q[searched]) + tolerance
-    lo = np.searchsorted(x, low[:, 0], "left")
-    counts = np.searchsorted(x, high[:, 0], "right") - lo
-    _check_candidates(int(counts.sum()))
-    box = np.repeat(np.arange(len(searched)), counts)
-    small = by_x[np.repeat(lo - np.cumsum(counts) + counts, counts) + np.arange(len(box))]
-    inside = (segments.p[small, 1] >= low[box, 1]) & (segments.p[small, 1] <= high[box, 1])
-    a, b = searched[box[inside]], small[inside]
-    return np.minimum(a, b) * n + np.maximum(a, b)
-
-
-def _check_candidates(count: int) -> None:
-    if count > MAX_CANDIDATES:
-        raise LimitError(f"the curves lie along each other too often: more than {MAX_CANDIDATES:,} pairs "
-                         "of segments on nearly the same stretch of line to compare")
-
-
-def _bucket_keys(segments: Segments, chosen: np.ndarray, angle_bucket: float) -> tuple[np.ndarray, np.ndarray]:
-    """Keys of the buckets ``chosen`` segments lie in, and the segment of each key.
-
-    A bucket is a range of line direction (``angle_bucket``), of line offset
-    and of position along the line: two collinear segments that share a
-    stretch share a position bucket and lie in neighbouring direction and
-    offset buckets.  A direction just below pi also gets the keys of the same
-    line just above 0 (normal, offset and positions flipped).
+    Each segment's line is put in a bucket of direction and offset; a
+    segment whose bucket or a neighbouring one holds another segment (of
+    ``among``, a boolean mask, when given; those are kept too), or that is
+    shorter than ``SHORT`` (its direction says little), is kept.
     """
-    p, q = segments.p[chosen], segments.q[chosen]
-    d = q - p
+    d = segments.q - segments.p
     theta = np.mod(np.arctan2(d[:, 1], d[:, 0]), np.pi)
     centre = segments.p.mean(axis=0) if len(segments) else np.zeros(2)
-    reach = float(np.abs(np.concatenate([segments.p, segments.q]) - centre).max(initial=1.0)) * np.sqrt(2)
-    # two collinear segments' directions differ by up to angle_bucket, which moves offsets and positions
-    slack = angle_bucket * reach + 2 * COLLINEAR_TOLERANCE
-    normal, tangent = np.stack([-np.sin(theta), np.cos(theta)], 1), np.stack([np.cos(theta), np.sin(theta)], 1)
-    offset = (normal * (p - centre)).sum(1)
-    along = np.sort(np.stack([(tangent * (p - centre)).sum(1), (tangent * (q - centre)).sum(1)], 1), axis=1)
-    wraps = theta > np.pi - 2 * angle_bucket
+    offset = np.cos(theta) * (segments.p[:, 1] - centre[1]) - np.sin(theta) * (segments.p[:, 0] - centre[0])
+    index = np.arange(len(segments))
+    # a direction just below pi is the same line as one just above 0, with the normal (and offset) flipped
+    wraps = theta > np.pi - 2 * ANGLE_BUCKET
     theta = np.concatenate([theta, theta[wraps] - np.pi])
     offset = np.concatenate([offset, -offset[wraps]])
-    along = np.concatenate([along, -along[wraps][:, ::-1]])
-    index = np.concatenate([chosen, chosen[wraps]])
-    offset_bucket = max(OFFSET_BUCKET, 2 * slack, 4 * reach / _FIELD)
-    lengths = along[:, 1] - along[:, 0]
-    position_bucket = max(4 * float(np.median(lengths)) if len(lengths) else 1.0, 2 * slack, 4 * reach / _FIELD)
-    first = np.floor((along[:, 0] - slack) / position_bucket).astype(np.int64)
-    spans = np.floor((along[:, 1] + slack) / position_bucket).astype(np.int64) - first + 1
-    entry = np.repeat(np.arange(len(index)), spans)
-    position = first[entry] + np.arange(len(entry)) - np.repeat(np.cumsum(spans) - spans, spans)
-    line = (np.floor(theta / angle_bucket).astype(np.int64) * _FIELD
-            + np.floor(offset / offset_bucket).astype(np.int64))
-    return line[entry] * _FIELD + position, index[entry]
+    index = np.concatenate([index, index[wraps]])
+    reach = float(np.abs(np.concatenate([segments.p, segments.q]) - centre).max(initial=0.0)) * np.sqrt(2)
+    bucket = max(OFFSET_BUCKET, 2 * ANGLE_BUCKET * reach)
+    keys = np.stack([np.floor(theta / ANGLE_BUCKET), np.floor(offset / bucket)], axis=1).astype(np.int64)
+    flat = keys[:, 0] * (1 << 32) + keys[:, 1]
+    source = np.ones(len(index), bool) if among is None else among[index]
+    occupied, counts = np.unique(flat[source], return_counts=True)
+    crowded = np.zeros(len(index), bool)
+    for da in (-1, 0, 1):
+        for dc in (-1, 0, 1):
+            neighbour = flat + da * (1 << 32) + dc
+            at = np.clip(np.searchsorted(occupied, neighbour), 0, max(len(occupied) - 1, 0))
+            found = np.where(occupied[at] == neighbour, counts[at], 0) if len(occupied) else np.zeros(len(flat), int)
+            crowded |= found - (source & (da == 0) & (dc == 0)) > 0
+    short = np.hypot(d[:, 0], d[:, 1]) < SHORT
+    chosen = np.union1d(np.unique(index[crowded]), np.flatnonzero(short))
+    return chosen if among is None else np.union1d(chosen, np.flatnonzero(among))
 
 
 def reference_pairs(segments: Segments, tolerance: float = COLLINEAR_TOLERANCE):

@@ -1,0 +1,160 @@
+"""Never lose work: each open document with unsaved changes is autosaved, and offered back after a crash.
+
+A document is autosaved ``seconds`` after its first unsaved change and after
+every ``steps``-th step (edits, undos, redos) since its last autosave; its
+copy is discarded when it is saved, undone back to its saved state or closed
+normally.  On start the window asks ``RecoveryDialog`` about the copies a
+crashed editor left (``io.autosave``).
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+from PySide6.QtCore import QObject, QStandardPaths, Qt, QTimer, Signal
+from PySide6.QtWidgets import QDialog, QDialogButtonBox, QLabel, QListWidget, QListWidgetItem, QVBoxLayout
+
+from ..io.autosave import Autosaved, AutosaveFolder
+
+#: Seconds of unsaved changes before a document is autosaved.
+AUTOSAVE_SECONDS = 60.0
+#: Steps since the last autosave after which a document is autosaved at once.
+AUTOSAVE_STEPS = 50
+
+
+def default_folder() -> Path:
+    """``fmr-editor/autosave`` in the platform's application-data folder (``$XDG_DATA_HOME`` on Linux)."""
+    return Path(QStandardPaths.writableLocation(QStandardPaths.StandardLocation.GenericDataLocation)) / \
+        "fmr-editor" / "autosave"
+
+
+class Autosaver(QObject):
+    """Autosaves the workspaces it watches.
+
+    Parameters
+    ----------
+    folder : AutosaveFolder
+    seconds : float
+    steps : int
+    parent : QObject, optional
+
+    Signals
+    -------
+    failed(str)
+        An autosave could not be written (said once until one succeeds).
+    saved(str)
+        The key of an entry just written.
+    """
+
+    failed = Signal(str)
+    saved = Signal(str)
+
+    def __init__(self, folder: AutosaveFolder, seconds: float = AUTOSAVE_SECONDS, steps: int = AUTOSAVE_STEPS,
+                 parent: QObject | None = None) -> None:
+        super().__init__(parent)
+        self.folder, self.seconds, self.steps = folder, seconds, steps
+        self._watched: dict = {}  # workspace -> [key, steps since autosaved, monotonic time of first change or None]
+        self._failing = False
+        self._timer = QTimer(self)
+        self._timer.setInterval(int(min(1000.0, self.seconds * 250)))
+        self._timer.timeout.connect(self._tick)
+        self._timer.start()
+
+    def watch(self, workspace, key: str | None = None) -> None:
+        """Autosave ``workspace`` from now on, under ``key`` (a recovered entry's) or a new one."""
+        self._watched[workspace] = [key or self.folder.new_key(), 0, None]
+        workspace.steps_changed.connect(lambda w=workspace: self._stepped(w))
+        if workspace.history.modified:
+            self._stepped(workspace)
+
+    def forget(self, workspace) -> None:
+        """Stop watching ``workspace`` (closed normally) and discard its copy."""
+        state = self._watched.pop(workspace, None)
+        if state is not None:
+            self.folder.discard(state[0])
+
+    def _stepped(self, workspace) -> None:
+        state = self._watched.get(workspace)
+        if state is None:
+            return
+        if not workspace.history.modified:  # saved, or back at the saved step
+            self.folder.discard(state[0])
+            state[1:] = [0, None]
+            return
+        state[1] += 1
+        state[2] = state[2] if state[2] is not None else time.monotonic()
+        if state[1] >= self.steps:
+            self.write(workspace)
+
+    def _tick(self) -> None:
+        now = time.monotonic()
+        for workspace, (_, _, since) in list(self._watched.items()):
+            if since is not None and now - since >= self.seconds:
+                self.write(workspace)
+
+    def write(self, workspace) -> None:
+        """Autosave ``workspace`` now (after its drag, if one is going on)."""
+        state = self._watched.get(workspace)
+        if state is None or workspace.history.in_transaction:
+            return
+        try:
+            self.folder.write(state[0], workspace.history.document, workspace.path)
+        except (OSError, ValueError) as error:
+            if not self._failing:
+                self.failed.emit(f"Cannot autosave {workspace.name}: {getattr(error, 'strerror', None) or error}")
+            self._failing = True
+            state[2] = time.monotonic()  # try again a while later
+            return
+        self._failing = False
+        state[1:] = [0, None]
+        self.saved.emit(state[0])
+
+
+class RecoveryDialog(QDialog):
+    """Lists the documents a crash left autosaved, each checked; Recover opens the checked ones, Discard
+    deletes them, Later keeps every copy for the next start.
+
+    Parameters
+    ----------
+    entries : list of Autosaved
+    parent : QWidget, optional
+
+    Attributes
+    ----------
+    choice : str
+        ``"recover"``, ``"discard"`` or ``"later"`` once the dialog is closed.
+    """
+
+    def __init__(self, entries: list[Autosaved], parent=None) -> None:
+        super().__init__(parent)
+        self.setWindowTitle("Recover Documents")
+        self.entries, self.choice = entries, "later"
+        layout = QVBoxLayout(self)
+        layout.addWidget(QLabel("The editor did not close normally last time. These documents were autosaved:"))
+        self.list = QListWidget()
+        for entry in entries:
+            written = time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(entry.written))
+            item = QListWidgetItem(f"{entry.name}  (autosaved {written})")
+            item.setToolTip(str(entry.path) if entry.path is not None else "never saved")
+            item.setFlags(item.flags() | Qt.ItemFlag.ItemIsUserCheckable)
+            item.setCheckState(Qt.CheckState.Checked)
+            self.list.addItem(item)
+        layout.addWidget(self.list)
+        buttons = QDialogButtonBox()
+        self.recover_button = buttons.addButton("&Recover", QDialogButtonBox.ButtonRole.AcceptRole)
+        self.discard_button = buttons.addButton("&Discard", QDialogButtonBox.ButtonRole.DestructiveRole)
+        self.later_button = buttons.addButton("&Later", QDialogButtonBox.ButtonRole.RejectRole)
+        self.recover_button.clicked.connect(lambda: self._close_with("recover"))
+        self.discard_button.clicked.connect(lambda: self._close_with("discard"))
+        self.later_button.clicked.connect(lambda: self._close_with("later"))
+        layout.addWidget(buttons)
+
+    def checked(self) -> list[Autosaved]:
+        """The entries left checked."""
+        return [entry for row, entry in enumerate(self.entries)
+                if self.list.item(row).checkState() == Qt.CheckState.Checked]
+
+    def _close_with(self, choice: str) -> None:
+        self.choice = choice
+        self.accept() if choice != "later" else self.reject()
