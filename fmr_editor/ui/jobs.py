@@ -2,16 +2,23 @@
 
 A ``Job`` runs one function on its own ``QThread`` and reports back on the
 window's thread through signals, so the window keeps painting and shows the
-progress while the work runs.
+progress while the work runs.  ``Job.cancel`` stops the work at its next
+progress report (the work sees ``Cancelled`` raised there and leaves nothing
+half done: files are written atomically, documents installed only at the end).
 """
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Callable
 
 from PySide6.QtCore import QThread, Signal
 
 from ..engine import Progress
+
+
+class Cancelled(Exception):
+    """Raised inside a job's work by its progress report once the job is cancelled."""
 
 
 class Job(QThread):
@@ -34,21 +41,40 @@ class Job(QThread):
         The result, once ``work`` returned.
     failed(object)
         The exception ``work`` raised.
+    cancelled()
+        The work stopped at a progress report after ``cancel``.
     """
 
     progress = Signal(str, float)
     succeeded = Signal(object)
     failed = Signal(object)
+    cancelled = Signal()
 
     def __init__(self, work: Callable[[Progress], object], title: str = "", parent=None) -> None:
         super().__init__(parent)
         self._work = work
         self.title = title
+        self._cancel = threading.Event()
+
+    def cancel(self) -> None:
+        """Ask the work to stop at its next progress report."""
+        self._cancel.set()
+
+    def _report(self, stage: str, fraction: float) -> None:
+        if self._cancel.is_set():
+            raise Cancelled
+        self.progress.emit(stage, fraction)
 
     def run(self) -> None:
         try:
-            result = self._work(self.progress.emit)
+            result = self._work(self._report)
+        except Cancelled:
+            self.cancelled.emit()
+            return
         except Exception as error:  # noqa: BLE001 - reported to the window, which shows it
             self.failed.emit(error)
+            return
+        if self._cancel.is_set():
+            self.cancelled.emit()  # asked after the last report: the result is dropped all the same
             return
         self.succeeded.emit(result)

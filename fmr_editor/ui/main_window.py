@@ -14,8 +14,8 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from PySide6.QtCore import QEvent, QSettings, Qt
-from PySide6.QtGui import QCursor
-from PySide6.QtWidgets import QDockWidget, QLabel, QMainWindow, QMenu, QMessageBox, QProgressBar
+from PySide6.QtGui import QCursor, QKeySequence, QShortcut
+from PySide6.QtWidgets import QDockWidget, QLabel, QMainWindow, QMenu, QMessageBox, QProgressBar, QToolButton
 
 from ..io.autosave import AutosaveFolder
 from ..model.clone_edits import canvas_region
@@ -136,11 +136,19 @@ class MainWindow(FileCommands, LayerCommands, DocumentTabs, ClipCommands, QMainW
         self.progress_bar.setRange(0, 1000)
         self.progress_bar.setMaximumWidth(220)
         self.progress_bar.hide()
+        self.cancel_button = QToolButton()
+        self.cancel_button.setText("Cancel")
+        self.cancel_button.setToolTip("Stop the current job (Esc); the document stays as it was")
+        self.cancel_button.clicked.connect(self.cancel_job)
+        self.cancel_button.hide()
+        self.cancel_shortcut = QShortcut(QKeySequence(Qt.Key.Key_Escape), self, self.cancel_job)
+        self.cancel_shortcut.setEnabled(False)  # Esc belongs to the tools unless a job runs
         status = self.statusBar()
         status.addWidget(self.status_label)
         status.addWidget(self.hint_label, 1)
         status.addPermanentWidget(self.shading_label)
         status.addPermanentWidget(self.progress_bar)
+        status.addPermanentWidget(self.cancel_button)
         status.addPermanentWidget(self.position_label)
 
     def _dock(self, title: str, name: str, widget, area) -> QDockWidget:
@@ -380,6 +388,8 @@ class MainWindow(FileCommands, LayerCommands, DocumentTabs, ClipCommands, QMainW
             self._show_progress(message, 0.0)
         else:
             self.progress_bar.hide()
+        self.cancel_button.setVisible(self._busy and self.job is not None)
+        self.cancel_shortcut.setEnabled(self._busy and self.job is not None)
         self._update_actions()
 
     # -- jobs -------------------------------------------------------------------------------------------
@@ -393,7 +403,15 @@ class MainWindow(FileCommands, LayerCommands, DocumentTabs, ClipCommands, QMainW
         job.progress.connect(self._show_progress)
         job.succeeded.connect(lambda result: self._finish_job(job, succeeded, result))
         job.failed.connect(lambda error: self._finish_job(job, failed, error))
+        job.cancelled.connect(lambda: self._finish_job(job, lambda _: self.status_label.setText(
+            f"Cancelled: {title}"), None))
         job.start()
+
+    def cancel_job(self) -> None:
+        """Stop the running job at its next progress report (the Cancel button, Esc)."""
+        if self.job is not None:
+            self.job.cancel()
+            self.status_label.setText(f"Cancelling: {self.job.title}")
 
     def _finish_job(self, job: Job, then: Callable, value) -> None:
         job.wait()
