@@ -32,5 +32,6 @@ __all__ = [
     "MAX_LEVELS", "Composite", "GaussPoints", "LayerFields", "Lattice", "LiveRepresentation", "LiveStack",
     "PointField", "Progress", "Representation", "SeamlessClone", "Segments", "Settings", "Similarity", "StackUpdate",
     "Update", "build",
-    "available_memory", "check_image_memory", "clone_points", "composite_of", "evaluate_points", "local_polynomials", "output_size", "rasterise",
+    "available_memory", "check_image_memory", "clone_points", "composite_of", "evaluate_points", "local_polynomials",
+    "output_size", "rasterise",
 ]

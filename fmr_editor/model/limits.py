@@ -82,8 +82,8 @@ def check_document(document) -> None:
         _within(np.concatenate([curve.control_points for curve in curves]), low, high, "a control point")
     if points:  # colours and amplitudes are bounded by the items themselves (curve, point)
         _within(np.array([point.position for point in points]), low, high, "a diffusion point's centre")
-        _magnitude(np.array([point.radius for point in points]), COORDINATE_REACH * max(document.width, document.height),
-                   "a diffusion point's radius")
+        reach = COORDINATE_REACH * max(document.width, document.height)
+        _magnitude(np.array([point.radius for point in points]), reach, "a diffusion point's radius")
 
 
 def _item_sets(document) -> Iterable[tuple[str, object]]:

@@ -37,7 +37,8 @@ class CurveSegments:
     def __init__(self, tolerance: float, max_length: float) -> None:
         self.tolerance, self.max_length = tolerance, max_length
         self._clipped: dict[tuple[DiffusionCurve, float, float], Segments] = {}
-        self._last: tuple | None = None  # (curves, canvas, segments per curve, pairs, twins among them) of the last document
+        # the last document's (curves, canvas, segments per curve, pairs, twins among them)
+        self._last: tuple | None = None
 
     def _clip(self, curve: DiffusionCurve, width: float, height: float) -> Segments:
         key = (curve, width, height)
@@ -110,7 +111,10 @@ class CurveSegments:
 
 def _has_twins(segments: Segments, pairs: tuple) -> bool:
     """Whether ``pairs`` (of ``segments``) hold two segments with the same end points (``overlaps.last_twins``)."""
+    p, q = segments.p, segments.q
     earlier, later = pairs[0], pairs[1]
-    same = np.all(segments.p[earlier] == segments.p[later], axis=1) & np.all(segments.q[earlier] == segments.q[later], axis=1)
-    crossed = np.all(segments.p[earlier] == segments.q[later], axis=1) & np.all(segments.q[earlier] == segments.p[later], axis=1)
-    return bool(np.any(same | crossed))
+
+    def equal(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        return np.all(a[earlier] == b[later], axis=1)
+
+    return bool(np.any((equal(p, p) & equal(q, q)) | (equal(p, q) & equal(q, p))))

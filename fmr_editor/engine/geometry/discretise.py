@@ -96,7 +96,8 @@ def flattened_count(curves: Sequence[DiffusionCurve], tolerance: float, max_leng
     per_curve = (counts - 1) // 3
     first_piece = np.cumsum(per_curve) - per_curve
     curve_of_piece = np.repeat(np.arange(len(curves)), per_curve)
-    first = (np.cumsum(counts) - counts)[curve_of_piece] + 3 * (np.arange(per_curve.sum()) - first_piece[curve_of_piece])
+    piece_in_curve = np.arange(per_curve.sum()) - first_piece[curve_of_piece]
+    first = (np.cumsum(counts) - counts)[curve_of_piece] + 3 * piece_in_curve
     return int(_parts(points[first[:, None] + np.arange(4)], tolerance, max_length).sum())
 
 
