@@ -525,6 +525,7 @@ def test_array_checks(tmp_path, saved, built):
         ("cell_start", npy(cell_start - 1)): f"runs from -1 to {n - 1}, expected 0 to {n}",
         ("cell_start", npy(np.concatenate([[0, n], cell_start[2:]]))): "not non-decreasing",
         ("p", npy(moved)): "segment 0 lies in cell",
+        ("q", npy(np.full_like(segments.q, 1e308))): "q.npy holds points outside the canvas",
         ("on_border", npy(on_border.view(bool))): "booleans other than 0 and 1",
         ("q", npy(segments.q)[:-5]): "ends after",
         ("q", npy(segments.q) + b"\0" * 8): "more bytes after its array",

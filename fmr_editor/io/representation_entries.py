@@ -257,8 +257,8 @@ def assemble(layout: ArrayLayout, arrays: dict[str, np.ndarray], document: Docum
     Raises
     ------
     RepresentationError
-        If values are not finite, booleans are not 0 or 1, or ``cell_start``
-        does not list every segment in the cell of its midpoint.
+        If values are not finite, segments leave the canvas, booleans are not 0
+        or 1, or ``cell_start`` does not list every segment in the cell of its midpoint.
     """
     for name, array in arrays.items():
         if array.dtype.kind in "fc" and not np.isfinite(array).all():
@@ -267,6 +267,9 @@ def assemble(layout: ArrayLayout, arrays: dict[str, np.ndarray], document: Docum
         raise RepresentationError(f"{entry_name('on_border')} holds booleans other than 0 and 1")
     lattice = Lattice(layout.levels, layout.side)
     segments = Segments(*(arrays[name] for name in SEGMENT_FIELDS))
+    for name in ("p", "q"):  # segments are clipped to the canvas (a huge coordinate overflows midpoints)
+        if not ((arrays[name] >= 0) & (arrays[name] <= (document.width, document.height))).all():
+            raise RepresentationError(f"{entry_name(name)} holds points outside the canvas")
     _check_cells(arrays["cell_start"], segments, lattice)
     points = None
     if document.points:
