@@ -10,6 +10,7 @@ crashed editor left (``io.autosave``).
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 from PySide6.QtCore import QObject, QStandardPaths, Qt, QTimer, Signal
@@ -27,6 +28,15 @@ def default_folder() -> Path:
     """``fmr-editor/autosave`` in the platform's application-data folder (``$XDG_DATA_HOME`` on Linux)."""
     return Path(QStandardPaths.writableLocation(QStandardPaths.StandardLocation.GenericDataLocation)) / \
         "fmr-editor" / "autosave"
+
+
+@dataclass
+class _Watched:
+    """A watched document's autosave key, steps since its last autosave and when its unsaved changes began."""
+
+    key: str
+    steps: int = 0
+    since: float | None = None
 
 
 class Autosaver(QObject):
@@ -54,7 +64,7 @@ class Autosaver(QObject):
                  parent: QObject | None = None) -> None:
         super().__init__(parent)
         self.folder, self.seconds, self.steps = folder, seconds, steps
-        self._watched: dict = {}  # workspace -> [key, steps since autosaved, monotonic time of first change or None]
+        self._watched: dict = {}  # workspace -> _Watched
         self._failing = False
         self._timer = QTimer(self)
         self._timer.setInterval(int(min(1000.0, self.seconds * 250)))
@@ -63,7 +73,7 @@ class Autosaver(QObject):
 
     def watch(self, workspace, key: str | None = None) -> None:
         """Autosave ``workspace`` from now on, under ``key`` (a recovered entry's) or a new one."""
-        self._watched[workspace] = [key or self.folder.new_key(), 0, None]
+        self._watched[workspace] = _Watched(key or self.folder.new_key())
         workspace.steps_changed.connect(lambda w=workspace: self._stepped(w))
         if workspace.history.modified:
             self._stepped(workspace)
@@ -72,25 +82,25 @@ class Autosaver(QObject):
         """Stop watching ``workspace`` (closed normally) and discard its copy."""
         state = self._watched.pop(workspace, None)
         if state is not None:
-            self.folder.discard(state[0])
+            self.folder.discard(state.key)
 
     def _stepped(self, workspace) -> None:
         state = self._watched.get(workspace)
         if state is None:
             return
         if not workspace.history.modified:  # saved, or back at the saved step
-            self.folder.discard(state[0])
-            state[1:] = [0, None]
+            self.folder.discard(state.key)
+            state.steps, state.since = 0, None
             return
-        state[1] += 1
-        state[2] = state[2] if state[2] is not None else time.monotonic()
-        if state[1] >= self.steps:
+        state.steps += 1
+        state.since = state.since if state.since is not None else time.monotonic()
+        if state.steps >= self.steps:
             self.write(workspace)
 
     def _tick(self) -> None:
         now = time.monotonic()
-        for workspace, (_, _, since) in list(self._watched.items()):
-            if since is not None and now - since >= self.seconds:
+        for workspace, state in list(self._watched.items()):
+            if state.since is not None and now - state.since >= self.seconds:
                 self.write(workspace)
 
     def write(self, workspace) -> None:
@@ -99,16 +109,16 @@ class Autosaver(QObject):
         if state is None or workspace.history.in_transaction:
             return
         try:
-            self.folder.write(state[0], workspace.history.document, workspace.path)
+            self.folder.write(state.key, workspace.history.document, workspace.path)
         except (OSError, ValueError) as error:
             if not self._failing:
                 self.failed.emit(f"Cannot autosave {workspace.name}: {getattr(error, 'strerror', None) or error}")
             self._failing = True
-            state[2] = time.monotonic()  # try again a while later
+            state.since = time.monotonic()  # try again a while later
             return
         self._failing = False
-        state[1:] = [0, None]
-        self.saved.emit(state[0])
+        state.steps, state.since = 0, None
+        self.saved.emit(state.key)
 
 
 class RecoveryDialog(QDialog):
