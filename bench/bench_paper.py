@@ -97,8 +97,10 @@ def measure(iteration: int, level: int, args: argparse.Namespace) -> dict:
     curves = curve_segments(document, settings.tolerance, settings.max_length)
     segments = synthetic_values(boundary_segments(curves, document, lattice.cell_size, settings.border_spacing),
                                 args.seed)
+    del curves  # only the cut segments are built from
     passes, rasters, cells = [], [], None
     for _ in range(args.repeat):
+        cells = None  # free the last run's expansions before the next is made
         laps = [time.perf_counter()]
         cells = Cells.build(segments, lattice, settings.propagation_order, lambda stage: laps.append(time.perf_counter()),
                             pixel_order=settings.order)

@@ -27,6 +27,7 @@ import shapely
 from shapes import circle_points, straight_chain, uniform_curve
 
 from fmr_editor.engine.geometry.discretise import (
+    _max_speed,
     boundary_segments,
     canvas_border,
     clip_to_canvas,
@@ -360,3 +361,15 @@ def test_boundary_segments_put_curves_first_then_the_border():
         assert on_edge.all()
     np.testing.assert_array_equal(border_part.jump, 0.0)
     np.testing.assert_array_equal(assembled.flux, 0.0)
+
+
+def test_the_speed_bound_holds_for_pieces_taken_in_chunks():
+    """``_max_speed`` takes pieces a chunk at a time (memory); any chunking gives the same bound, and the bound
+    is at least the speed sampled finely and at most a hair above it."""
+    pieces = np.random.default_rng(3).normal(0, 40, (50, 4, 2))
+    bound = _max_speed(pieces)
+    np.testing.assert_array_equal(_max_speed(pieces, chunk=7), bound)
+    t = np.linspace(0, 1, 10_001)[:, None, None]
+    d = 3 * np.diff(pieces, axis=1)
+    speed = np.hypot(*((1 - t) ** 2 * d[:, 0] + 2 * (1 - t) * t * d[:, 1] + t**2 * d[:, 2]).T).max(axis=1)
+    assert np.all(bound >= speed) and np.all(bound <= speed * (1 + 1e-3))

@@ -67,9 +67,9 @@ class Cells:
             Called after each pass with its name.
         pixel_order : int or None
             Degree of the pixels' polynomials (``Settings.order``): each translation carries the terms
-            the pixels' accuracy needs (``orders.pass_orders``), 2-3x faster at L 9 than every term.  None
-            (default): every term up to ``order``, as saved representations were made (a file's expansions
-            then equal a rebuild's to rounding).
+            the pixels' accuracy needs (``orders.pass_orders``), 2-3x faster at L 9 than every term; the
+            editor's builds pass it.  None: every term up to ``order``, as files saved before were made (a
+            reference for them, and for the passes).
         """
         segments, cell_start = sort_into_cells(solved, lattice)
         orders = (uniform_orders(lattice.levels, order) if pixel_order is None

@@ -185,7 +185,7 @@ class LiveRepresentation:
         lap("solve", 0.7)
         stages = {"upward": 0.8, "downward": 0.95 if document.points else 1.0}
         self._cells = Cells.build(boundary.with_unknowns(self._unknowns), self.lattice, settings.propagation_order,
-                                  lambda stage: lap(stage, stages[stage]))
+                                  lambda stage: lap(stage, stages[stage]), pixel_order=settings.order)
         self._unreported = np.zeros(self._cells.local.shape[:2])
         self._kept.clear()
         self._points = LivePoints(document.points, self.lattice, settings.order) if document.points else None
@@ -215,7 +215,8 @@ class LiveRepresentation:
         self._solvers.reset(None, None)
         self._solvers.move_to(self._boundary)
         self._cells = Cells.resume(self._boundary.with_unknowns(self._unknowns), self.lattice,
-                                   self.settings.propagation_order, np.array(saved.local, dtype=complex))
+                                   self.settings.propagation_order, np.array(saved.local, dtype=complex),
+                                   pixel_order=self.settings.order)
         self._unreported = np.zeros(self._cells.local.shape[:2])
         self._points = LivePoints(document.points, self.lattice, self.settings.order) if document.points else None
         self.timings = {"resume": time.perf_counter() - start}
