@@ -34,7 +34,7 @@ import pytest
 from PIL import Image
 from shapes import circle_points, scattered_document, straight_chain
 
-from fmr_editor.engine import Settings, build, rasterise
+from fmr_editor.engine import Representation, Settings, build, rasterise
 from fmr_editor.engine.solve import solver as fast_solve
 from fmr_editor.io import DocumentLoadError, FmrFile, fmr_file, load_document, load_fmr, save_fmr
 from fmr_editor.io.document_json import document_from_data, document_to_data, dumps_document, loads_document
@@ -250,10 +250,18 @@ def test_mimetype_is_first_and_stored(saved):
     assert {"document.json", MANIFEST, "thumbnail.png", ARRAYS + "local.npy"} <= set(names)
 
 
+def stored_local(built: Representation) -> np.ndarray:
+    """The ``local.npy`` of ``built``: the editor keeps the pixels' terms, the file those of the propagation
+    order, zero past the pixels'."""
+    width = Settings().propagation_order + 1
+    assert built.local.shape[-1] == Settings().order + 1
+    return np.concatenate([built.local, np.zeros(built.local.shape[:-1] + (width - built.local.shape[-1],))], axis=-1)
+
+
 def test_arrays_are_plain_npy_files(saved, built):
     data = entries(saved)
     local = np.load(io.BytesIO(data[ARRAYS + "local.npy"]), allow_pickle=False)
-    np.testing.assert_array_equal(local, built.local)
+    np.testing.assert_array_equal(local, stored_local(built))
     manifest = json.loads(data[MANIFEST])
     assert manifest["version"] == 1 and manifest["segment_count"] == len(built.segments)
 
@@ -509,7 +517,7 @@ def test_array_checks(tmp_path, saved, built):
     cell_start = built.cell_start.copy()
     moved = built.segments.p.copy()
     moved[0] += built.lattice.cell_size * 2
-    nan_local = built.local.copy()
+    nan_local = stored_local(built)
     nan_local[1, 2, 0, 3] = complex(np.nan, 0)
     on_border = np.ascontiguousarray(segments.on_border).view(np.uint8).copy()
     on_border[0] = 2
@@ -520,7 +528,7 @@ def test_array_checks(tmp_path, saved, built):
         ("p", npy(segments.p.astype(">f8"))): "holds dtype '>f8', expected <f8",
         ("jump", fortran): "Fortran order",
         ("local", npy(nan_local)): "local.npy holds values that are not finite",
-        ("local", npy(built.local[..., :-1])): "has shape",
+        ("local", npy(stored_local(built)[..., :-1])): "has shape",
         ("cell_start", npy(cell_start[:-1])): f"expected ({cells * cells + 1},)",
         ("cell_start", npy(cell_start - 1)): f"runs from -1 to {n - 1}, expected 0 to {n}",
         ("cell_start", npy(np.concatenate([[0, n], cell_start[2:]]))): "not non-decreasing",

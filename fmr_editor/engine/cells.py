@@ -39,8 +39,10 @@ class Cells:
     fine : numpy.ndarray
         ``(2^L, 2^L, 3, P + 1)`` complex scaled multipoles of the fine cells.
     local : numpy.ndarray
-        ``(2^L, 2^L, 3, P + 1)`` complex scaled local expansions of each fine
-        cell's far field.
+        ``(2^L, 2^L, 3, K)`` complex scaled local expansions of each fine
+        cell's far field: ``K = N + 1`` terms with chosen ``orders`` (the
+        pixels read no more: half the memory of ``P + 1`` at N = 8), else
+        ``P + 1``.
     orders : PassOrders or None
         The terms each translation carried (``orders.pass_orders``); edits carry
         their change with the same.  None: every term.
@@ -74,7 +76,7 @@ class Cells:
         segments, cell_start = sort_into_cells(solved, lattice)
         orders = (uniform_orders(lattice.levels, order) if pixel_order is None
                   else pass_orders(lattice.levels, min(pixel_order, order), order))
-        fine, local = build_passes(segments, cell_start, lattice, orders, lap)
+        fine, local = build_passes(segments, cell_start, lattice, orders, lap, _local_terms(order, pixel_order))
         lap("downward")
         return cls(segments, cell_start, fine, local, None if pixel_order is None else orders)
 
@@ -84,10 +86,11 @@ class Cells:
         """The cells of ``solved`` segments whose local expansions ``local`` are known (a saved file).
 
         Edits carry their change with the orders a build for ``pixel_order`` uses (``build``'s parameter), so
-        that they equal a rebuild's.
+        that they equal a rebuild's; ``local`` is then kept to the pixels' terms (a copy).
         """
         segments, cell_start = sort_into_cells(solved, lattice)
         orders = None if pixel_order is None else pass_orders(lattice.levels, min(pixel_order, order), order)
+        local = np.array(local[..., : _local_terms(order, pixel_order)], dtype=complex)
         return cls(segments, cell_start, fine_multipoles(segments, cell_start, lattice, order), local, orders)
 
     @property
@@ -132,8 +135,14 @@ def propagated(cells: Cells, solved: Segments, lattice: Lattice, order: int, acc
     moved = largest_part(delta, axis=(2, 3)) > NEGLIGIBLE * accuracy * scale
     delta[~moved] = 0.0
     local_change = delta_local(delta, lattice, order, cells.orders)
+    local_change = local_change[..., : cells.local.shape[-1]]  # zero past the pixels' terms with chosen orders
     new = Cells(segments, cell_start, cells.fine + delta, cells.local + local_change, cells.orders)
     return new, largest_part(local_change, axis=(2, 3)), moved
+
+
+def _local_terms(order: int, pixel_order: int | None) -> int:
+    """Terms of the fine local expansions ``Cells`` keeps for propagation ``order`` and ``pixel_order``."""
+    return order + 1 if pixel_order is None else min(pixel_order, order) + 1
 
 
 #: Saved segments count as the document's when their ends lie this close, relative to the lattice's side,

@@ -215,8 +215,7 @@ class LiveRepresentation:
         self._solvers.reset(None, None)
         self._solvers.move_to(self._boundary)
         self._cells = Cells.resume(self._boundary.with_unknowns(self._unknowns), self.lattice,
-                                   self.settings.propagation_order, np.array(saved.local, dtype=complex),
-                                   pixel_order=self.settings.order)
+                                   self.settings.propagation_order, saved.local, pixel_order=self.settings.order)
         self._unreported = np.zeros(self._cells.local.shape[:2])
         self._points = LivePoints(document.points, self.lattice, self.settings.order) if document.points else None
         self.timings = {"resume": time.perf_counter() - start}

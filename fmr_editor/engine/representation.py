@@ -84,8 +84,10 @@ class Representation:
     cell_start : numpy.ndarray
         CSR offsets of each fine cell's segments.
     local : numpy.ndarray
-        ``(2^L, 2^L, 3, P + 1)`` complex scaled local expansions of each fine
-        cell's far field (everything outside its 3x3 block).
+        ``(2^L, 2^L, 3, K)`` complex scaled local expansions of each fine
+        cell's far field (everything outside its 3x3 block), ``K > order``:
+        the pixels' ``order + 1`` terms as the editor builds and opens them
+        (``Cells.local``; files hold ``P + 1``, zero past the pixels').
     order : int
         Polynomial degree used for pixels.
     timings : dict

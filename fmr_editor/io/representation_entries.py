@@ -122,14 +122,19 @@ def describe(rep: Representation, document: Document, settings: Settings | None 
             f"the representation is {rep.width}x{rep.height} but the document is {document.width}x{document.height}"
         )
     _check_points(rep, document)
-    propagation_order = rep.local.shape[-1] - 1
+    local = rep.local
+    if settings is not None and local.shape[-1] < settings.propagation_order + 1:
+        # the editor keeps the pixels' terms only (``Cells.local``); the file holds the propagation order's
+        local = np.concatenate([local, np.zeros(local.shape[:-1] + (settings.propagation_order + 1
+                                                                    - local.shape[-1],), local.dtype)], axis=-1)
+    propagation_order = local.shape[-1] - 1
     if settings is not None:
         _check_settings(settings, rep.lattice.levels, rep.order, propagation_order)
     layout = ArrayLayout(
         rep.lattice.levels, float(rep.lattice.side), rep.order, propagation_order, len(rep.segments), settings
     )
     arrays = {name: getattr(rep.segments, name) for name in SEGMENT_FIELDS}
-    arrays.update(cell_start=rep.cell_start, local=rep.local)
+    arrays.update(cell_start=rep.cell_start, local=local)
     out = {}
     for name, (dtype, shape) in layout.arrays().items():
         array = np.ascontiguousarray(arrays[name], dtype=dtype)
@@ -277,9 +282,9 @@ def assemble(layout: ArrayLayout, arrays: dict[str, np.ndarray], document: Docum
             points = PointField.build(document.points, lattice, layout.order)
         except ValueError as error:
             raise RepresentationError(f"cannot rebuild the diffusion points on the lattice ({error})") from None
+    local = np.ascontiguousarray(arrays["local"][..., : layout.order + 1])  # the pixels read no more (Cells.local)
     return Representation(
-        document.width, document.height, lattice, segments, arrays["cell_start"], arrays["local"], layout.order,
-        {}, points,
+        document.width, document.height, lattice, segments, arrays["cell_start"], local, layout.order, {}, points,
     )
 
 

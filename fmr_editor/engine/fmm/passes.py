@@ -190,14 +190,19 @@ def _l2l_tables(parent_terms: int, child_terms: int, width: int) -> tuple[np.nda
     return np.ascontiguousarray(matrices.real), np.ascontiguousarray(matrices.imag)
 
 
-def downward(sources: list[LevelSources | None], lattice: Lattice, orders: PassOrders) -> np.ndarray:
-    """M2L and L2L: the fine cells' local expansions ``(2^L, 2^L, 3, width + 1)`` complex, zero past ``kept``.
+def downward(sources: list[LevelSources | None], lattice: Lattice, orders: PassOrders,
+             terms: int | None = None) -> np.ndarray:
+    """M2L and L2L: the fine cells' local expansions ``(2^L, 2^L, 3, terms)`` complex, zero past ``kept``.
+
+    ``terms`` (at least the fine level's ``kept + 1``) defaults to ``width + 1``.
 
     Each level's entry of ``sources`` is set to None once its translations are done, so that the coarse
     levels' grids are freed before the fine level's local expansions fill (77 MB of a 1.2 GB peak at L 9).
     """
     n = lattice.cells_per_side
-    local = np.zeros((n, n, 3, orders.width + 1), complex)
+    local = np.zeros((n, n, 3, orders.width + 1 if terms is None else terms), complex)
+    if local.shape[-1] < orders.kept(lattice.levels) + 1:
+        raise ValueError(f"the fine level keeps {orders.kept(lattice.levels) + 1} local terms, not {terms}")
     parent_re = parent_im = _NO_PLANES
     l2l = (np.zeros((0, 0, 0)), np.zeros((0, 0, 0)))
     for level in range(2, lattice.levels + 1):
@@ -218,8 +223,9 @@ def downward(sources: list[LevelSources | None], lattice: Lattice, orders: PassO
 
 
 def build_passes(segments, cell_start: np.ndarray, lattice: Lattice, orders: PassOrders,
-                 lap=lambda stage: None) -> tuple[np.ndarray, np.ndarray]:
-    """Fine multipoles and fine local expansions of sorted ``segments`` (``lap("upward")`` between the passes)."""
+                 lap=lambda stage: None, terms: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Fine multipoles and fine local expansions (``terms`` of them, ``downward``'s) of sorted ``segments``
+    (``lap("upward")`` between the passes)."""
     fine, sources = upward(segments, cell_start, lattice, orders)
     lap("upward")
-    return fine, downward(sources, lattice, orders)
+    return fine, downward(sources, lattice, orders, terms)
