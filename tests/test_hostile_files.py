@@ -161,7 +161,7 @@ def test_curves_that_would_flatten_into_millions_of_segments_are_refused_before_
     def never(*args):
         raise AssertionError("flattened")
 
-    monkeypatch.setattr(curve_cache, "flatten_curve", never)
+    monkeypatch.setattr(curve_cache, "flatten_curves", never)
     with pytest.raises(LimitError, match="segments, more than the 2,000,000 allowed"):
         build(document)
 

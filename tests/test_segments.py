@@ -27,13 +27,19 @@ import shapely
 from shapes import circle_points, straight_chain, uniform_curve
 
 from fmr_editor.engine.geometry.discretise import (
-    _max_speed,
     boundary_segments,
     canvas_border,
     clip_to_canvas,
+    curve_colors,
     curve_segments,
     cut_at_cells,
+)
+from fmr_editor.engine.geometry.flatten import (
+    _max_speed,
     flatten_curve,
+    flatten_curve_reference,
+    flatten_curves,
+    stop_colors,
 )
 from fmr_editor.engine.geometry.segments import Segments
 from fmr_editor.model import ColorStop, DiffusionCurve, Document
@@ -373,3 +379,50 @@ def test_the_speed_bound_holds_for_pieces_taken_in_chunks():
     d = 3 * np.diff(pieces, axis=1)
     speed = np.hypot(*((1 - t) ** 2 * d[:, 0] + 2 * (1 - t) * t * d[:, 1] + t**2 * d[:, 2]).T).max(axis=1)
     assert np.all(bound >= speed) and np.all(bound <= speed * (1 + 1e-3))
+
+
+def test_curves_flattened_together_equal_each_flattened_alone():
+    """``flatten_curves`` (every piece at once) against the plain one-curve-at-a-time reference, bit for bit:
+    random curves with stops, a curve whose pieces have zero length, a stop on a sample, a curve twice."""
+    curves = random_curves(seed=5, count=8)
+    point = DiffusionCurve(np.zeros((7, 2)), left=(ColorStop(0.5, (1.0, 0.0, 0.0)),))
+    on_sample = DiffusionCurve(straight_chain([(0.0, 0.0), (8.0, 0.0)]), right=(ColorStop(0.5, (0.2, 0.4, 0.6)),))
+    curves = [curves[0], point, *curves[1:], on_sample, curves[0]]
+    for tolerance, max_length in [(0.05, 2.0), (1.0, 0.5)]:
+        together = flatten_curves(curves, tolerance, max_length)
+        assert len(together) == len(curves)
+        for curve, flat in zip(curves, together):
+            alone = flatten_curve_reference(curve, tolerance, max_length)
+            for name in ("p", "q", "jump", "mean", "on_border", "flux", "origin"):
+                np.testing.assert_array_equal(getattr(flat, name), getattr(alone, name))
+    assert flatten_curves([], 0.05, 2.0) == []
+    assert len(flatten_curves([point], 0.05, 2.0)[0]) == 0
+
+
+def test_stop_colours_of_many_curves_are_numpy_interp_of_each():
+    """``stop_colors`` (every curve at once) against ``DiffusionCurve.left_colors_at`` (``numpy.interp``), bit for
+    bit: samples before, between, on and beyond stops, two stops at one position, a curve without stops."""
+    rng = np.random.default_rng(8)
+    sides, owner, s = [], [], []
+    for index, count in enumerate([3, 0, 1, 4, 2]):
+        positions = np.sort(rng.uniform(0, 4, count))
+        if count == 4:
+            positions[2] = positions[1]  # a sharp change
+        sides.append(tuple(ColorStop(float(x), tuple(rng.uniform(0, 1, 3))) for x in positions))
+        samples = np.sort(np.r_[rng.uniform(-0.5, 4.5, 40), positions, 0.0, 4.0])
+        owner.append(np.full(len(samples), index))
+        s.append(samples)
+    owner, s = np.concatenate(owner), np.concatenate(s)
+    colours = stop_colors(sides, owner, s)
+    for index, side in enumerate(sides):
+        curve = DiffusionCurve(straight_chain([(0.0, 0.0), (1.0, 0.0), (2.0, 0.0), (3.0, 0.0), (4.0, 0.0)]),
+                               left=side)
+        np.testing.assert_array_equal(colours[owner == index], curve.left_colors_at(s[owner == index]))
+
+
+def test_recoloured_segments_take_the_colours_flattening_gives():
+    curve = random_curves(seed=9, count=1)[0]
+    flat = flatten_curve(curve, 0.05, 2.0)
+    jump, mean = curve_colors(flat, curve)
+    np.testing.assert_array_equal(jump, flat.jump)
+    np.testing.assert_array_equal(mean, flat.mean)

@@ -16,7 +16,8 @@ import numpy as np
 from ...model import DiffusionCurve, Document
 from ...model.limits import LimitError
 from ..memory import check_build_memory
-from .discretise import clip_to_canvas, flatten_curve, flattened_count, from_curve
+from .discretise import clip_to_canvas, from_curve
+from .flatten import flatten_curves, flattened_count
 from .overlaps import drop_covered_parts, overlapping_pairs
 from .segments import Segments, concatenate, empty_segments
 
@@ -40,13 +41,12 @@ class CurveSegments:
         # the last document's (curves, canvas, segments per curve, pairs, twins among them)
         self._last: tuple | None = None
 
-    def _clip(self, curve: DiffusionCurve, width: float, height: float) -> Segments:
-        key = (curve, width, height)
-        segments = self._clipped.get(key)
-        if segments is None:
-            flat = flatten_curve(curve, self.tolerance, self.max_length)
-            segments = self._clipped[key] = clip_to_canvas(flat, width, height)
-        return segments
+    def _clip(self, curves: tuple[DiffusionCurve, ...], width: float, height: float) -> list[Segments]:
+        """Each of ``curves`` flattened and clipped: kept ones as they were, the others all at once."""
+        new = list(dict.fromkeys(curve for curve in curves if (curve, width, height) not in self._clipped))
+        for curve, flat in zip(new, flatten_curves(new, self.tolerance, self.max_length)):
+            self._clipped[(curve, width, height)] = clip_to_canvas(flat, width, height)
+        return [self._clipped[(curve, width, height)] for curve in curves]
 
     def copy(self) -> CurveSegments:
         """An independent cache holding what this one holds (the segments themselves shared: they never change)."""
@@ -63,7 +63,7 @@ class CurveSegments:
         """The document's curve segments, as ``segments.curve_segments(document, tolerance, max_length)``."""
         canvas = (float(document.width), float(document.height))
         self._check_size(document.curves, canvas)
-        pieces = [self._clip(curve, *canvas) for curve in document.curves]
+        pieces = self._clip(document.curves, *canvas)
         counts = np.array([len(piece) for piece in pieces], np.int64)
         clipped = concatenate([empty_segments(), *pieces])
         clipped = from_curve(clipped, 0)

@@ -1,7 +1,7 @@
 """Curves and the canvas border as straight segments: flatten, clip, cut at cells.
 
 A document becomes segments in three steps: each curve is flattened into a
-polyline that carries its colours (``flatten_curve``), clipped to the canvas
+polyline that carries its colours (``flatten``), clipped to the canvas
 (``clip_to_canvas``; where two segments overlap along a line the later one
 keeps the overlap, ``overlaps``), then joined by the canvas border
 (``canvas_border``, DESIGN section 3) and cut where they cross the lattice's
@@ -10,101 +10,14 @@ cell edges (``cut_at_cells``), so that each lies in one fine cell.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
 from dataclasses import replace
 
 import numpy as np
 
 from ...model import DiffusionCurve, Document
+from .flatten import flatten_curves, stop_colors
 from .overlaps import drop_covered_parts
 from .segments import Segments, concatenate, empty_segments
-
-
-def _max_speed(pieces: np.ndarray, samples: int = 65, chunk: int = 4096) -> np.ndarray:
-    """Upper bound of ``max |B'(t)|`` over each piece ``(k, 4, 2)``, within a hair of the truth.
-
-    ``B'(t) = A t^2 + B t + C`` is quadratic, so between samples ``delta`` apart
-    it strays from the straight line through them by at most ``|A| delta^2 / 4``.
-    Pieces go ``chunk`` at a time: the samples of all 524,288 pieces of a
-    Hilbert benchmark curve at once took 1.1 GB.
-    """
-    d = 3.0 * np.diff(pieces, axis=1)  # hodograph control points, (k, 3, 2)
-    t = np.linspace(0.0, 1.0, samples)[:, None, None]
-    speed = np.empty(len(pieces))
-    for start in range(0, len(pieces), chunk):
-        h = d[start:start + chunk]
-        hodograph = (1 - t) ** 2 * h[:, 0] + 2 * (1 - t) * t * h[:, 1] + t**2 * h[:, 2]  # (samples, chunk, 2)
-        speed[start:start + chunk] = np.hypot(hodograph[..., 0], hodograph[..., 1]).max(axis=0)
-    curvature = np.hypot(*(d[:, 0] - 2 * d[:, 1] + d[:, 2]).T)  # |A|
-    return speed + curvature / (4.0 * (samples - 1) ** 2)
-
-
-def flatten_curve(curve: DiffusionCurve, tolerance: float, max_length: float) -> Segments:
-    """Polyline approximation of ``curve`` with its colours.
-
-    Each cubic piece is split uniformly in its parameter into enough parts
-    that the chord error stays below ``tolerance`` (bound: ``max|B''| / 8n^2``)
-    and no part is longer than ``max_length`` (bound: the largest speed ``|B'|``).  Colour-stop positions are added as breakpoints so that colours
-    are linear within every segment and its midpoint colour is its mean.
-
-    Parameters
-    ----------
-    curve : DiffusionCurve
-    tolerance : float
-        Largest distance between the curve and its polyline, in pixels.
-    max_length : float
-        Largest segment length, in pixels.
-
-    Returns
-    -------
-    Segments
-    """
-    parts = _parts(curve.pieces(), tolerance, max_length)
-    piece = np.repeat(np.arange(len(parts)), parts)
-    step = np.arange(len(piece)) - np.repeat(np.cumsum(parts) - parts, parts)
-    s = np.concatenate([piece + step / parts[piece], [curve.piece_count]])
-    stops = [stop.position for stop in curve.left + curve.right]
-    s = np.unique(np.concatenate([s, stops]))
-
-    points = curve.point_at(s)
-    middle = 0.5 * (s[:-1] + s[1:])
-    left, right = curve.left_colors_at(middle), curve.right_colors_at(middle)  # as curve_colors
-    keep = np.hypot(*np.diff(points, axis=0).T) > 1e-9
-    n = int(keep.sum())
-    return Segments(
-        p=points[:-1][keep],
-        q=points[1:][keep],
-        jump=(left - right)[keep],
-        mean=(0.5 * (left + right))[keep],
-        on_border=np.zeros(n, bool),
-        flux=np.zeros((n, 3)),
-        origin=np.column_stack([np.full(n, -1.0), middle[keep]]),
-    )
-
-
-def _parts(pieces: np.ndarray, tolerance: float, max_length: float) -> np.ndarray:
-    """How many parts ``flatten_curve`` splits each of the ``(k, 4, 2)`` cubic ``pieces`` into."""
-    second = np.maximum(
-        np.hypot(*(pieces[:, 0] - 2 * pieces[:, 1] + pieces[:, 2]).T),
-        np.hypot(*(pieces[:, 1] - 2 * pieces[:, 2] + pieces[:, 3]).T),
-    )
-    parts = np.maximum(np.sqrt(0.75 * second / tolerance), _max_speed(pieces) / max_length)
-    return np.clip(np.ceil(parts), 1, 1_000_000).astype(np.int64)
-
-
-def flattened_count(curves: Sequence[DiffusionCurve], tolerance: float, max_length: float) -> int:
-    """About how many segments ``flatten_curve`` makes of ``curves`` (colour stops aside), without making them:
-    all the curves' pieces at once."""
-    counts = np.fromiter((len(curve.control_points) for curve in curves), np.int64, len(curves))
-    if not counts.size:
-        return 0
-    points = np.concatenate([curve.control_points for curve in curves])
-    per_curve = (counts - 1) // 3
-    first_piece = np.cumsum(per_curve) - per_curve
-    curve_of_piece = np.repeat(np.arange(len(curves)), per_curve)
-    piece_in_curve = np.arange(per_curve.sum()) - first_piece[curve_of_piece]
-    first = (np.cumsum(counts) - counts)[curve_of_piece] + 3 * piece_in_curve
-    return int(_parts(points[first[:, None] + np.arange(4)], tolerance, max_length).sum())
 
 
 def clip_to_canvas(segments: Segments, width: float, height: float) -> Segments:
@@ -201,7 +114,8 @@ def from_curve(segments: Segments, curve_id: int) -> Segments:
 
 def curve_colors(segments: Segments, curve: DiffusionCurve) -> tuple[np.ndarray, np.ndarray]:
     """``jump`` and ``mean`` ``(n, 3)`` that ``curve``'s stops give ``segments`` at their origins' positions."""
-    left, right = curve.left_colors_at(segments.origin[:, 1]), curve.right_colors_at(segments.origin[:, 1])
+    owner = np.zeros(len(segments), np.int64)
+    left, right = (stop_colors([side], owner, segments.origin[:, 1]) for side in (curve.left, curve.right))
     return left - right, 0.5 * (left + right)
 
 
@@ -214,12 +128,7 @@ def with_curve_colors(segments: Segments, document: Document, curve_ids: tuple[i
     return replace(segments, jump=jump, mean=mean)
 
 
-def curve_segments(
-    document: Document,
-    tolerance: float = 0.05,
-    max_length: float = 2.0,
-    flatten: Callable[[DiffusionCurve, float, float], Segments] = flatten_curve,
-) -> Segments:
+def curve_segments(document: Document, tolerance: float = 0.05, max_length: float = 2.0) -> Segments:
     """The document's curves flattened and clipped to the canvas.
 
     Where segments overlap along a line, the later one keeps the overlap
@@ -232,10 +141,9 @@ def curve_segments(
         Chord tolerance of the flattening, in pixels.
     max_length : float
         Longest curve segment, in pixels.
-    flatten : callable
-        ``flatten_curve`` or a cache in front of it.
     """
-    curves = [from_curve(flatten(curve, tolerance, max_length), curve.id) for curve in document.curves]
+    flat = flatten_curves(document.curves, tolerance, max_length)
+    curves = [from_curve(segments, curve.id) for segments, curve in zip(flat, document.curves)]
     clipped = clip_to_canvas(concatenate([empty_segments(), *curves]), document.width, document.height)
     return drop_covered_parts(clipped)
 
