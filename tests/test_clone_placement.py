@@ -31,7 +31,7 @@ from fmr_editor.engine.fmm.sparse_downward import (
 from fmr_editor.engine.kernels.segment_sums import direct_sum, near_sum, pair_matrices
 from fmr_editor.engine.representation import Settings
 from fmr_editor.engine.solve.clone import SCALE_STEPS, SeamlessClone, boundary_spacing
-from fmr_editor.engine.solve.solver import far_field_at
+from fmr_editor.engine.fmm.far_field import far_field_at
 from fmr_editor.model import Document
 from fmr_editor.model.clone import Similarity
 from fmr_editor.model.clone_edits import copy_region, paste_seamless, place_clone

@@ -9,12 +9,13 @@ import pytest
 from shapes import scattered_document
 
 from fmr_editor.engine import build, rasterise
+from fmr_editor.engine.fmm.far_field import far_field_at, far_field_at_reference
 from fmr_editor.engine.fmm.lattice import Lattice, downward_pass, sort_into_cells, upward_pass
 from fmr_editor.engine.geometry.discretise import boundary_segments, curve_segments
 from fmr_editor.engine.solve import solver as fast_solve
 from fmr_editor.engine.solve.dense import assemble, solve_dense
 from fmr_editor.engine.solve.skeleton import SkeletonFactorization
-from fmr_editor.engine.solve.solver import CollocationOperator, far_field_at, far_field_at_reference, solve_fmm
+from fmr_editor.engine.solve.solver import CollocationOperator, solve_fmm
 
 
 @pytest.fixture(scope="module")

@@ -38,7 +38,7 @@ from ..points.gauss import GaussPoints, gaussian_sum_reference
 from ..raster import evaluate_points
 from ..representation import CLONE_SEGMENTS_PER_CELL, Representation, Settings, choose_levels
 from ..solve.clone import SeamlessClone
-from ..solve.solver import far_field_at
+from ..fmm.far_field import far_field_at
 
 
 def _reaching(points: tuple[DiffusionPoint, ...], similarity: Similarity,

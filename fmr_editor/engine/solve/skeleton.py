@@ -47,6 +47,7 @@ from threadpoolctl import threadpool_limits
 from ..geometry.segments import Segments
 from ..kernels.fastmath import FAST_MATH
 from . import dense
+from .boxes import group, leaf_levels
 from .entries import CollocationEntries
 from .linalg import SparseSign, dense_inverse, interpolative, sketch_rows
 
@@ -231,7 +232,7 @@ class SkeletonFactorization:
         self.side = float(np.ptp(mids, axis=0).max()) * (1 + 1e-9) + 1e-9 if len(mids) else 1.0
         self.reach = float(self.entries.length.max()) if len(mids) else 0.0
         levels = leaf_levels(mids, self.origin, self.side, leaf_size)
-        boxes = {key: _Box(idx, self._block(idx, idx)) for key, idx in _group(mids, self.origin, self.side, levels)}
+        boxes = {key: _Box(idx, self._block(idx, idx)) for key, idx in group(mids, self.origin, self.side, levels)}
         # Each box's algebra is small: BLAS threads would only wait on each other.
         pool = ThreadPoolExecutor(self.workers) if self.workers > 1 else None
         try:
@@ -391,28 +392,3 @@ def _top_factors(block: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
     if not np.isfinite(np.diagonal(lu)).all():
         raise _singular(size)
     return lu, pivots
-
-
-def _box_keys(points: np.ndarray, origin: np.ndarray, side: float, level: int) -> np.ndarray:
-    count = 2**level
-    return np.clip(np.floor((points - origin) / (side / count)).astype(np.int64), 0, count - 1)
-
-
-def leaf_levels(points: np.ndarray, origin: np.ndarray, side: float, leaf_size: int) -> int:
-    """Coarsest depth whose occupied boxes hold at most ``leaf_size`` points on average (at least 2)."""
-    for level in range(2, 30):
-        keys = _box_keys(points, origin, side, level)
-        occupied = len(np.unique(keys[:, 0] * 2**level + keys[:, 1]))
-        if len(points) <= leaf_size * occupied:
-            return level
-    return 30
-
-
-def _group(points: np.ndarray, origin: np.ndarray, side: float, level: int):
-    """``(key, indices)`` of each occupied box at ``level``."""
-    keys = _box_keys(points, origin, side, level)
-    flat = keys[:, 0] * 2**level + keys[:, 1]
-    order = np.argsort(flat, kind="stable")
-    unique, start = np.unique(flat[order], return_index=True)
-    for box, indices in zip(unique, np.split(order, start[1:])):
-        yield (int(box) // 2**level, int(box) % 2**level), indices

@@ -23,12 +23,12 @@ import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 
-import numba
 import numpy as np
 import scipy.linalg
 import scipy.sparse
 import scipy.sparse.linalg
 
+from ..fmm.far_field import far_field_at
 from ..fmm.lattice import Lattice, cell_order, dilated, fine_multipoles
 from ..fmm.sparse_downward import delta_local
 from ..geometry.segments import Segments
@@ -56,44 +56,6 @@ def compression_tolerance(count: int) -> float:
     1e-6 (51 s against 69 s, 16 against 9 iterations) and smaller.
     """
     return 1e-6 if count <= 30_000 else 1e-5
-
-
-def far_field_at_reference(local: np.ndarray, lattice: Lattice, cells: np.ndarray, points: np.ndarray) -> np.ndarray:
-    """The fine-level local expansions, all terms, at ``points`` in ``cells``; ``(m, 3)`` (numpy reference)."""
-    w = (points / lattice.cell_size - (cells[:, ::-1] + 0.5)) @ np.array([1.0, 1.0j])
-    coeffs = local[cells[:, 0], cells[:, 1]]  # (m, 3, P + 1)
-    value = coeffs[:, :, -1]
-    for term in range(coeffs.shape[-1] - 2, -1, -1):
-        value = value * w[:, None] + coeffs[:, :, term]
-    return value.real / (2 * np.pi)
-
-
-@numba.njit(parallel=True, cache=True)
-def _far_field(local, rows, cells, points, cell_size, out):
-    for i in numba.prange(points.shape[0]):
-        row, col = cells[i, 0], cells[i, 1]
-        w = complex(points[i, 0] / cell_size - (col + 0.5), points[i, 1] / cell_size - (row + 0.5))
-        for channel in range(local.shape[1]):
-            coeffs = local[rows[i], channel]
-            value = coeffs[-1]
-            for term in range(coeffs.shape[0] - 2, -1, -1):
-                value = value * w + coeffs[term]
-            out[i, channel] = value.real / (2 * np.pi)
-
-
-def far_field_at(local: np.ndarray, lattice: Lattice, cells: np.ndarray, points: np.ndarray,
-                 rows: np.ndarray | None = None) -> np.ndarray:
-    """Compiled twin of ``far_field_at_reference``.
-
-    With ``rows``, ``local`` holds some cells' expansions only, ``(k, 3, P + 1)``: point ``i``'s at ``rows[i]``.
-    """
-    if rows is None:
-        n = lattice.cells_per_side
-        local, rows = local.reshape(n * n, *local.shape[2:]), cells[:, 0] * n + cells[:, 1]
-    out = np.empty((len(points), local.shape[1]))
-    _far_field(local, np.asarray(rows, np.int64), np.ascontiguousarray(cells), np.ascontiguousarray(points, np.float64),
-               float(lattice.cell_size), out)
-    return out
 
 
 @dataclass(frozen=True)
