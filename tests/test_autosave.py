@@ -8,6 +8,7 @@ import signal
 import subprocess
 import sys
 import textwrap
+import threading
 from pathlib import Path
 
 import pytest
@@ -78,8 +79,13 @@ def test_every_50th_step_autosaves_and_saving_discards_the_copy(ribbon, tmp_path
     window.autosaver.saved.connect(written.append)
     for step in range(49):
         history.apply(recolour(history.document, step), "Recolour")
+    from PySide6.QtWidgets import QApplication
+
+    window.autosaver.wait()
+    QApplication.processEvents()  # a finished write's signal comes through the event loop
     assert written == []
     history.apply(recolour(history.document, 49), "Recolour")
+    ribbon.qtbot.waitUntil(lambda: len(written) == 1, timeout=10_000)  # written on the autosave thread
     [key] = written
     assert AutosaveFolder(folder.folder).load(folder.orphans()[0]) == history.document
     ribbon.answers["save"] = tmp_path / "saved.fmr"
@@ -93,10 +99,13 @@ def test_every_50th_step_autosaves_and_saving_discards_the_copy(ribbon, tmp_path
 def test_unsaved_changes_are_autosaved_after_a_while_and_closing_discards_them(ribbon):
     window, history = ribbon.window, ribbon.history
     window.autosaver.seconds = 0.2
-    written = []
+    written, threads = [], []
     window.autosaver.saved.connect(written.append)
+    folder, write = window.autosaver.folder, window.autosaver.folder.write
+    folder.write = lambda *args: (threads.append(threading.current_thread()), write(*args))[1]
     history.apply(recolour(history.document, 1), "Recolour")
     ribbon.qtbot.waitUntil(lambda: len(written) == 1, timeout=10_000)
+    assert threads and threading.main_thread() not in threads  # the window's thread never waits for the disk
     path = window.autosaver.folder.folder / f"{written[0]}.fmr"
     assert path.exists()
     from PySide6.QtWidgets import QMessageBox
