@@ -413,7 +413,9 @@ def test_stop_colours_of_many_curves_are_numpy_interp_of_each():
         owner.append(np.full(len(samples), index))
         s.append(samples)
     owner, s = np.concatenate(owner), np.concatenate(s)
-    colours = stop_colors(sides, owner, s)
+    shuffled = rng.permutation(len(s))  # the samples in any order (recolouring reads segments as they lie)
+    colours = np.empty((len(s), 3))
+    colours[shuffled] = stop_colors(sides, owner[shuffled], s[shuffled])
     for index, side in enumerate(sides):
         curve = DiffusionCurve(straight_chain([(0.0, 0.0), (1.0, 0.0), (2.0, 0.0), (3.0, 0.0), (4.0, 0.0)]),
                                left=side)

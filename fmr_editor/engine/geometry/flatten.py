@@ -164,7 +164,7 @@ def flattened_count(curves: Sequence[DiffusionCurve], tolerance: float, max_leng
 
 
 def stop_colors(stops: Sequence[tuple[ColorStop, ...]], owner: np.ndarray, s: np.ndarray) -> np.ndarray:
-    """Colours ``(n, 3)`` at positions ``s`` along the curves ``owner`` (indices into ``stops``, non-decreasing).
+    """Colours ``(n, 3)`` at positions ``s`` along the curves ``owner`` (indices into ``stops``), in any order.
 
     ``DiffusionCurve.left_colors_at`` for many curves at once: piecewise linear
     through each curve's sorted stops, constant beyond its outermost ones,
@@ -181,7 +181,8 @@ def stop_colors(stops: Sequence[tuple[ColorStop, ...]], owner: np.ndarray, s: np
     # stops before samples at one position, so that a stop counts as at or below the sample at it
     keys = np.lexsort((np.r_[np.zeros(len(xp)), np.ones(len(s))], np.r_[xp, s], np.r_[stop_owner, owner]))
     is_stop = keys < len(xp)
-    below = np.cumsum(is_stop)[~is_stop]  # stops sorted before each sample (samples in their own order)
+    below = np.empty(len(s), np.int64)
+    below[keys[~is_stop] - len(xp)] = np.cumsum(is_stop)[~is_stop]  # the stops sorted before each sample
     j = below - 1 - first[owner]  # the sample's last stop at or below it, in its curve; -1: before the first
     has = count[owner] > 0
     last = count[owner] - 1
