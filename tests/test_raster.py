@@ -13,6 +13,7 @@ from fmr_editor.engine import Settings, build, raster, rasterise
 from fmr_editor.engine.fmm.lattice import Lattice, sort_into_cells
 from fmr_editor.engine.geometry.segments import Segments
 from fmr_editor.engine.kernels.fastmath import atan2_poly, log_poly
+from fmr_editor.engine.kernels import grid
 from fmr_editor.engine.kernels.grid import far_field_grid, near_field_grid
 from fmr_editor.engine.kernels.potentials import direct_sum_reference
 from fmr_editor.engine.kernels.segment_sums import near_sum
@@ -66,8 +67,10 @@ def grid_cases():
     ]
 
 
+@pytest.mark.parametrize("row_samples", [0, 10**9], ids=["columns", "rows"])
 @pytest.mark.parametrize("case", grid_cases(), ids=lambda case: case[0])
-def test_near_field_grid_equals_near_sum(case):
+def test_near_field_grid_equals_near_sum(case, row_samples, monkeypatch):
+    monkeypatch.setattr(grid, "ROW_SAMPLES", row_samples)  # either kernel: visits by columns, or by rows of segments
     _, lattice, width, height, xs, ys = case
     rng = np.random.default_rng(12)
     seg, start = sort_into_cells(chains_and_strays(rng, width, height, np.array([xs[3], ys[2]])), lattice)
@@ -79,7 +82,9 @@ def test_near_field_grid_equals_near_sum(case):
     np.testing.assert_allclose(got, expected, rtol=0, atol=1e-9)
 
 
-def test_near_field_grid_equals_the_numpy_reference_over_each_block():
+@pytest.mark.parametrize("row_samples", [0, 10**9], ids=["columns", "rows"])
+def test_near_field_grid_equals_the_numpy_reference_over_each_block(row_samples, monkeypatch):
+    monkeypatch.setattr(grid, "ROW_SAMPLES", row_samples)
     rng = np.random.default_rng(13)
     lattice = Lattice(3, 64.0)
     xs, ys = np.arange(0.0, 64.5, 4.0), np.sort(rng.uniform(0.0, 64.0, 13))

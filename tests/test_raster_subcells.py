@@ -10,12 +10,12 @@ from test_raster import chains_and_strays
 from fmr_editor.engine import Settings, build, raster, rasterise
 from fmr_editor.engine.fmm.lattice import Lattice, sort_into_cells
 from fmr_editor.engine.kernels.grid import far_field_grid, near_field_grid
+from fmr_editor.engine.kernels.local_grid import local_field_grid, local_field_reference
 from fmr_editor.engine.kernels.potentials import direct_sum_reference
 from fmr_editor.engine.kernels.segment_sums import direct_sum
 from fmr_editor.engine.kernels.subcells import (
     _p2l_state,
     _p2l_sums,
-    local_field_reference,
     p2l_reference,
     subcell_field_grid,
 )
@@ -57,6 +57,42 @@ def test_local_field_reference_equals_the_cell_polynomials(rep):
                                rtol=0, atol=1e-11)
 
 
+def random_expansions(rng, n, terms):
+    """Scaled local expansions ``(n, n, 3, terms)`` whose terms fall like a converging series."""
+    scale = 0.5 ** np.arange(terms)
+    return (rng.normal(size=(n, n, 3, terms)) + 1j * rng.normal(size=(n, n, 3, terms))) * scale
+
+
+@pytest.mark.parametrize("xs, ys", [(sample_coordinates(64, 64, 1), sample_coordinates(64, 64, 1)),
+                                    (sample_coordinates(8, 64, 1), sample_coordinates(21, 64, 3)[5:40]),
+                                    (np.sort(np.r_[np.random.default_rng(2).uniform(-3, 67, 41), 16.0, 16.0]),
+                                     np.arange(0.0, 64.5, 4.0))])
+def test_compiled_local_field_equals_the_reference(xs, ys):
+    rng = np.random.default_rng(37)
+    local = random_expansions(rng, 8, 11)
+    for order in (0, 4, 8):
+        expected = local_field_reference(local, order, xs, ys, 8.0)
+        got = local_field_grid(local, order, xs, ys, 8.0)
+        np.testing.assert_allclose(got, expected, rtol=0, atol=1e-9 * np.abs(expected).max())
+
+
+def test_compiled_local_field_overwrites_out_but_in_skipped_cells():
+    rng = np.random.default_rng(38)
+    local = random_expansions(rng, 4, 9)
+    xs, ys = sample_coordinates(20, 32, 1), sample_coordinates(12, 32, 1)
+    skip = rng.random((4, 4)) < 0.5
+    out = np.full((12, 20, 3), 7.0)
+    assert local_field_grid(local, 8, xs, ys, 8.0, out=out, skip=skip) is out
+    skipped = skip[np.minimum(ys // 8, 3).astype(int)[:, None], np.minimum(xs // 8, 3).astype(int)[None, :]]
+    assert skipped.any() and not skipped.all()
+    np.testing.assert_array_equal(out[skipped], 7.0)
+    np.testing.assert_allclose(out[~skipped], local_field_reference(local, 8, xs, ys, 8.0)[~skipped], rtol=1e-12)
+    with pytest.raises(ValueError, match="order"):
+        local_field_grid(local, 9, xs, ys, 8.0)
+    with pytest.raises(ValueError, match="skip"):
+        local_field_grid(local, 8, xs, ys, 8.0, skip=skip[:3])
+
+
 @pytest.mark.parametrize("xs, ys", [(sample_coordinates(96, 96, 1), sample_coordinates(96, 96, 1)),
                                     (sample_coordinates(40, 96, 3), sample_coordinates(23, 96, 3)[10:50]),
                                     (np.sort(np.r_[np.random.default_rng(1).uniform(-2, 98, 37), 24.0, 24.0]),
@@ -66,6 +102,22 @@ def test_without_expansions_the_kernel_is_the_polynomial_plus_the_exact_near_sum
     assert np.ptp(expected) > 0.3
     for split in (1, 2, 3):
         np.testing.assert_allclose(kernel(rep, xs, ys, split=split, separation=np.inf), expected, rtol=0, atol=1e-9)
+
+
+def test_cells_without_block_segments_take_the_local_field_alone():
+    rng = np.random.default_rng(39)
+    stops = tuple(ColorStop(s, tuple(rng.random(3))) for s in (0.0, 1.0))
+    document = Document(96, 96, (DiffusionCurve(circle_points(40, 52, 9), left=stops, right=stops[::-1]),))
+    small = build(document, Settings(levels=4))  # 6 px cells: most of the canvas is far from any segment
+    n = small.lattice.cells_per_side
+    counts = np.pad(np.diff(small.cell_start).reshape(n, n), 1)
+    block = sum(counts[1 + dy : 1 + dy + n, 1 + dx : 1 + dx + n] for dy in (-1, 0, 1) for dx in (-1, 0, 1))
+    assert (block == 0).sum() > 50 and (block > 0).sum() > 50
+    xs = ys = sample_coordinates(96, 96, 4)
+    expected = exact(small, xs, ys)
+    for split in (1, 2, 4):
+        np.testing.assert_allclose(kernel(small, xs, ys, split=split, separation=np.inf), expected, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(kernel(small, xs, ys, split=split), expected, rtol=0, atol=EXPANSION_TOLERANCE)
 
 
 @pytest.mark.parametrize("split", [2, 4])
@@ -163,13 +215,6 @@ def strays():
     xs, ys = np.arange(0.25, 64, 1.5), np.arange(0.5, 64, 2.5)
     seg, start = sort_into_cells(chains_and_strays(rng, 64, 64, np.array([xs[4], ys[3]])), lattice)
     return lattice, xs, ys, seg, start
-
-
-def test_segments_innermost_equals_samples_innermost(strays):
-    lattice, xs, ys, seg, start = strays
-    args = (xs, ys, lattice.cells_per_side, lattice.cell_size, start, seg.p, seg.q, seg.flux, seg.jump)
-    by_samples = near_field_grid(*args, few_samples=0)
-    np.testing.assert_allclose(near_field_grid(*args, few_samples=10**9), by_samples, rtol=0, atol=1e-11)
 
 
 def test_single_precision_near_field_is_within_a_thousandth_of_a_level(strays):

@@ -8,12 +8,12 @@ so ``s = 1`` samples the pixel centre.
 Samples lie on a tensor grid (sorted ``xs`` by ``ys``), so each fine cell
 holds a run of columns times a run of rows, and both fields are computed cell
 by cell in compiled kernels that write into the output.  The segments' field
-comes from ``subcells.subcell_field_grid`` in one pass: the cell's local
-expansion evaluated per sample (no polynomial tensor is formed) plus the
-closed-form integrals over the 3x3 block's segments; a cell holding many
-samples is cut into sub-cells (``split_for``), each taking the block
-segments far from it into its expansion and summing only the others per
-sample.  Diffusion points add their polynomials by Horner's rule
+comes from ``subcells.subcell_field_grid``: each sample's cell local expansion
+by Horner's rule (``local_grid``; no polynomial tensor is formed) plus the
+closed-form integrals over the 3x3 block's segments (``grid.near_field_grid``);
+cells holding many samples with segments near are cut into sub-cells
+(``split_for``), each taking the block segments far from it into its
+expansion and summing only the others per sample.  Diffusion points add their polynomials by Horner's rule
 (``grid.far_field_grid``) and their near sum.  ``far_field_reference``
 here is the numpy form of a polynomial far field (two small matrix products
 per cell, batched), kept as a reference.  Work proceeds in bands of rows;

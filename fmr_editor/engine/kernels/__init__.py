@@ -4,6 +4,8 @@
 ``fastmath`` the vectorisable scalar maths every compiled loop shares,
 ``segment_sums`` the sums over segments at arbitrary points (direct, near
 field, collocation) and ``grid`` the same on tensor grids of samples
-(``single``: its float32 near field); ``subcells`` rasterises an FMR's
-segments in one pass, cells of many samples in sub-cells.
+(``near_rows``: for lattices of a sample or two a cell, ``single``: the
+float32 near field); ``local_grid`` evaluates the cells' local expansions on
+a grid and ``subcells`` rasterises an FMR's segments, cells of many samples
+in sub-cells.
 """

@@ -1,4 +1,4 @@
-"""Compiled raster kernels: near and far field on a tensor grid of samples, cell by cell.
+"""Compiled raster kernels: near and far field on a tensor grid of samples, by rows of cells.
 
 The twins of ``segment_sums.near_sum`` (arbitrary points) and ``raster.far_field_reference``
 (numpy); the tests compare them.
@@ -10,6 +10,7 @@ import numba
 import numpy as np
 
 from .fastmath import POLY_MATH, double_layer, log_r2, potentials_from
+from .near_rows import near_rows
 from .segment_sums import near_tables, segment_potentials
 from .single import gather_single, samples_inner_single
 
@@ -22,28 +23,26 @@ from .single import gather_single, samples_inner_single
 
 #: Fast-math flags of the grid kernels: no reassociation (the compensated sums rely on order).
 GRID_MATH = POLY_MATH
-#: Groups of cells of about equal cost per thread; threads take them as they finish (dynamic
-#: scheduling keeps both cores busy when one is slowed down by other work on the machine).
-GROUPS_PER_THREAD = 8
 #: Cells with fewer samples than this run their block's segments innermost (the samples' loop is too short to
 #: vectorise).
 FEW_SAMPLES = 8
 #: The segments of such a block are padded to a multiple of this many (a vector loop's step).
 _PAD = 4
+#: Lattices whose cells hold at most this many samples a side sum their near field in ``near_rows``.
+ROW_SAMPLES = 2
 #: Rows of the gathered block table: p, q, tangent, length (as ``segment_sums.segment_table``),
 #: the three channels of E, then of C.
 _GEOMETRY, _ROWS = 7, 13
 
 
 @numba.njit(cache=True, inline="always", fastmath=GRID_MATH, error_model="numpy")
-def _gather_cell_block(cy, cx, n, cell_start, table, weights, seg, shares_p, flux_free):
-    """Copy the 3x3 block's segments of cell (cy, cx) into ``seg (13, >= m)``; their number m.
+def _gather_block(cy, first, last, n, cell_start, table, weights, seg, shares_p, flux_free):
+    """Copy the segments of cells ``first <= cx < last`` in rows ``cy - 1`` to ``cy + 1`` into ``seg (13, >= m)``; m.
 
     ``shares_p[k]``: segment k starts where segment k - 1 ends (its logarithm
     there is known); ``flux_free[k]``: its E is 0 in every channel (the canvas
     border's), so it has no single layer.
     """
-    first, last = max(cx - 1, 0), min(cx + 2, n)
     k = 0
     for row in range(max(cy - 1, 0), min(cy + 2, n)):
         for j in range(cell_start[row * n + first], cell_start[row * n + last]):
@@ -129,75 +128,73 @@ def _by_segments(m, count, seg, sx, sy, acc, lanes):
 
 
 @numba.njit(cache=True, inline="always", fastmath=GRID_MATH, error_model="numpy")
-def _samples_single(cy, cx, m, count, width, ya, xa, xs, ys, cell_size, seg, shares_p, flux_free, scratch, acc):
-    """``_by_samples`` through ``single``'s float32 kernel into the float64 ``acc (3, count)``."""
-    block, sx, sy, acc32, logs = scratch
+def _samples_single(m, count, xc, yc, cell_size, seg, shares_p, flux_free, sx, sy, acc, scratch):
+    """``_by_samples`` through ``single``'s float32 kernel about (xc, yc) into the float64 ``acc (3, count)``."""
+    block, sx32, sy32, acc32, logs = scratch
     inv_size = 1.0 / cell_size
-    xc, yc = (cx + 0.5) * cell_size, (cy + 0.5) * cell_size
     t0, t1, t2 = gather_single(m, seg, xc, yc, inv_size, cell_size, block)
     for i in range(count):
-        sx[i] = np.float32((xs[xa + i % width] - xc) * inv_size)
-        sy[i] = np.float32((ys[ya + i // width] - yc) * inv_size)
-    samples_inner_single(m, count, block, shares_p, flux_free, sx, sy, acc32, logs)
+        sx32[i] = np.float32((sx[i] - xc) * inv_size)
+        sy32[i] = np.float32((sy[i] - yc) * inv_size)
+    samples_inner_single(m, count, block, shares_p, flux_free, sx32, sy32, acc32, logs)
     for i in range(count):
         acc[0, i] = acc32[0, i] + t0
         acc[1, i] = acc32[1, i] + t1
         acc[2, i] = acc32[2, i] + t2
 
 
-@numba.njit(cache=True, inline="always", fastmath=GRID_MATH, error_model="numpy")
-def _near_cell(cy, cx, xs, ys, x_start, y_start, n, cell_start, cell_size, table, weights, out, few, single,
-               seg, shares_p, flux_free, sx, sy, acc, logs, lanes, scratch):
-    """Add the near field of fine cell (cy, cx) to its samples ``out[y_start[cy]:..., x_start[cx]:...]``.
+@numba.njit(cache=True, fastmath=GRID_MATH, error_model="numpy")
+def _near_row(cy, xs, ys, x_start, y_start, n, cell_start, cell_size, table, weights, single, out, seg, shares_p,
+              flux_free, sx, sy, acc, logs, scratch):
+    """Add the near field of the samples of cell row ``cy``, one column of segments at a time.
 
-    The 3x3 block's segments are gathered once into ``seg`` and the cell's
-    samples into the flat ``sx, sy``; a cell of fewer than ``few`` samples
-    runs the segments innermost, others the samples (either loop vectorises),
-    in float32 when ``single``.  ``seg, shares_p, flux_free, sx, sy, acc,
-    logs, lanes`` and the float32 ``scratch`` are scratch arrays of the calling thread.
+    The samples of cells ``cx - 1`` to ``cx + 1`` of the row (a window) see the
+    segments of cells ``cx`` in rows ``cy - 1`` to ``cy + 1`` (a column): over
+    all ``cx`` that is each sample against its 3x3 block.  The rest are the
+    thread's scratch arrays.
     """
     ya, yb = y_start[cy], y_start[cy + 1]
-    xa, xb = x_start[cx], x_start[cx + 1]
-    width = xb - xa
-    count = (yb - ya) * width
-    if count == 0:
-        return
-    m = _gather_cell_block(cy, cx, n, cell_start, table, weights, seg, shares_p, flux_free)
-    if m == 0:
-        return
-    if count >= few and single:
-        _samples_single(cy, cx, m, count, width, ya, xa, xs, ys, cell_size, seg, shares_p, flux_free, scratch, acc)
-    else:
-        for a in range(yb - ya):
+    rows = yb - ya
+    for cx in range(n):
+        xa, xb = x_start[max(cx - 1, 0)], x_start[min(cx + 2, n)]
+        width = xb - xa
+        if width == 0:
+            continue
+        m = _gather_block(cy, cx, cx + 1, n, cell_start, table, weights, seg, shares_p, flux_free)
+        if m == 0:
+            continue
+        count = rows * width
+        for a in range(rows):
             for b in range(width):
                 sx[a * width + b] = xs[xa + b]
                 sy[a * width + b] = ys[ya + a]
-        if count < few:
-            _by_segments(m, count, seg, sx, sy, acc, lanes)
+        if single:
+            _samples_single(m, count, (cx + 0.5) * cell_size, (cy + 0.5) * cell_size, cell_size, seg, shares_p,
+                            flux_free, sx, sy, acc, scratch)
         else:
             _by_samples(m, count, seg, shares_p, flux_free, sx, sy, acc, logs)
-    for a in range(yb - ya):
-        for b in range(width):
-            for c in range(3):
-                out[ya + a, xa + b, c] += acc[c, a * width + b]
+        for a in range(rows):
+            for b in range(width):
+                for c in range(3):
+                    out[ya + a, xa + b, c] += acc[c, a * width + b]
 
 
 @numba.njit(parallel=True, cache=True, error_model="numpy")
-def _near_grid(xs, ys, x_start, y_start, n, cell_start, cell_size, table, weights, cells, group_start, capacity, most,
-               few, single, out):
-    for g in numba.prange(group_start.shape[0] - 1):
-        seg = np.empty((_ROWS, capacity + _PAD))
-        shares_p = np.empty(capacity, np.bool_)
-        flux_free = np.empty(capacity, np.bool_)
+def _near_grid(xs, ys, x_start, y_start, n, cell_start, cell_size, table, weights, capacity, most, single, out):
+    """Threads take rows of cells (dynamically: ``numba.parallel_chunksize(1)``); each writes its own samples."""
+    for cy in numba.prange(n):
+        lo, hi = max(cy - 1, 0), min(cy + 2, n)
+        if y_start[cy] == y_start[cy + 1] or cell_start[lo * n] == cell_start[hi * n]:
+            continue
+        seg = np.empty((_ROWS, capacity))
+        shares_p, flux_free = np.empty(capacity, np.bool_), np.empty(capacity, np.bool_)
         sx, sy = np.empty(most), np.empty(most)
-        acc, logs, lanes = np.empty((3, most)), np.empty((2, most)), np.empty((3, _PAD))
+        acc, logs = np.empty((3, most)), np.empty((2, most))
         most32 = most if single else 0
-        scratch32 = (np.empty((_ROWS, capacity), np.float32), np.empty(most32, np.float32),
-                     np.empty(most32, np.float32), np.empty((3, most32), np.float32), np.empty((2, most32), np.float32))
-        for item in range(group_start[g], group_start[g + 1]):
-            cell = cells[item]
-            _near_cell(cell // n, cell % n, xs, ys, x_start, y_start, n, cell_start, cell_size, table, weights, out,
-                       few, single, seg, shares_p, flux_free, sx, sy, acc, logs, lanes, scratch32)
+        scratch = (np.empty((_ROWS, capacity), np.float32), np.empty(most32, np.float32),
+                   np.empty(most32, np.float32), np.empty((3, most32), np.float32), np.empty((2, most32), np.float32))
+        _near_row(cy, xs, ys, x_start, y_start, n, cell_start, cell_size, table, weights, single, out, seg, shares_p,
+                  flux_free, sx, sy, acc, logs, scratch)
 
 
 def grid_arrays(xs: np.ndarray, ys: np.ndarray, out: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -229,43 +226,6 @@ def grid_cell_runs(coords: np.ndarray, cell_size: float, cells_per_side: int) ->
     return np.searchsorted(cells, np.arange(cells_per_side + 1)).astype(np.int64)
 
 
-@numba.njit(cache=True)
-def _near_plan(n, cell_start, x_start, y_start, groups):
-    """Cells whose samples have segments near, in runs of about equal cost, and the scratch sizes.
-
-    A cell costs about its samples x (its block's segments + 1).  Returns
-    ``(cells, group_start, capacity, most)``: flat cell indices, offsets of
-    ``groups`` runs of them (fewer if there are fewer cells), the most
-    segments in a block and the most samples in a cell.
-    """
-    cost = np.zeros(n * n)
-    total, capacity, most = 0.0, 0, 0
-    for cy in range(n):
-        rows = y_start[cy + 1] - y_start[cy]
-        for cx in range(n):
-            samples = rows * (x_start[cx + 1] - x_start[cx])
-            if samples == 0:
-                continue
-            m = 0
-            for row in range(max(cy - 1, 0), min(cy + 2, n)):
-                m += cell_start[row * n + min(cx + 2, n)] - cell_start[row * n + max(cx - 1, 0)]
-            if m > 0:
-                cost[cy * n + cx] = samples * (m + 1.0)
-                total += cost[cy * n + cx]
-                capacity, most = max(capacity, m), max(most, samples)
-    cells = np.flatnonzero(cost)
-    groups = max(1, min(groups, len(cells)))
-    group_start = np.full(groups + 1, len(cells), np.int64)
-    group_start[0] = 0
-    running, g = 0.0, 1
-    for item in range(len(cells)):
-        while g < groups and running >= total * g / groups:
-            group_start[g] = item
-            g += 1
-        running += cost[cells[item]]
-    return cells, group_start, capacity, most
-
-
 def near_field_grid(
     xs: np.ndarray,
     ys: np.ndarray,
@@ -278,14 +238,17 @@ def near_field_grid(
     jump: np.ndarray,
     out: np.ndarray | None = None,
     tables: tuple[np.ndarray, np.ndarray] | None = None,
-    few_samples: int = FEW_SAMPLES,
     precision: str = "double",
 ) -> np.ndarray:
     """``near_sum`` on the tensor grid ``ys x xs``, ``(len(ys), len(xs), 3)``.
 
-    Works cell by cell: each fine cell's run of samples against its 3x3
-    block's segments, gathered once; threads take groups of cells of about
-    equal cost.
+    Works by rows of cells: in a row, the samples of three neighbouring cells
+    against the segments of the middle one's column of three cells (gathered
+    once), so every segment meets the samples of its 3x3 block in three visits,
+    with a loop over the window's samples that vectorises.  Cells of at most
+    ``ROW_SAMPLES`` samples a side would give that loop a few iterations: their
+    lattices go to ``near_rows`` (in double precision).  Threads take rows
+    dynamically.
 
     Parameters
     ----------
@@ -298,11 +261,8 @@ def near_field_grid(
         *added* to it (the far field, say) and it is returned.
     tables : tuple of numpy.ndarray, optional
         ``segment_sums.near_tables(p, q, flux, jump)``, when kept from an earlier call.
-    few_samples : int
-        Cells with fewer samples run their segments innermost.
     precision : {"double", "single"}
-        ``"single"`` sums the cells of at least ``few_samples`` samples in float32 (``single``;
-        about 1e-7 relative a pair), the rest as ``"double"``.
+        ``"single"`` sums in float32 (``single``; about 1e-7 relative a pair).
     """
     if precision not in ("double", "single"):
         raise ValueError(f"unknown precision {precision!r}; use 'double' or 'single'")
@@ -313,15 +273,26 @@ def near_field_grid(
     x_start = grid_cell_runs(xs, cell_size, n)
     y_start = grid_cell_runs(ys, cell_size, n)
     cell_start = np.asarray(cell_start, np.int64)
-    cells, group_start, capacity, most = _near_plan(n, cell_start, x_start, y_start,
-                                                    GROUPS_PER_THREAD * numba.get_num_threads())
-    if len(cells) == 0:
-        return out
     table, weights = tables or near_tables(p, q, flux, jump)
+    if precision == "double" and max(np.diff(x_start).max(), np.diff(y_start).max()) <= ROW_SAMPLES:
+        near_rows(xs, ys, x_start, y_start, n, cell_start, table, weights, out)
+        return out
+    capacity, most = _column_sizes(n, cell_start, x_start, y_start)
     with numba.parallel_chunksize(1):
-        _near_grid(xs, ys, x_start, y_start, n, cell_start, float(cell_size), table, weights, cells, group_start,
-                   capacity, most, few_samples, precision == "single", out)
+        _near_grid(xs, ys, x_start, y_start, n, cell_start, float(cell_size), table, weights, capacity, most,
+                   precision == "single", out)
     return out
+
+
+def _column_sizes(n: int, cell_start: np.ndarray, x_start: np.ndarray, y_start: np.ndarray) -> tuple[int, int]:
+    """The most segments in a column of three cells and the most samples in a window of three (``_near_row``)."""
+    counts = np.diff(cell_start).reshape(n, n)
+    column = counts.copy()
+    column[1:] += counts[:-1]
+    column[:-1] += counts[1:]
+    cells = np.arange(n)
+    windows = x_start[np.minimum(cells + 2, n)] - x_start[np.maximum(cells - 1, 0)]
+    return max(1, int(column.max())), max(1, int(np.diff(y_start).max() * windows.max()))
 
 
 # --- Far field (cell polynomials) on a tensor grid ----------------------------------------
@@ -329,7 +300,8 @@ def near_field_grid(
 
 @numba.njit(parallel=True, cache=True, fastmath=GRID_MATH, error_model="numpy")
 def _far_grid(poly, degree, xs, ys, x_start, y_start, cell_size, out, add):
-    """Horner in eta, then in xi, up to ``degree`` per axis; the inner loops run over a cell's samples so they vectorise."""
+    """Horner in eta, then in xi, up to ``degree`` per axis; the inner loops run over a cell's samples (they
+    vectorise)."""
     n = poly.shape[0]
     for cy in numba.prange(n):
         ya, yb = y_start[cy], y_start[cy + 1]

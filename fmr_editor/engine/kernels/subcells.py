@@ -24,9 +24,13 @@ With ``w = (z - zs) / s``, ``v = (z0 - zs) / s`` on a segment from ``p`` to
 
 and the field is ``(1/2pi) Re sum_l L_l w^l`` as for ``fmm.expansions``'s
 scaled local expansions.  ``p2l_reference`` is the plain numpy form of the
-expansions, ``local_field_reference`` of the cells' polynomials; with
-``split = 1`` and ``separation = inf`` the kernel is the latter plus
-``grid.near_field_grid`` (the exact near sum).
+expansions, ``local_grid.local_field_reference`` of the cells' polynomials.
+
+Only cells with segments in their 3x3 block go through the sub-cells: the
+others' samples take their cell's expansion alone, from the compiled
+``local_grid.local_field_grid`` (Horner straight into the image, no per-cell
+set-up), and with ``split = 1`` every cell does, the exact near sum being
+added by ``grid.near_field_grid``.
 
 Measured at 1024 x 1024 on the Hilbert benchmark (bench/bench_paper.py,
 2,048 pieces at level 5, 32 samples a cell side): 4 x 4 sub-cells cut the
@@ -41,27 +45,14 @@ import numba
 import numpy as np
 
 from .fastmath import FAST_MATH, INV_TWO_PI, POLY_MATH, TWO_PI, log_r2, potentials_from
-from .grid import _PAD, _ROWS, FEW_SAMPLES, _by_samples, _by_segments, _gather_cell_block, grid_arrays, grid_cell_runs
+from .grid import (_PAD, _ROWS, FEW_SAMPLES, _by_samples, _by_segments, _gather_block, grid_arrays, grid_cell_runs,
+                   near_field_grid)
+from .local_grid import local_field_grid
 from .segment_sums import near_tables
 
 #: Default separation, in sub-cell sizes, from a sub-cell's centre beyond which a segment is expanded:
 #: the series' ratio is at most 1 / (2 sqrt 2) = 0.35 (0.35^9 = 9e-5 at order 8).
 SEPARATION = 2.0
-
-
-def local_field_reference(local: np.ndarray, order: int, xs: np.ndarray, ys: np.ndarray,
-                          cell_size: float) -> np.ndarray:
-    """``(1/2pi) Re sum_{l <= order} L_l w^l`` of each sample's cell on the grid ``ys x xs``, ``(len(ys), len(xs), 3)``.
-
-    Plain numpy (the far field alone); a sample's cell is ``floor(coord / cell_size)`` clamped to the
-    lattice, as in ``grid.grid_cell_runs``; ``w`` is its offset from the cell centre in cell sizes.
-    """
-    n = local.shape[0]
-    column = np.clip(np.floor(xs / cell_size).astype(np.int64), 0, n - 1)
-    row = np.clip(np.floor(ys / cell_size).astype(np.int64), 0, n - 1)
-    w = (xs / cell_size - (column + 0.5))[None, :] + 1j * (ys / cell_size - (row + 0.5))[:, None]
-    coeffs = local[row[:, None], column[None, :], :, : order + 1]  # (ys, xs, 3, order + 1)
-    return (coeffs * w[..., None, None] ** np.arange(order + 1)).sum(-1).real / (2 * np.pi)
 
 
 def p2l_reference(p: np.ndarray, q: np.ndarray, flux: np.ndarray, jump: np.ndarray, centre: complex, size: float,
@@ -241,7 +232,7 @@ def _cells(cells, lo, hi, local, order, xs, ys, x_start, y_start, n, cell_size, 
         ya0, yb0, xa0, xb0 = y_start[cy], y_start[cy + 1], x_start[cx], x_start[cx + 1]
         if ya0 == yb0 or xa0 == xb0:
             continue
-        m = _gather_cell_block(cy, cx, n, cell_start, table, weights, seg, shares_p, flux_free)
+        m = _gather_block(cy, max(cx - 1, 0), min(cx + 2, n), n, cell_start, table, weights, seg, shares_p, flux_free)
         for c in range(3):
             for l in range(order + 1):
                 parent[c, l] = local[cy, cx, c, l]
@@ -316,7 +307,8 @@ def _subcell_grid(local, order, xs, ys, x_start, y_start, n, cell_size, split, r
 
 @numba.njit(cache=True)
 def _plan(n, cell_start, x_start, y_start, groups):
-    """Cells with samples in runs of about equal cost, the most segments in a block and samples in a cell."""
+    """Cells with samples and block segments in runs of about equal cost, the most segments in a block and samples in
+    a cell."""
     cost = np.zeros(n * n)
     total, capacity, most = 0.0, 1, 1
     for cy in range(n):
@@ -328,6 +320,8 @@ def _plan(n, cell_start, x_start, y_start, groups):
             m = 0
             for row in range(max(cy - 1, 0), min(cy + 2, n)):
                 m += cell_start[row * n + min(cx + 2, n)] - cell_start[row * n + max(cx - 1, 0)]
+            if m == 0:
+                continue
             cost[cy * n + cx] = samples * (m / 8.0 + 4.0) + 8.0 * m
             total += cost[cy * n + cx]
             capacity, most = max(capacity, m), max(most, samples)
@@ -383,10 +377,18 @@ def subcell_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.nda
     if out.size == 0:
         return out
     n = local.shape[0]
-    x_start, y_start = grid_cell_runs(xs, cell_size, n), grid_cell_runs(ys, cell_size, n)
     cell_start = np.asarray(cell_start, np.int64)
+    if split == 1:
+        local_field_grid(local, order, xs, ys, cell_size, out=out)
+        return near_field_grid(xs, ys, n, cell_size, cell_start, p, q, flux, jump, out=out, tables=tables)
+    counts = np.pad(np.diff(cell_start).reshape(n, n), 1)
+    near = sum(counts[1 + dy : 1 + dy + n, 1 + dx : 1 + dx + n] for dy in (-1, 0, 1) for dx in (-1, 0, 1)) > 0
+    local_field_grid(local, order, xs, ys, cell_size, out=out, skip=near)
+    x_start, y_start = grid_cell_runs(xs, cell_size, n), grid_cell_runs(ys, cell_size, n)
     cells, group_start, capacity, most = _plan(n, cell_start, x_start, y_start,
                                                GROUPS_PER_THREAD * numba.get_num_threads())
+    if len(cells) == 0:
+        return out
     table, weights = tables or near_tables(p, q, flux, jump)
     with numba.parallel_chunksize(1):
         _subcell_grid(np.asarray(local, np.complex128), int(order), xs, ys, x_start, y_start, n, float(cell_size),
