@@ -9,10 +9,11 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from .fastmath import POLY_MATH, double_layer, log_r2, potentials_from
+from .blocks import BLOCK_ROWS, by_samples, gather_block
+from .fastmath import POLY_MATH
 from .near_rows import near_rows
-from .segment_sums import near_tables, segment_potentials
-from .single import gather_single, samples_inner_single
+from .segment_sums import near_tables
+from .single import by_samples_single, gather_single
 
 # --- Near field on a tensor grid of samples -------------------------------------------
 #
@@ -23,120 +24,20 @@ from .single import gather_single, samples_inner_single
 
 #: Fast-math flags of the grid kernels: no reassociation (the compensated sums rely on order).
 GRID_MATH = POLY_MATH
-#: Cells with fewer samples than this run their block's segments innermost (the samples' loop is too short to
-#: vectorise).
-FEW_SAMPLES = 8
-#: The segments of such a block are padded to a multiple of this many (a vector loop's step).
-_PAD = 4
 #: Lattices whose cells hold at most this many samples a side sum their near field in ``near_rows``.
 ROW_SAMPLES = 2
-#: Rows of the gathered block table: p, q, tangent, length (as ``segment_sums.segment_table``),
-#: the three channels of E, then of C.
-_GEOMETRY, _ROWS = 7, 13
-
-
-@numba.njit(cache=True, inline="always", fastmath=GRID_MATH, error_model="numpy")
-def _gather_block(cy, first, last, n, cell_start, table, weights, seg, shares_p, flux_free):
-    """Copy the segments of cells ``first <= cx < last`` in rows ``cy - 1`` to ``cy + 1`` into ``seg (13, >= m)``; m.
-
-    ``shares_p[k]``: segment k starts where segment k - 1 ends (its logarithm
-    there is known); ``flux_free[k]``: its E is 0 in every channel (the canvas
-    border's), so it has no single layer.
-    """
-    k = 0
-    for row in range(max(cy - 1, 0), min(cy + 2, n)):
-        for j in range(cell_start[row * n + first], cell_start[row * n + last]):
-            for c in range(_GEOMETRY):
-                seg[c, k] = table[c, j]
-            for c in range(6):
-                seg[_GEOMETRY + c, k] = weights[c, j]
-            shares_p[k] = k > 0 and seg[0, k] == seg[2, k - 1] and seg[1, k] == seg[3, k - 1]
-            flux_free[k] = weights[0, j] == 0.0 and weights[1, j] == 0.0 and weights[2, j] == 0.0
-            k += 1
-    return k
-
-
-@numba.njit(cache=True, inline="always", fastmath=GRID_MATH, error_model="numpy")
-def _by_samples(m, count, seg, shares_p, flux_free, sx, sy, acc, logs):
-    """``acc (3, count)`` = the near field of ``m`` gathered segments at ``count`` samples, samples innermost.
-
-    A segment continuing the previous one takes its logarithm at p from it; a
-    flux-free one costs its double layer only.
-    """
-    for c in range(3):
-        for i in range(count):
-            acc[c, i] = 0.0
-    current, known = 0, False  # logs[current] holds log|p - x|^2 of segment k when known
-    for k in range(m):
-        px, py, qx, qy = seg[0, k], seg[1, k], seg[2, k], seg[3, k]
-        c0, c1, c2 = seg[10, k], seg[11, k], seg[12, k]
-        if flux_free[k]:
-            for i in range(count):
-                d = double_layer(sx[i], sy[i], px, py, qx, qy)
-                acc[0, i] -= c0 * d
-                acc[1, i] -= c1 * d
-                acc[2, i] -= c2 * d
-            known = False
-            continue
-        tx, ty, h = seg[4, k], seg[5, k], seg[6, k]
-        e0, e1, e2 = seg[7, k], seg[8, k], seg[9, k]
-        if shares_p[k] and known:
-            current = 1 - current  # the previous segment's log at q is this one's log at p
-        else:
-            for i in range(count):
-                logs[current, i] = log_r2(sx[i], sy[i], px, py)
-        log_p, log_q = logs[current], logs[1 - current]
-        for i in range(count):
-            s, d, log_q[i] = potentials_from(sx[i], sy[i], px, py, qx, qy, tx, ty, h, log_p[i])
-            acc[0, i] += e0 * s - c0 * d
-            acc[1, i] += e1 * s - c1 * d
-            acc[2, i] += e2 * s - c2 * d
-        known = True
-
-
-@numba.njit(cache=True, inline="always", fastmath=GRID_MATH, error_model="numpy")
-def _by_segments(m, count, seg, sx, sy, acc, lanes):
-    """As ``_by_samples``, segments innermost (for few samples), ``_PAD`` at a time side by side.
-
-    ``seg`` is padded to a multiple of ``_PAD`` with weightless copies of its
-    last segment; each lane of ``lanes (3, _PAD)`` sums its own segments, so
-    the fixed-size inner loop vectorises without reassociating a sum.
-    """
-    padded = (m + _PAD - 1) // _PAD * _PAD
-    for k in range(m, padded):
-        for c in range(_GEOMETRY):
-            seg[c, k] = seg[c, m - 1]
-        for c in range(_GEOMETRY, _ROWS):
-            seg[c, k] = 0.0
-    for i in range(count):
-        x, y = sx[i], sy[i]
-        for j in range(_PAD):
-            lanes[0, j], lanes[1, j], lanes[2, j] = 0.0, 0.0, 0.0
-        for first in range(0, padded, _PAD):
-            for j in range(_PAD):
-                k = first + j
-                s, d = segment_potentials(x, y, seg[0, k], seg[1, k], seg[2, k], seg[3, k],
-                                          seg[4, k], seg[5, k], seg[6, k])
-                lanes[0, j] += seg[7, k] * s - seg[10, k] * d
-                lanes[1, j] += seg[8, k] * s - seg[11, k] * d
-                lanes[2, j] += seg[9, k] * s - seg[12, k] * d
-        for c in range(3):
-            total = 0.0
-            for j in range(_PAD):
-                total += lanes[c, j]
-            acc[c, i] = total
 
 
 @numba.njit(cache=True, inline="always", fastmath=GRID_MATH, error_model="numpy")
 def _samples_single(m, count, xc, yc, cell_size, seg, shares_p, flux_free, sx, sy, acc, scratch):
-    """``_by_samples`` through ``single``'s float32 kernel about (xc, yc) into the float64 ``acc (3, count)``."""
+    """``blocks.by_samples`` through ``single``'s float32 kernel about (xc, yc) into the float64 ``acc (3, count)``."""
     block, sx32, sy32, acc32, logs = scratch
     inv_size = 1.0 / cell_size
     t0, t1, t2 = gather_single(m, seg, xc, yc, inv_size, cell_size, block)
     for i in range(count):
         sx32[i] = np.float32((sx[i] - xc) * inv_size)
         sy32[i] = np.float32((sy[i] - yc) * inv_size)
-    samples_inner_single(m, count, block, shares_p, flux_free, sx32, sy32, acc32, logs)
+    by_samples_single(m, count, block, shares_p, flux_free, sx32, sy32, acc32, logs)
     for i in range(count):
         acc[0, i] = acc32[0, i] + t0
         acc[1, i] = acc32[1, i] + t1
@@ -160,7 +61,7 @@ def _near_row(cy, xs, ys, x_start, y_start, n, cell_start, cell_size, table, wei
         width = xb - xa
         if width == 0:
             continue
-        m = _gather_block(cy, cx, cx + 1, n, cell_start, table, weights, seg, shares_p, flux_free)
+        m = gather_block(cy, cx, cx + 1, n, cell_start, table, weights, seg, shares_p, flux_free)
         if m == 0:
             continue
         count = rows * width
@@ -172,7 +73,7 @@ def _near_row(cy, xs, ys, x_start, y_start, n, cell_start, cell_size, table, wei
             _samples_single(m, count, (cx + 0.5) * cell_size, (cy + 0.5) * cell_size, cell_size, seg, shares_p,
                             flux_free, sx, sy, acc, scratch)
         else:
-            _by_samples(m, count, seg, shares_p, flux_free, sx, sy, acc, logs)
+            by_samples(m, count, seg, shares_p, flux_free, sx, sy, acc, logs)
         for a in range(rows):
             for b in range(width):
                 for c in range(3):
@@ -186,12 +87,12 @@ def _near_grid(xs, ys, x_start, y_start, n, cell_start, cell_size, table, weight
         lo, hi = max(cy - 1, 0), min(cy + 2, n)
         if y_start[cy] == y_start[cy + 1] or cell_start[lo * n] == cell_start[hi * n]:
             continue
-        seg = np.empty((_ROWS, capacity))
+        seg = np.empty((BLOCK_ROWS, capacity))
         shares_p, flux_free = np.empty(capacity, np.bool_), np.empty(capacity, np.bool_)
         sx, sy = np.empty(most), np.empty(most)
         acc, logs = np.empty((3, most)), np.empty((2, most))
         most32 = most if single else 0
-        scratch = (np.empty((_ROWS, capacity), np.float32), np.empty(most32, np.float32),
+        scratch = (np.empty((BLOCK_ROWS, capacity), np.float32), np.empty(most32, np.float32),
                    np.empty(most32, np.float32), np.empty((3, most32), np.float32), np.empty((2, most32), np.float32))
         _near_row(cy, xs, ys, x_start, y_start, n, cell_start, cell_size, table, weights, single, out, seg, shares_p,
                   flux_free, sx, sy, acc, logs, scratch)

@@ -46,18 +46,18 @@ def local_field_reference(local: np.ndarray, order: int, xs: np.ndarray, ys: np.
 
 
 @numba.njit(cache=True, inline="always", fastmath=FAST_MATH, error_model="numpy")
-def _by_powers(coeffs, order, count, xi, eta, scratch):
-    """``scratch[2:5, :count]`` = the three channels of ``Re sum_l coeffs[c, l] w^l`` at ``w = xi + i eta``.
+def by_powers(coeffs, order, count, xi, eta, scale, scratch):
+    """``scratch[2:5, :count]`` = the three channels of ``scale Re sum_l coeffs[c, l] w^l`` at ``w = xi + i eta``.
 
-    Samples innermost (the loop vectorises); ``coeffs`` carries the ``1/2pi``.
+    Samples innermost (the loop vectorises); ``scratch (>= 5, >= count)``, its rows 0 and 1 the powers of ``w``.
     """
     re, im, a0, a1, a2 = scratch[0], scratch[1], scratch[2], scratch[3], scratch[4]
     for i in range(count):
         re[i], im[i] = 1.0, 0.0
         a0[i], a1[i], a2[i] = 0.0, 0.0, 0.0
     for l in range(order + 1):
-        r0, r1, r2 = coeffs[0, l].real, coeffs[1, l].real, coeffs[2, l].real
-        i0, i1, i2 = coeffs[0, l].imag, coeffs[1, l].imag, coeffs[2, l].imag
+        r0, r1, r2 = coeffs[0, l].real * scale, coeffs[1, l].real * scale, coeffs[2, l].real * scale
+        i0, i1, i2 = coeffs[0, l].imag * scale, coeffs[1, l].imag * scale, coeffs[2, l].imag * scale
         for i in range(count):
             p, q = re[i], im[i]
             a0[i] += r0 * p - i0 * q
@@ -113,7 +113,7 @@ def _local_grid(local, order, xs, ys, x_start, y_start, cell_size, skip, skippin
                 for b in range(width):
                     xi[a * width + b] = xs[xa + b] * inv - (cx + 0.5)
                     eta[a * width + b] = ys[ya + a] * inv - (cy + 0.5)
-            _by_powers(coeffs, order, rows * width, xi, eta, scratch)
+            by_powers(coeffs, order, rows * width, xi, eta, 1.0, scratch)
             for a in range(rows):
                 for b in range(width):
                     i = a * width + b

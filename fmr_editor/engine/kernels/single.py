@@ -30,6 +30,7 @@ import math
 import numba
 import numpy as np
 
+from .blocks import samples_loop
 from .fastmath import POLY_MATH
 
 F = np.float32
@@ -115,7 +116,7 @@ def potentials_single(x, y, px, py, qx, qy, tx, ty, h, log_p):
 
 @numba.njit(cache=True, inline="always", fastmath=POLY_MATH, error_model="numpy")
 def gather_single(m, seg, xc, yc, inv_size, size, block):
-    """The ``m`` gathered segments of ``seg (13, m)`` (``grid``'s layout, pixels) in cell units about
+    """The ``m`` gathered segments of ``seg (13, m)`` (``blocks``' layout, pixels) in cell units about
     ``(xc, yc)``, in float32 ``block (13, m)``: E scaled by the cell size (``S = r S_unit + ...``).
 
     Returns the float64 ``sum E h ln(r) / 2pi`` of each channel (``ln_size_terms``).
@@ -137,35 +138,11 @@ def gather_single(m, seg, xc, yc, inv_size, size, block):
 
 
 @numba.njit(cache=True, inline="always", fastmath=POLY_MATH, error_model="numpy")
-def samples_inner_single(m, count, block, shares_p, flux_free, sx, sy, acc, logs):
-    """``grid``'s samples-innermost loop in float32: ``acc (3, count)`` from ``block (13, m)`` at ``sx, sy``
-    (all in cell units; ``acc`` lacks the ``ln_size_terms``)."""
-    for c in range(3):
-        for i in range(count):
-            acc[c, i] = _ZERO
-    current, known = 0, False  # logs[current] holds log|p - x|^2 of segment k when known
-    for k in range(m):
-        px, py, qx, qy = block[0, k], block[1, k], block[2, k], block[3, k]
-        c0, c1, c2 = block[10, k], block[11, k], block[12, k]
-        if flux_free[k]:
-            for i in range(count):
-                d = subtended_angle_single(px - sx[i], py - sy[i], qx - sx[i], qy - sy[i]) * _INV_TWO_PI
-                acc[0, i] -= c0 * d
-                acc[1, i] -= c1 * d
-                acc[2, i] -= c2 * d
-            known = False
-            continue
-        tx, ty, h = block[4, k], block[5, k], block[6, k]
-        e0, e1, e2 = block[7, k], block[8, k], block[9, k]
-        if shares_p[k] and known:
-            current = 1 - current
-        else:
-            for i in range(count):
-                logs[current, i] = log_r2_single(sx[i], sy[i], px, py)
-        log_p, log_q = logs[current], logs[1 - current]
-        for i in range(count):
-            s, d, log_q[i] = potentials_single(sx[i], sy[i], px, py, qx, qy, tx, ty, h, log_p[i])
-            acc[0, i] += e0 * s - c0 * d
-            acc[1, i] += e1 * s - c1 * d
-            acc[2, i] += e2 * s - c2 * d
-        known = True
+def double_layer_single(x, y, px, py, qx, qy):
+    """``fastmath.double_layer`` in float32."""
+    return subtended_angle_single(px - x, py - y, qx - x, qy - y) * _INV_TWO_PI
+
+
+#: ``blocks.by_samples`` in float32: ``acc (3, count)`` from ``block (13, m)`` at ``sx, sy`` (all in cell units,
+#: float32; ``acc`` lacks the ``ln_size_terms``).
+by_samples_single = samples_loop(potentials_single, double_layer_single, log_r2_single)

@@ -44,10 +44,10 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from .blocks import BLOCK_ROWS, by_samples, gather_block
 from .fastmath import FAST_MATH, INV_TWO_PI, POLY_MATH, TWO_PI, log_r2, potentials_from
-from .grid import (_PAD, _ROWS, FEW_SAMPLES, _by_samples, _by_segments, _gather_block, grid_arrays, grid_cell_runs,
-                   near_field_grid)
-from .local_grid import local_field_grid
+from .grid import grid_arrays, grid_cell_runs, near_field_grid
+from .local_grid import by_powers, local_field_grid
 from .segment_sums import near_tables
 
 #: Default separation, in sub-cell sizes, from a sub-cell's centre beyond which a segment is expanded:
@@ -169,7 +169,8 @@ def _p2l_sums(count, far, state, size, order, coeffs):
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
 def _shift(parent, order, dx, dy, split, coeffs):
-    """``coeffs (3, order + 1)`` = ``parent``'s polynomial in ``w`` re-expanded in ``w' = split (w - d)``, ``d = dx + i dy``."""
+    """``coeffs (3, order + 1)`` = ``parent``'s polynomial in ``w`` re-expanded in ``w' = split (w - d)``,
+    ``d = dx + i dy``."""
     d = complex(dx, dy)
     for c in range(3):
         for l in range(order + 1):
@@ -183,28 +184,6 @@ def _shift(parent, order, dx, dy, split, coeffs):
         for l in range(order + 1):
             coeffs[c, l] *= scale
             scale /= split
-
-
-@numba.njit(cache=True, inline="always", fastmath=POLY_MATH, error_model="numpy")
-def _polynomial(coeffs, order, count, sx, sy, xc, yc, inv_size, acc, powers):
-    """``acc (3, count)`` = ``(1/2pi) Re sum_l coeffs[:, l] w^l`` at ``w = ((sx, sy) - (xc, yc)) inv_size``.
-
-    Samples innermost (the loop vectorises); ``powers (4, >= count)`` is scratch.
-    """
-    xi, eta, re, im = powers[0], powers[1], powers[2], powers[3]
-    for i in range(count):
-        xi[i], eta[i] = (sx[i] - xc) * inv_size, (sy[i] - yc) * inv_size
-        re[i], im[i] = 1.0, 0.0
-        acc[0, i], acc[1, i], acc[2, i] = 0.0, 0.0, 0.0
-    for l in range(order + 1):
-        r0, r1, r2 = coeffs[0, l].real * INV_TWO_PI, coeffs[1, l].real * INV_TWO_PI, coeffs[2, l].real * INV_TWO_PI
-        i0, i1, i2 = coeffs[0, l].imag * INV_TWO_PI, coeffs[1, l].imag * INV_TWO_PI, coeffs[2, l].imag * INV_TWO_PI
-        for i in range(count):
-            p, q = re[i], im[i]
-            acc[0, i] += r0 * p - i0 * q
-            acc[1, i] += r1 * p - i1 * q
-            acc[2, i] += r2 * p - i2 * q
-            re[i], im[i] = p * xi[i] - q * eta[i], p * eta[i] + q * xi[i]
 
 
 @numba.njit(cache=True, inline="always")
@@ -221,8 +200,8 @@ def _sub_runs(coords, start, stop, origin, inv_sub, split, runs):
 
 @numba.njit(cache=True, fastmath=POLY_MATH, error_model="numpy")
 def _cells(cells, lo, hi, local, order, xs, ys, x_start, y_start, n, cell_size, split, reach, cell_start, table,
-           weights, out, seg, shares_p, flux_free, sub, sub_shares, sub_ff, far_seg, state, sx, sy, acc, far, powers,
-           logs, lanes, coeffs, parent, xruns, yruns):
+           weights, out, seg, shares_p, flux_free, sub, sub_shares, sub_ff, far_seg, state, sx, sy, acc, powers, logs,
+           coeffs, parent, xruns, yruns):
     """Write the field (far + near) of the samples of ``cells[lo:hi]`` into ``out``; the rest are the thread's scratch.
 
     One call per run of cells: a call passes some thirty arrays (reference counts and all).
@@ -232,13 +211,14 @@ def _cells(cells, lo, hi, local, order, xs, ys, x_start, y_start, n, cell_size, 
         ya0, yb0, xa0, xb0 = y_start[cy], y_start[cy + 1], x_start[cx], x_start[cx + 1]
         if ya0 == yb0 or xa0 == xb0:
             continue
-        m = _gather_block(cy, max(cx - 1, 0), min(cx + 2, n), n, cell_start, table, weights, seg, shares_p, flux_free)
+        m = gather_block(cy, max(cx - 1, 0), min(cx + 2, n), n, cell_start, table, weights, seg, shares_p, flux_free)
         for c in range(3):
             for l in range(order + 1):
                 parent[c, l] = local[cy, cx, c, l]
         size = cell_size / split
-        _sub_runs(xs, xa0, xb0, cx * cell_size, 1.0 / size, split, xruns)
-        _sub_runs(ys, ya0, yb0, cy * cell_size, 1.0 / size, split, yruns)
+        inv_size = 1.0 / size
+        _sub_runs(xs, xa0, xb0, cx * cell_size, inv_size, split, xruns)
+        _sub_runs(ys, ya0, yb0, cy * cell_size, inv_size, split, yruns)
         for a in range(split):
             ya, yb = yruns[a], yruns[a + 1]
             for b in range(split):
@@ -253,11 +233,11 @@ def _cells(cells, lo, hi, local, order, xs, ys, x_start, y_start, n, cell_size, 
                 reach2 = (reach * size) ** 2
                 for k in range(m):
                     if _distance2(xc, yc, seg, k) >= reach2:
-                        for c in range(_ROWS):
+                        for c in range(BLOCK_ROWS):
                             far_seg[c, count_far] = seg[c, k]
                         count_far += 1
                     else:
-                        for c in range(_ROWS):
+                        for c in range(BLOCK_ROWS):
                             sub[c, near] = seg[c, k]
                         sub_shares[near] = near > 0 and shares_p[k] and sub[0, near] == sub[2, near - 1] and \
                             sub[1, near] == sub[3, near - 1]
@@ -266,16 +246,15 @@ def _cells(cells, lo, hi, local, order, xs, ys, x_start, y_start, n, cell_size, 
                 if count_far > 0:
                     _p2l_state(count_far, far_seg, xc, yc, size, state)
                     _p2l_sums(count_far, far_seg, state, size, order, coeffs)
+                xi, eta, far = powers[5], powers[6], powers[2:5]
                 for i in range(yb - ya):
                     for j in range(width):
-                        sx[i * width + j] = xs[xa + j]
-                        sy[i * width + j] = ys[ya + i]
-                _polynomial(coeffs, order, count, sx, sy, xc, yc, 1.0 / size, far, powers)
+                        sx[i * width + j], sy[i * width + j] = xs[xa + j], ys[ya + i]
+                        xi[i * width + j] = (xs[xa + j] - xc) * inv_size
+                        eta[i * width + j] = (ys[ya + i] - yc) * inv_size
+                by_powers(coeffs, order, count, xi, eta, INV_TWO_PI, powers)
                 if near > 0:
-                    if count < FEW_SAMPLES:
-                        _by_segments(near, count, sub, sx, sy, acc, lanes)
-                    else:
-                        _by_samples(near, count, sub, sub_shares, sub_ff, sx, sy, acc, logs)
+                    by_samples(near, count, sub, sub_shares, sub_ff, sx, sy, acc, logs)
                     for c in range(3):
                         for i in range(count):
                             far[c, i] += acc[c, i]
@@ -289,20 +268,18 @@ def _cells(cells, lo, hi, local, order, xs, ys, x_start, y_start, n, cell_size, 
 def _subcell_grid(local, order, xs, ys, x_start, y_start, n, cell_size, split, reach, cell_start, table, weights,
                   cells, group_start, capacity, most, out):
     for g in numba.prange(group_start.shape[0] - 1):
-        seg = np.empty((_ROWS, capacity + _PAD))
-        sub = np.empty((_ROWS, capacity + _PAD))
+        seg, sub = np.empty((BLOCK_ROWS, capacity)), np.empty((BLOCK_ROWS, capacity))
         shares_p, flux_free = np.empty(capacity, np.bool_), np.empty(capacity, np.bool_)
         sub_shares, sub_ff = np.empty(capacity, np.bool_), np.empty(capacity, np.bool_)
-        far_seg, state = np.empty((_ROWS, capacity)), np.empty((12, capacity))
-        powers = np.empty((4, most))
+        far_seg, state = np.empty((BLOCK_ROWS, capacity)), np.empty((12, capacity))
+        powers = np.empty((7, most))
         sx, sy = np.empty(most), np.empty(most)
-        acc, far, logs = np.empty((3, most)), np.empty((3, most)), np.empty((2, most))
-        lanes = np.empty((3, _PAD))
+        acc, logs = np.empty((3, most)), np.empty((2, most))
         coeffs, parent = np.empty((3, order + 1), np.complex128), np.empty((3, order + 1), np.complex128)
         xruns, yruns = np.empty(split + 1, np.int64), np.empty(split + 1, np.int64)
         _cells(cells, group_start[g], group_start[g + 1], local, order, xs, ys, x_start, y_start, n, cell_size, split,
                reach, cell_start, table, weights, out, seg, shares_p, flux_free, sub, sub_shares, sub_ff, far_seg,
-               state, sx, sy, acc, far, powers, logs, lanes, coeffs, parent, xruns, yruns)
+               state, sx, sy, acc, powers, logs, coeffs, parent, xruns, yruns)
 
 
 @numba.njit(cache=True)
