@@ -191,6 +191,7 @@ def old_rasterise(rep, width, height, samples):
 )
 def test_rasterise_equals_far_plus_near_sum(small_rep, monkeypatch, width, height, samples):
     monkeypatch.setattr(raster, "SUB_CELL_SAMPLES", 10**9)  # the exact near field (test_raster_subcells: the split)
+    monkeypatch.setattr(raster, "NEAR_PRECISION", "double")  # in float64 (test_raster_subcells: the float32 bound)
     image = rasterise(small_rep, width, height, samples=samples)
     expected = old_rasterise(small_rep, width, height, samples)
     assert image.shape == (height, width, 3)

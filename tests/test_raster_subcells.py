@@ -205,29 +205,6 @@ def test_rasterise_splits_cells_of_many_samples_within_the_tolerance(rep, monkey
     assert np.abs(image[pixels[:, 1], pixels[:, 0]] - direct).max() < 1 / 255
 
 
-# --- the near-field kernel's variants (grid) ----------------------------------------------
-
-
-@pytest.fixture(scope="module")
-def strays():
-    rng = np.random.default_rng(35)
-    lattice = Lattice(3, 64.0)
-    xs, ys = np.arange(0.25, 64, 1.5), np.arange(0.5, 64, 2.5)
-    seg, start = sort_into_cells(chains_and_strays(rng, 64, 64, np.array([xs[4], ys[3]])), lattice)
-    return lattice, xs, ys, seg, start
-
-
-def test_single_precision_near_field_is_within_a_thousandth_of_a_level(strays):
-    lattice, xs, ys, seg, start = strays
-    args = (xs, ys, lattice.cells_per_side, lattice.cell_size, start, seg.p, seg.q, seg.flux, seg.jump)
-    double = near_field_grid(*args)
-    single = near_field_grid(*args, precision="single")
-    assert np.abs(single - double).max() > 0  # the float32 kernel ran
-    np.testing.assert_allclose(single, double, rtol=0, atol=1e-3 / 255)
-    with pytest.raises(ValueError, match="precision"):
-        near_field_grid(*args, precision="half")
-
-
 def test_far_field_grid_adds_and_truncates():
     rng = np.random.default_rng(36)
     poly = rng.normal(size=(8, 8, 3, 7, 7))

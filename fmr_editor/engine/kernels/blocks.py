@@ -47,7 +47,13 @@ def gather_block(cy, first, last, n, cell_start, table, weights, seg, shares_p, 
     return k
 
 
-def samples_loop(layers, double, log_r2_of):
+@numba.njit(cache=True, inline="always")
+def never(x, y, px, py, qx, qy):
+    """No pair is in doubt (the float64 loop's ``doubt``)."""
+    return False
+
+
+def samples_loop(layers, double, log_r2_of, doubt):
     """The samples-innermost sum over a gathered table, for the precision of the given layer functions.
 
     Parameters
@@ -58,18 +64,21 @@ def samples_loop(layers, double, log_r2_of):
         ``(x, y, px, py, qx, qy) -> D`` (``fastmath.double_layer``).
     log_r2_of : numba function
         ``(x, y, px, py) -> log |p - x|^2`` (``fastmath.log_r2``).
+    doubt : numba function
+        ``(x, y, px, py, qx, qy) -> bool``: the pair's values may miss their error bound (``never``: none).
 
     Returns
     -------
     numba function
-        ``loop(m, count, seg, shares_p, flux_free, sx, sy, acc, logs)``: ``acc (3, count)`` = the field of the
-        ``m`` segments of ``seg`` (``gather_block``'s layout, in the precision of the functions) at the
-        ``count`` samples ``sx, sy``; ``logs (2, >= count)`` is scratch.  A segment continuing the previous
-        one takes its logarithm at p from it; a flux-free one costs its double layer only.
+        ``loop(m, count, seg, shares_p, flux_free, sx, sy, acc, logs, doubtful)``: ``acc (3, count)`` = the
+        field of the ``m`` segments of ``seg`` (``gather_block``'s layout, in the precision of the functions)
+        at the ``count`` samples ``sx, sy``; ``logs (2, >= count)`` is scratch; ``doubtful[i]`` (int32) is
+        set to 1 where a pair at sample i is in doubt (and left as it is elsewhere).  A segment continuing
+        the previous one takes its logarithm at p from it; a flux-free one costs its double layer only.
     """
 
     @numba.njit(inline="always", fastmath=POLY_MATH, error_model="numpy")
-    def loop(m, count, seg, shares_p, flux_free, sx, sy, acc, logs):
+    def loop(m, count, seg, shares_p, flux_free, sx, sy, acc, logs, doubtful):
         for c in range(3):
             for i in range(count):
                 acc[c, i] = 0.0
@@ -80,6 +89,7 @@ def samples_loop(layers, double, log_r2_of):
             if flux_free[k]:
                 for i in range(count):
                     d = double(sx[i], sy[i], px, py, qx, qy)
+                    doubtful[i] |= doubt(sx[i], sy[i], px, py, qx, qy)
                     acc[0, i] -= c0 * d
                     acc[1, i] -= c1 * d
                     acc[2, i] -= c2 * d
@@ -95,6 +105,7 @@ def samples_loop(layers, double, log_r2_of):
             log_p, log_q = logs[current], logs[1 - current]
             for i in range(count):
                 s, d, log_q[i] = layers(sx[i], sy[i], px, py, qx, qy, tx, ty, h, log_p[i])
+                doubtful[i] |= doubt(sx[i], sy[i], px, py, qx, qy)
                 acc[0, i] += e0 * s - c0 * d
                 acc[1, i] += e1 * s - c1 * d
                 acc[2, i] += e2 * s - c2 * d
@@ -104,4 +115,4 @@ def samples_loop(layers, double, log_r2_of):
 
 
 #: The float64 loop (``samples_loop`` of ``fastmath``'s layers).
-by_samples = samples_loop(potentials_from, double_layer, log_r2)
+by_samples = samples_loop(potentials_from, double_layer, log_r2, never)

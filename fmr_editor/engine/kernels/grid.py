@@ -13,7 +13,7 @@ from .blocks import BLOCK_ROWS, by_samples, gather_block
 from .fastmath import POLY_MATH
 from .near_rows import near_rows
 from .segment_sums import near_tables
-from .single import by_samples_single, gather_single
+from .single import SINGLE_BUDGET, by_samples_single, error_bounds, gather_single
 
 # --- Near field on a tensor grid of samples -------------------------------------------
 #
@@ -29,30 +29,37 @@ ROW_SAMPLES = 2
 
 
 @numba.njit(cache=True, inline="always", fastmath=GRID_MATH, error_model="numpy")
-def _samples_single(m, count, xc, yc, cell_size, seg, shares_p, flux_free, sx, sy, acc, scratch):
-    """``blocks.by_samples`` through ``single``'s float32 kernel about (xc, yc) into the float64 ``acc (3, count)``."""
-    block, sx32, sy32, acc32, logs = scratch
+def _samples_single(m, count, xc, yc, cell_size, seg, shares_p, flux_free, sx, sy, acc, logs, doubtful, scratch):
+    """``blocks.by_samples`` through ``single``'s float32 loop about (xc, yc) into the float64 ``acc (3, count)``.
+
+    Samples with a pair in doubt (``single.doubt_single``) are summed again in float64.
+    """
+    block, sx32, sy32, acc32, logs32 = scratch
     inv_size = 1.0 / cell_size
     t0, t1, t2 = gather_single(m, seg, xc, yc, inv_size, cell_size, block)
     for i in range(count):
         sx32[i] = np.float32((sx[i] - xc) * inv_size)
         sy32[i] = np.float32((sy[i] - yc) * inv_size)
-    by_samples_single(m, count, block, shares_p, flux_free, sx32, sy32, acc32, logs)
+        doubtful[i] = 0
+    by_samples_single(m, count, block, shares_p, flux_free, sx32, sy32, acc32, logs32, doubtful)
     for i in range(count):
         acc[0, i] = acc32[0, i] + t0
         acc[1, i] = acc32[1, i] + t1
         acc[2, i] = acc32[2, i] + t2
+    for i in range(count):
+        if doubtful[i]:
+            by_samples(m, 1, seg, shares_p, flux_free, sx[i:], sy[i:], acc[:, i:], logs, doubtful)
 
 
 @numba.njit(cache=True, fastmath=GRID_MATH, error_model="numpy")
 def _near_row(cy, xs, ys, x_start, y_start, n, cell_start, cell_size, table, weights, single, out, seg, shares_p,
-              flux_free, sx, sy, acc, logs, scratch):
+              flux_free, sx, sy, acc, logs, doubtful, scratch):
     """Add the near field of the samples of cell row ``cy``, one column of segments at a time.
 
     The samples of cells ``cx - 1`` to ``cx + 1`` of the row (a window) see the
     segments of cells ``cx`` in rows ``cy - 1`` to ``cy + 1`` (a column): over
-    all ``cx`` that is each sample against its 3x3 block.  The rest are the
-    thread's scratch arrays.
+    all ``cx`` that is each sample against its 3x3 block.  ``single[cy, cx]``:
+    the visit runs in float32.  The rest are the thread's scratch arrays.
     """
     ya, yb = y_start[cy], y_start[cy + 1]
     rows = yb - ya
@@ -69,11 +76,11 @@ def _near_row(cy, xs, ys, x_start, y_start, n, cell_start, cell_size, table, wei
             for b in range(width):
                 sx[a * width + b] = xs[xa + b]
                 sy[a * width + b] = ys[ya + a]
-        if single:
+        if single[cy, cx]:
             _samples_single(m, count, (cx + 0.5) * cell_size, (cy + 0.5) * cell_size, cell_size, seg, shares_p,
-                            flux_free, sx, sy, acc, scratch)
+                            flux_free, sx, sy, acc, logs, doubtful, scratch)
         else:
-            by_samples(m, count, seg, shares_p, flux_free, sx, sy, acc, logs)
+            by_samples(m, count, seg, shares_p, flux_free, sx, sy, acc, logs, doubtful)
         for a in range(rows):
             for b in range(width):
                 for c in range(3):
@@ -81,7 +88,8 @@ def _near_row(cy, xs, ys, x_start, y_start, n, cell_start, cell_size, table, wei
 
 
 @numba.njit(parallel=True, cache=True, error_model="numpy")
-def _near_grid(xs, ys, x_start, y_start, n, cell_start, cell_size, table, weights, capacity, most, single, out):
+def _near_grid(xs, ys, x_start, y_start, n, cell_start, cell_size, table, weights, capacity, most, single, any_single,
+               out):
     """Threads take rows of cells (dynamically: ``numba.parallel_chunksize(1)``); each writes its own samples."""
     for cy in numba.prange(n):
         lo, hi = max(cy - 1, 0), min(cy + 2, n)
@@ -90,12 +98,12 @@ def _near_grid(xs, ys, x_start, y_start, n, cell_start, cell_size, table, weight
         seg = np.empty((BLOCK_ROWS, capacity))
         shares_p, flux_free = np.empty(capacity, np.bool_), np.empty(capacity, np.bool_)
         sx, sy = np.empty(most), np.empty(most)
-        acc, logs = np.empty((3, most)), np.empty((2, most))
-        most32 = most if single else 0
+        acc, logs, doubtful = np.empty((3, most)), np.empty((2, most)), np.zeros(most, np.int32)
+        most32 = most if any_single else 0
         scratch = (np.empty((BLOCK_ROWS, capacity), np.float32), np.empty(most32, np.float32),
                    np.empty(most32, np.float32), np.empty((3, most32), np.float32), np.empty((2, most32), np.float32))
         _near_row(cy, xs, ys, x_start, y_start, n, cell_start, cell_size, table, weights, single, out, seg, shares_p,
-                  flux_free, sx, sy, acc, logs, scratch)
+                  flux_free, sx, sy, acc, logs, doubtful, scratch)
 
 
 def grid_arrays(xs: np.ndarray, ys: np.ndarray, out: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -148,8 +156,8 @@ def near_field_grid(
     once), so every segment meets the samples of its 3x3 block in three visits,
     with a loop over the window's samples that vectorises.  Cells of at most
     ``ROW_SAMPLES`` samples a side would give that loop a few iterations: their
-    lattices go to ``near_rows`` (in double precision).  Threads take rows
-    dynamically.
+    lattices go to ``near_rows`` (float64 whatever ``precision``).  Threads take
+    rows dynamically.
 
     Parameters
     ----------
@@ -163,7 +171,9 @@ def near_field_grid(
     tables : tuple of numpy.ndarray, optional
         ``segment_sums.near_tables(p, q, flux, jump)``, when kept from an earlier call.
     precision : {"double", "single"}
-        ``"single"`` sums in float32 (``single``; about 1e-7 relative a pair).
+        ``"single"``: a visit runs in float32 (``single``) where every sample of its window has an error bound
+        (``single.error_bounds``) within ``single.SINGLE_BUDGET``, samples with a pair in doubt summed again
+        in float64; the float32 field is then within that budget of the float64 one.
     """
     if precision not in ("double", "single"):
         raise ValueError(f"unknown precision {precision!r}; use 'double' or 'single'")
@@ -175,13 +185,18 @@ def near_field_grid(
     y_start = grid_cell_runs(ys, cell_size, n)
     cell_start = np.asarray(cell_start, np.int64)
     table, weights = tables or near_tables(p, q, flux, jump)
-    if precision == "double" and max(np.diff(x_start).max(), np.diff(y_start).max()) <= ROW_SAMPLES:
+    if max(np.diff(x_start).max(), np.diff(y_start).max()) <= ROW_SAMPLES:
         near_rows(xs, ys, x_start, y_start, n, cell_start, table, weights, out)
         return out
     capacity, most = _column_sizes(n, cell_start, x_start, y_start)
+    single = np.zeros((n, n), np.bool_)
+    if precision == "single":
+        bounded = np.pad(error_bounds(n, cell_size, cell_start, flux, jump) <= SINGLE_BUDGET, ((0, 0), (1, 1)),
+                         constant_values=True)
+        single = bounded[:, :-2] & bounded[:, 1:-1] & bounded[:, 2:]  # every cell of the visit's window
     with numba.parallel_chunksize(1):
         _near_grid(xs, ys, x_start, y_start, n, cell_start, float(cell_size), table, weights, capacity, most,
-                   precision == "single", out)
+                   single, bool(single.any()), out)
     return out
 
 

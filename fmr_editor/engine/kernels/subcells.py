@@ -201,7 +201,7 @@ def _sub_runs(coords, start, stop, origin, inv_sub, split, runs):
 @numba.njit(cache=True, fastmath=POLY_MATH, error_model="numpy")
 def _cells(cells, lo, hi, local, order, xs, ys, x_start, y_start, n, cell_size, split, reach, cell_start, table,
            weights, out, seg, shares_p, flux_free, sub, sub_shares, sub_ff, far_seg, state, sx, sy, acc, powers, logs,
-           coeffs, parent, xruns, yruns):
+           doubtful, coeffs, parent, xruns, yruns):
     """Write the field (far + near) of the samples of ``cells[lo:hi]`` into ``out``; the rest are the thread's scratch.
 
     One call per run of cells: a call passes some thirty arrays (reference counts and all).
@@ -254,7 +254,7 @@ def _cells(cells, lo, hi, local, order, xs, ys, x_start, y_start, n, cell_size, 
                         eta[i * width + j] = (ys[ya + i] - yc) * inv_size
                 by_powers(coeffs, order, count, xi, eta, INV_TWO_PI, powers)
                 if near > 0:
-                    by_samples(near, count, sub, sub_shares, sub_ff, sx, sy, acc, logs)
+                    by_samples(near, count, sub, sub_shares, sub_ff, sx, sy, acc, logs, doubtful)
                     for c in range(3):
                         for i in range(count):
                             far[c, i] += acc[c, i]
@@ -274,12 +274,12 @@ def _subcell_grid(local, order, xs, ys, x_start, y_start, n, cell_size, split, r
         far_seg, state = np.empty((BLOCK_ROWS, capacity)), np.empty((12, capacity))
         powers = np.empty((7, most))
         sx, sy = np.empty(most), np.empty(most)
-        acc, logs = np.empty((3, most)), np.empty((2, most))
+        acc, logs, doubtful = np.empty((3, most)), np.empty((2, most)), np.zeros(most, np.int32)
         coeffs, parent = np.empty((3, order + 1), np.complex128), np.empty((3, order + 1), np.complex128)
         xruns, yruns = np.empty(split + 1, np.int64), np.empty(split + 1, np.int64)
         _cells(cells, group_start[g], group_start[g + 1], local, order, xs, ys, x_start, y_start, n, cell_size, split,
                reach, cell_start, table, weights, out, seg, shares_p, flux_free, sub, sub_shares, sub_ff, far_seg,
-               state, sx, sy, acc, powers, logs, coeffs, parent, xruns, yruns)
+               state, sx, sy, acc, powers, logs, doubtful, coeffs, parent, xruns, yruns)
 
 
 @numba.njit(cache=True)
@@ -322,7 +322,7 @@ GROUPS_PER_THREAD = 8
 def subcell_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.ndarray, cell_size: float,
                        cell_start: np.ndarray, p: np.ndarray, q: np.ndarray, flux: np.ndarray, jump: np.ndarray,
                        split: int = 1, separation: float = SEPARATION, out: np.ndarray | None = None,
-                       tables: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+                       tables: tuple[np.ndarray, np.ndarray] | None = None, precision: str = "double") -> np.ndarray:
     """The field of an FMR's segments (far and near) on the tensor grid ``ys x xs``, ``(len(ys), len(xs), 3)``.
 
     Parameters
@@ -345,6 +345,8 @@ def subcell_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.nda
         C-contiguous float64 ``(len(ys), len(xs), 3)``, overwritten and returned.
     tables : tuple of numpy.ndarray, optional
         ``segment_sums.near_tables(p, q, flux, jump)``, when kept.
+    precision : {"double", "single"}
+        Of the near field of cells not split (``grid.near_field_grid``'s); sub-cells sum theirs in float64.
     """
     if not 0 <= order < local.shape[-1]:
         raise ValueError(f"order must be between 0 and {local.shape[-1] - 1}")
@@ -357,7 +359,8 @@ def subcell_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.nda
     cell_start = np.asarray(cell_start, np.int64)
     if split == 1:
         local_field_grid(local, order, xs, ys, cell_size, out=out)
-        return near_field_grid(xs, ys, n, cell_size, cell_start, p, q, flux, jump, out=out, tables=tables)
+        return near_field_grid(xs, ys, n, cell_size, cell_start, p, q, flux, jump, out=out, tables=tables,
+                               precision=precision)
     counts = np.pad(np.diff(cell_start).reshape(n, n), 1)
     near = sum(counts[1 + dy : 1 + dy + n, 1 + dx : 1 + dx + n] for dy in (-1, 0, 1) for dx in (-1, 0, 1)) > 0
     local_field_grid(local, order, xs, ys, cell_size, out=out, skip=near)
