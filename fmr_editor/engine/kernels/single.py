@@ -204,6 +204,11 @@ def doubt_single(x, y, px, py, qx, qy):
 by_samples_single = samples_loop(potentials_single, double_layer_single, log_r2_single, doubt_single)
 
 
+def _largest_channel(values: np.ndarray) -> np.ndarray:
+    """``|values|.max(axis=1)`` of ``(k, 3)`` values (numpy's reduction over a short axis took 13 ms for 188,436)."""
+    return np.maximum(np.maximum(np.abs(values[:, 0]), np.abs(values[:, 1])), np.abs(values[:, 2]))
+
+
 def error_bounds(cells_per_side: int, cell_size: float, cell_start: np.ndarray, flux: np.ndarray,
                  jump: np.ndarray) -> np.ndarray:
     """``(n, n)``: the bound of the float32 near field's error at any sample of each cell (module docstring).
@@ -216,8 +221,8 @@ def error_bounds(cells_per_side: int, cell_size: float, cell_start: np.ndarray, 
     if len(flux) == 0:
         return np.zeros((n, n))
     cell = np.repeat(np.arange(n * n), np.diff(cell_start))
-    flux_sum = np.bincount(cell, np.abs(flux).max(axis=1) * cell_size, n * n)
-    jump_sum = np.bincount(cell, np.abs(jump).max(axis=1), n * n)
+    flux_sum = np.bincount(cell, _largest_channel(flux) * cell_size, n * n)
+    jump_sum = np.bincount(cell, _largest_channel(jump), n * n)
     count = np.bincount(cell, minlength=n * n).astype(float)
     totals = []
     for values in (flux_sum, jump_sum, count):
