@@ -231,8 +231,19 @@ class EditorDriver:
         self.qtbot.keyClick(widget or self.canvas, key, modifiers or Qt.KeyboardModifier.NoModifier)
 
 
+@pytest.fixture(scope="session")
+def compiled_kernels() -> None:
+    """The engine's compiled kernels, made once before any window waits on them: a fresh clone compiles them
+    on first use (minutes on a loaded machine), so the GUI tests' bounded waits time the work, not that."""
+    from fmr_editor.engine import build, rasterise
+    from fmr_editor.io import load_document
+
+    sample = Path(__file__).resolve().parents[1] / "resources" / "samples" / "ribbon.xml"
+    rasterise(build(load_document(sample)), 64, 64, samples=1)
+
+
 @pytest.fixture
-def editor(gl_display, qtbot, tmp_path, monkeypatch):
+def editor(gl_display, qtbot, tmp_path, monkeypatch, compiled_kernels):
     """A shown editor window (no document yet) with its dialogs patched; see ``EditorDriver``."""
     from PySide6.QtCore import QSettings
     from PySide6.QtGui import QColor
