@@ -9,7 +9,7 @@ import pytest
 from layered import SIZE, reference, three_layers
 from shapes import scattered_document
 
-from fmr_editor.engine import LiveStack, evaluate_points, rasterise
+from fmr_editor.engine import LiveStack, evaluate_points, raster, rasterise
 from fmr_editor.model import DiffusionPoint, Document, Layer, edits, layer_edits
 from fmr_editor.model.color_transform import hue_rotation, inversion
 from fmr_editor.model.history import History
@@ -118,7 +118,8 @@ def test_the_curve_mask_is_the_indicator_of_its_circle(stack):
     np.testing.assert_allclose(values, [1, 1, 0, 0, 0], atol=1e-3)
 
 
-def test_the_composite_at_any_points_equals_the_composite_image(stack):
+def test_the_composite_at_any_points_equals_the_composite_image(stack, monkeypatch):
+    monkeypatch.setattr(raster, "NEAR_PRECISION", "double")  # points are summed in float64
     xs = (np.arange(PIXELS) + 0.5) * SIZE / PIXELS
     grid = np.stack(np.meshgrid(xs, xs), axis=-1).reshape(-1, 2)
     image = rasterise(stack.composite, PIXELS, PIXELS, samples=1)
@@ -207,7 +208,8 @@ def test_undoing_a_deletion_takes_the_layer_back_without_a_solve():
 # -- baking transforms, merging ------------------------------------------------------------------------------------
 
 
-def test_a_baked_transform_gives_the_same_image_without_a_transform():
+def test_a_baked_transform_gives_the_same_image_without_a_transform(monkeypatch):
+    monkeypatch.setattr(raster, "NEAR_PRECISION", "double")  # the same sums in either order (float32 rounds each)
     layer = Layer(scattered_document(SIZE, seed=5).curves, transform=hue_rotation(70).then(inversion()),
                   points=[DiffusionPoint((40, 50), 15, (0.2, 0.5, 0.9), 0.7)])
     document = Document(SIZE, SIZE, layers=(layer,))
