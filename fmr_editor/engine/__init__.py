@@ -10,9 +10,11 @@ uses is exported here; everything else is the engine's own.  Every fast path
 has a plain reference beside it (``*_reference``), which the tests compare.
 """
 
+from .memory import return_freed_arrays
 from .threads import limit_blas
 
 limit_blas()  # before any work: see threads.py for why one BLAS thread is faster here
+return_freed_arrays()  # before any work: see memory.py for why freed arrays stayed resident
 
 from .composite import Composite, LayerFields  # noqa: E402
 from .fmm.expansions import local_polynomials  # noqa: E402

@@ -1,0 +1,66 @@
+"""Freed arrays go back to the system (``engine.memory.return_freed_arrays``): a long session's resident memory
+follows what it holds (issue 16's soak), instead of keeping the holes its undo cache leaves."""
+
+from __future__ import annotations
+
+import os
+import platform
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from fmr_editor.engine.memory import return_freed_arrays
+
+REPO = Path(__file__).resolve().parents[1]
+
+# In a fresh process: a 16 MB array freed (glibc's own rule would then raise its threshold to 16 MB), then 1 MB
+# arrays with 100 KB blocks between them, as kept undo states leave theirs; the arrays freed, the blocks kept.
+HOLES = """
+import numpy as np
+import fmr_editor.engine  # noqa: F401
+
+
+def resident():
+    with open("/proc/self/status") as status:
+        return next(int(line.split()[1]) * 1024 for line in status if line.startswith("VmRSS:"))
+
+
+big = np.ones(2**21)
+del big
+start = resident()
+arrays, between = [], []
+for _ in range(100):
+    arrays.append(np.ones(2**17))
+    between.append(bytearray(100_000))
+held = resident()
+del arrays
+print(held - start, resident() - start)
+"""
+
+
+def _held_and_left(environment: dict[str, str]) -> tuple[int, int]:
+    done = subprocess.run([sys.executable, "-c", HOLES], capture_output=True, text=True, check=True, cwd=REPO,
+                          env=environment, timeout=120)
+    held, left = map(int, done.stdout.split())
+    return held, left
+
+
+GLIBC = sys.platform.startswith("linux") and platform.libc_ver()[0] == "glibc"
+
+
+@pytest.mark.skipif(not GLIBC, reason="glibc's allocator")
+def test_freed_arrays_leave_no_resident_holes():
+    environment = {key: value for key, value in os.environ.items() if not key.startswith("MALLOC_")}
+    environment["PYTHONPATH"] = os.pathsep.join([str(REPO), environment.get("PYTHONPATH", "")])
+    held, left = _held_and_left(environment)
+    assert held > 100 * 2**20  # the arrays' 100 MB and the blocks' 10 MB were resident while held
+    assert left < 30 * 2**20, f"{left / 2**20:.0f} MB stayed resident: the freed arrays' 100 MB did"
+
+
+@pytest.mark.skipif(not GLIBC, reason="glibc's allocator")
+def test_the_environment_s_threshold_stands(monkeypatch):
+    assert return_freed_arrays()
+    monkeypatch.setenv("MALLOC_MMAP_THRESHOLD_", str(2**20))
+    assert not return_freed_arrays()
