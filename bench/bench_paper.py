@@ -104,8 +104,8 @@ def measure(iteration: int, level: int, args: argparse.Namespace) -> dict:
     for _ in range(args.repeat):
         cells = None  # free the last run's expansions before the next is made
         laps = [time.perf_counter()]
-        cells = Cells.build(segments, lattice, settings.propagation_order, lambda stage: laps.append(time.perf_counter()),
-                            pixel_order=settings.order)
+        cells = Cells.build(segments, lattice, settings.propagation_order,
+                            lambda stage: laps.append(time.perf_counter()), pixel_order=settings.order)
         passes.append(np.diff(laps))
     rep = Representation(args.size, args.size, lattice, cells.segments, cells.cell_start, cells.local, settings.order)
     for _ in range(args.repeat):

@@ -125,8 +125,7 @@ def describe(rep: Representation, document: Document, settings: Settings | None 
     local = rep.local
     if settings is not None and local.shape[-1] < settings.propagation_order + 1:
         # the editor keeps the pixels' terms only (``Cells.local``); the file holds the propagation order's
-        local = np.concatenate([local, np.zeros(local.shape[:-1] + (settings.propagation_order + 1
-                                                                    - local.shape[-1],), local.dtype)], axis=-1)
+        local = np.pad(local, [(0, 0)] * 3 + [(0, settings.propagation_order + 1 - local.shape[-1])])
     propagation_order = local.shape[-1] - 1
     if settings is not None:
         _check_settings(settings, rep.lattice.levels, rep.order, propagation_order)

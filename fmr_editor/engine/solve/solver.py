@@ -292,7 +292,8 @@ class BoundarySolver:
             return 1e-13
         return GMRES_RTOL if iterate else self.factors.tolerance
 
-    def solve(self, rhs: np.ndarray, progress: Callable[[float], None] | None = None, iterate: bool = True) -> np.ndarray:
+    def solve(self, rhs: np.ndarray, progress: Callable[[float], None] | None = None,
+              iterate: bool = True) -> np.ndarray:
         """Unknowns ``(n, 3)`` (E on curves, C on the border, input order) for ``rhs`` (input order).
 
         With ``iterate=False`` the compressed factorisation's own solution is
