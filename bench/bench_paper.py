@@ -85,6 +85,34 @@ def synthetic_values(segments, seed: int):
     return dataclasses.replace(segments, flux=flux, jump=jump)
 
 
+def pass_parts(segments, lattice, propagation_order: int, pixel_order: int, repeat: int) -> dict[str, float]:
+    """Best-of-``repeat`` seconds of the passes' parts, run as ``Cells.build`` runs them: P2M, M2M, the fine
+    level's M2L and L2L (``fine``) and the coarser levels' (``coarse``)."""
+    from fmr_editor.engine.fmm import passes
+    from fmr_editor.engine.fmm.lattice import sort_into_cells
+    from fmr_editor.engine.fmm.orders import pass_orders
+
+    segments, cell_start = sort_into_cells(segments, lattice)
+    orders = pass_orders(lattice.levels, min(pixel_order, propagation_order), propagation_order)
+    best: dict[str, float] = {}
+    for _ in range(repeat):
+        laps = [("start", time.perf_counter())]
+
+        def lap(stage: str) -> None:
+            laps.append((stage, time.perf_counter()))
+
+        fine, sources = passes.upward(segments, cell_start, lattice, orders, lap)
+        lap("M2M")
+        del fine
+        passes.downward(sources, lattice, orders, min(pixel_order, propagation_order) + 1, lap)
+        parts = {"coarse": 0.0}
+        for (_, before), (stage, after) in zip(laps, laps[1:]):
+            name = "fine" if stage == f"L{lattice.levels}" else "coarse" if stage.startswith("L") else stage
+            parts[name] = parts.get(name, 0.0) + after - before
+        best = {name: min(time, best.get(name, time)) for name, time in parts.items()}
+    return best
+
+
 def measure(iteration: int, level: int, args: argparse.Namespace) -> dict:
     """Times, sizes, error and peak memory of one cell (run in a process of its own)."""
     from fmr_editor.engine import Representation, rasterise
@@ -107,6 +135,7 @@ def measure(iteration: int, level: int, args: argparse.Namespace) -> dict:
         cells = Cells.build(segments, lattice, settings.propagation_order,
                             lambda stage: laps.append(time.perf_counter()), pixel_order=settings.order)
         passes.append(np.diff(laps))
+    parts = pass_parts(segments, lattice, settings.propagation_order, settings.order, args.repeat)
     rep = Representation(args.size, args.size, lattice, cells.segments, cells.cell_start, cells.local, settings.order)
     for _ in range(args.repeat):
         start = time.perf_counter()
@@ -128,7 +157,7 @@ def measure(iteration: int, level: int, args: argparse.Namespace) -> dict:
     return {"iteration": iteration, "level": level, "pieces": pieces_of(iteration), "segments": len(segments),
             "occupied": int(np.count_nonzero(np.diff(cells.cell_start))), "upward": float(best[0]),
             "downward": float(best[1]), "raster": min(rasters), "error": float(error),
-            "raster_error": float(raster_error), "load": os.getloadavg()[0],
+            "raster_error": float(raster_error), "parts": parts, "load": os.getloadavg()[0],
             "orders": f"{settings.propagation_order}/{settings.order}",
             "rss": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
 
@@ -192,6 +221,15 @@ def main(argv: list[str] | None = None) -> None:
            LEVELS[:-1])
     _table(rows, f"Table 2: {args.raster} x {args.raster} raster, 1 sample a pixel", lambda r: r["raster"], TABLE_2,
            LEVELS)
+    print("Where the passes' time goes (best of each part apart, ms): upward = P2M + M2M, downward = the fine "
+          "level's M2L and L2L + the coarser levels'.\n")
+    print("| curves | L | P2M | M2M | fine M2L + L2L | coarser levels |")
+    print("|---:|---:|---:|---:|---:|---:|")
+    for (i, level), r in sorted(rows.items()):
+        p = r["parts"]
+        print(f"| {r['pieces']:,} | {level} | {1e3 * p['P2M']:.1f} | {1e3 * p['M2M']:.1f} | {1e3 * p['fine']:.1f} | "
+              f"{1e3 * p['coarse']:.1f} |")
+    print()
     print("| curves | L | segments after cutting | occupied cells | orders (propagation/pixels) | "
           f"max error vs direct sum ({args.error_pixels} points, /255) | raster's ({args.error_pixels} pixels) | "
           "peak RSS MB | load |")

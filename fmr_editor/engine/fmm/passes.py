@@ -17,6 +17,7 @@ orders) are the reference.  The work follows the occupied cells:
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import lru_cache
 
@@ -88,9 +89,12 @@ def _m2m_tables(child_terms: int, parent_terms: int, width: int) -> tuple[np.nda
     return np.ascontiguousarray(matrices.real), np.ascontiguousarray(matrices.imag)
 
 
-def upward(segments, cell_start: np.ndarray, lattice: Lattice, orders: PassOrders
-           ) -> tuple[np.ndarray, list[LevelSources | None]]:
-    """P2M and M2M: the fine multipoles at full width ``(2^L, 2^L, 3, width + 1)`` and every level's sources."""
+def upward(segments, cell_start: np.ndarray, lattice: Lattice, orders: PassOrders,
+           lap: Callable[[str], None] | None = None) -> tuple[np.ndarray, list[LevelSources | None]]:
+    """P2M and M2M: the fine multipoles at full width ``(2^L, 2^L, 3, width + 1)`` and every level's sources.
+
+    ``lap("P2M")``, if given, is called between the two (a benchmark's breakdown).
+    """
     n, width = lattice.cells_per_side, orders.width
     cells = np.flatnonzero(np.diff(cell_start))
     centres = lattice.cell_centres(np.stack(np.divmod(cells, n), axis=1))
@@ -98,6 +102,8 @@ def upward(segments, cell_start: np.ndarray, lattice: Lattice, orders: PassOrder
     moments = fine.reshape(n * n, 3, width + 1)  # a view: P2M writes the fine multipoles in place
     fine_moments_into(cell_start, cells, centres, lattice.cell_size, segments.p, segments.q, segments.flux,
                       segments.jump, moments)
+    if lap is not None:
+        lap("P2M")
     values_re = values_im = None  # the sparse levels' multipoles, as planes
     sources: list[LevelSources | None] = [None] * (lattice.levels + 1)
     grid = None
@@ -191,10 +197,11 @@ def _l2l_tables(parent_terms: int, child_terms: int, width: int) -> tuple[np.nda
 
 
 def downward(sources: list[LevelSources | None], lattice: Lattice, orders: PassOrders,
-             terms: int | None = None) -> np.ndarray:
+             terms: int | None = None, lap: Callable[[str], None] | None = None) -> np.ndarray:
     """M2L and L2L: the fine cells' local expansions ``(2^L, 2^L, 3, terms)`` complex, zero past ``kept``.
 
-    ``terms`` (at least the fine level's ``kept + 1``) defaults to ``width + 1``.
+    ``terms`` (at least the fine level's ``kept + 1``) defaults to ``width + 1``; ``lap(f"L{level}")``, if
+    given, is called after each level's M2L and L2L.
 
     Each level's entry of ``sources`` is set to None once its translations are done, so that the coarse
     levels' grids are freed before the fine level's local expansions fill (77 MB of a 1.2 GB peak at L 9).
@@ -219,6 +226,8 @@ def downward(sources: list[LevelSources | None], lattice: Lattice, orders: PassO
                             *coarse, local if fine else _NO_FINE)
         sources[level] = level_sources = None
         parent_re, parent_im = coarse
+        if lap is not None:
+            lap(f"L{level}")
     return local
 
 
