@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import tracemalloc
 
 import numba
 import numpy as np
@@ -206,3 +207,23 @@ def test_bands_do_not_change_the_image(small_rep, monkeypatch, samples):
     monkeypatch.setattr(raster, "BAND_SAMPLES", 1000)
     banded = rasterise(small_rep, 150, 97, samples=samples)
     np.testing.assert_allclose(banded, whole, rtol=0, atol=1e-12)
+
+
+def test_rasterising_makes_no_tensor_of_the_representation():
+    """With four fine cells a pixel (L 8 under a 128 x 80 image) the local expansions (3 x 9 complex terms a
+    cell) are 70x the image.  The raster reads them in place: besides the image, numpy allocates at most
+    per-cell bookkeeping (cell counts), under a twentieth of the expansions; a polynomial tensor of the
+    cells (the 9 x 9 real coefficients of the old far field) would be 1.5x them."""
+    rng = np.random.default_rng(5)
+    stops = tuple(ColorStop(s, tuple(rng.random(3))) for s in (0.0, 1.0))
+    curves = (DiffusionCurve(circle_points(128, 80, 60), left=stops, right=stops[::-1]),)
+    rep = build(Document(256, 160, curves), Settings(levels=8))
+    rasterise(rep, 128, 80, samples=1)  # compiled before measuring
+    tracemalloc.start()
+    try:
+        image = rasterise(rep, 128, 80, samples=1)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert rep.local.nbytes > 50 * image.nbytes
+    assert peak - image.nbytes < rep.local.nbytes / 20
