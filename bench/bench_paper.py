@@ -119,6 +119,8 @@ def measure(iteration: int, level: int, args: argparse.Namespace) -> dict:
     from fmr_editor.engine.cells import Cells
     from fmr_editor.engine.fmm.lattice import Lattice
     from fmr_editor.engine.geometry.discretise import boundary_segments, curve_segments
+    from fmr_editor.engine.kernels.local_grid import local_field_grid
+    from fmr_editor.engine.raster import sample_coordinates
 
     warm_up()
     settings = hilbert_settings(args.size, levels=level, order=args.order)
@@ -137,10 +139,15 @@ def measure(iteration: int, level: int, args: argparse.Namespace) -> dict:
         passes.append(np.diff(laps))
     parts = pass_parts(segments, lattice, settings.propagation_order, settings.order, args.repeat)
     rep = Representation(args.size, args.size, lattice, cells.segments, cells.cell_start, cells.local, settings.order)
+    far = []  # the far field alone, every cell's samples (the raster skips those its sub-cells redo)
+    samples = sample_coordinates(args.raster, args.size, 1)
     for _ in range(args.repeat):
         start = time.perf_counter()
         image = rasterise(rep, args.raster, args.raster, samples=1)
         rasters.append(time.perf_counter() - start)
+        start = time.perf_counter()
+        local_field_grid(rep.local, rep.order, samples, samples, lattice.cell_size, out=np.empty_like(image))
+        far.append(time.perf_counter() - start)
     rng = np.random.default_rng(args.seed)
     pixels = rng.uniform(0, args.size, (args.error_pixels, 2))
     from fmr_editor.engine import evaluate_points
@@ -156,7 +163,7 @@ def measure(iteration: int, level: int, args: argparse.Namespace) -> dict:
     best = np.min(passes, axis=0)
     return {"iteration": iteration, "level": level, "pieces": pieces_of(iteration), "segments": len(segments),
             "occupied": int(np.count_nonzero(np.diff(cells.cell_start))), "upward": float(best[0]),
-            "downward": float(best[1]), "raster": min(rasters), "error": float(error),
+            "downward": float(best[1]), "raster": min(rasters), "far": min(far), "error": float(error),
             "raster_error": float(raster_error), "parts": parts, "load": os.getloadavg()[0],
             "orders": f"{settings.propagation_order}/{settings.order}",
             "rss": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
@@ -229,6 +236,13 @@ def main(argv: list[str] | None = None) -> None:
         p = r["parts"]
         print(f"| {r['pieces']:,} | {level} | {1e3 * p['P2M']:.1f} | {1e3 * p['M2M']:.1f} | {1e3 * p['fine']:.1f} | "
               f"{1e3 * p['coarse']:.1f} |")
+    print()
+    print("The raster's far field alone (every cell's local expansion at every pixel, best of its own; the rest of "
+          "the raster is the near field and the sub-cells):\n")
+    print("| curves | L | raster ms | far field ms |")
+    print("|---:|---:|---:|---:|")
+    for (i, level), r in sorted(rows.items()):
+        print(f"| {r['pieces']:,} | {level} | {1e3 * r['raster']:.1f} | {1e3 * r['far']:.1f} |")
     print()
     print("| curves | L | segments after cutting | occupied cells | orders (propagation/pixels) | "
           f"max error vs direct sum ({args.error_pixels} points, /255) | raster's ({args.error_pixels} pixels) | "
