@@ -130,6 +130,9 @@ def measure(iteration: int, level: int, args: argparse.Namespace) -> dict:
     segments = synthetic_values(boundary_segments(curves, document, lattice.cell_size, settings.border_spacing),
                                 args.seed)
     del curves  # only the cut segments are built from
+    # first, so that its arrays are gone before the builds' (the peak memory is theirs)
+    parts = (pass_parts(segments, lattice, settings.propagation_order, settings.order, args.repeat)
+             if (pieces_of(iteration), level) in TABLE_1 else None)
     passes, rasters, cells = [], [], None
     for _ in range(args.repeat):
         cells = None  # free the last run's expansions before the next is made
@@ -137,7 +140,6 @@ def measure(iteration: int, level: int, args: argparse.Namespace) -> dict:
         cells = Cells.build(segments, lattice, settings.propagation_order,
                             lambda stage: laps.append(time.perf_counter()), pixel_order=settings.order)
         passes.append(np.diff(laps))
-    parts = pass_parts(segments, lattice, settings.propagation_order, settings.order, args.repeat)
     rep = Representation(args.size, args.size, lattice, cells.segments, cells.cell_start, cells.local, settings.order)
     far = []  # the far field alone, every cell's samples (the raster skips those its sub-cells redo)
     samples = sample_coordinates(args.raster, args.size, 1)
@@ -233,6 +235,8 @@ def main(argv: list[str] | None = None) -> None:
     print("| curves | L | P2M | M2M | fine M2L + L2L | coarser levels |")
     print("|---:|---:|---:|---:|---:|---:|")
     for (i, level), r in sorted(rows.items()):
+        if r["parts"] is None:
+            continue
         p = r["parts"]
         print(f"| {r['pieces']:,} | {level} | {1e3 * p['P2M']:.1f} | {1e3 * p['M2M']:.1f} | {1e3 * p['fine']:.1f} | "
               f"{1e3 * p['coarse']:.1f} |")
