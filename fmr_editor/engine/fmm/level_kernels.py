@@ -33,6 +33,8 @@ INDEX_PAD = 3
 PAIR = 2
 #: Columns of ``offset_table``: offset, source grid and its shift, multipole term pairs, highest local term.
 DX, DY, GRID_Y, GRID_X, SHIFT_Y, SHIFT_X, PAIRS, LOCAL = range(8)
+#: Which entries of a translation's matrix ``m[k, l]`` ``_add_row`` reads: all, ``l >= k`` or ``l <= k``.
+FULL, UPPER, LOWER = 0, 1, 2
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH, inline="always")
@@ -48,12 +50,18 @@ def _sweep(acc_re, acc_im, l, ch, row_re, row_im, k, column, count, t0r, t0i, t1
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH, inline="always")
-def _add_row(acc_re, acc_im, row_re, row_im, column, count, pairs, top, m_re, m_im, o):
-    """``acc[l] += sum_k m[o, k, l] row[k]`` for ``l <= top``, ``k < 2 pairs``, over ``count`` columns from ``column``."""
+def _add_row(acc_re, acc_im, row_re, row_im, column, count, pairs, top, m_re, m_im, o, triangle=FULL):
+    """``acc[l] += sum_k m[o, k, l] row[k]`` for ``l <= top``, ``k < 2 pairs``, over ``count`` columns from ``column``.
+
+    ``triangle``: ``UPPER`` skips the ``l < k`` a matrix without them (M2M) would add as zeros, ``LOWER`` the
+    ``l > k`` (L2L): half the work of those translations.
+    """
     for pair in range(pairs):
         k = PAIR * pair
+        first = k if triangle == UPPER else 0
+        last = min(top, k + 1) if triangle == LOWER else top
         for ch in range(3):
-            for l in range(top + 1):
+            for l in range(first, last + 1):
                 _sweep(acc_re, acc_im, l, ch, row_re, row_im, k, column, count,
                        m_re[o, k, l], m_im[o, k, l], m_re[o, k + 1, l], m_im[o, k + 1, l])
 
@@ -123,7 +131,7 @@ def level_local(size, parent_re, parent_im, l2l_re, l2l_im, grid_re, grid_im, sr
         acc_im = np.zeros((terms, 3, half))
         if parent_re.size > 0:
             _add_row(acc_re, acc_im, parent_re[a], parent_im[a], 0, half, l2l_re.shape[1] // PAIR, terms - 1,
-                     l2l_re, l2l_im, parity)
+                     l2l_re, l2l_im, parity, LOWER)
         buf_re = np.empty((3, terms))
         buf_im = np.empty((3, terms))
         for o in range(starts[parity], starts[parity + 1]):
@@ -164,7 +172,7 @@ def grid_m2m(child_re, child_im, m2m_re, m2m_im, parent_re, parent_im):
         for parity in range(4):
             _add_row(acc_re, acc_im, child_re[parity // 2, parity % 2, row + GRID_PAD],
                      child_im[parity // 2, parity % 2, row + GRID_PAD], GRID_PAD, size, m2m_re.shape[1] // PAIR,
-                     terms - 1, m2m_re, m2m_im, parity)
+                     terms - 1, m2m_re, m2m_im, parity, UPPER)
         for column in range(size):
             for l in range(terms):
                 for ch in range(3):
