@@ -1,5 +1,6 @@
-"""Freed arrays go back to the system (``engine.memory.return_freed_arrays``): a long session's resident memory
-follows what it holds (issue 16's soak), instead of keeping the holes its undo cache leaves."""
+"""Freed arrays go back to the system (``engine.memory.return_freed_arrays``, ``give_back_free_pages``): a long
+session's resident memory follows what it holds (issue 16's soak), instead of keeping the holes its undo cache
+leaves."""
 
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ from pathlib import Path
 
 import pytest
 
+from fmr_editor.engine.kept_states import KeptStates
 from fmr_editor.engine.memory import return_freed_arrays
 
 REPO = Path(__file__).resolve().parents[1]
@@ -40,8 +42,32 @@ print(held - start, resident() - start)
 """
 
 
-def _held_and_left(environment: dict[str, str]) -> tuple[int, int]:
-    done = subprocess.run([sys.executable, "-c", HOLES], capture_output=True, text=True, check=True, cwd=REPO,
+# Arrays below the threshold (a small file's, 120 KB) stay in glibc's heap: freed between kept blocks (16 KB, too
+# big for the free pieces the imports left), their pages stay resident until ``give_back_free_pages``.
+SMALL_HOLES = """
+import numpy as np
+from fmr_editor.engine.memory import give_back_free_pages
+
+
+def resident():
+    with open("/proc/self/status") as status:
+        return next(int(line.split()[1]) * 1024 for line in status if line.startswith("VmRSS:"))
+
+
+start = resident()
+arrays, between = [], []
+for _ in range(500):
+    arrays.append(np.ones(15_000))
+    between.append(np.ones(2_000))
+del arrays
+freed = resident()
+give_back_free_pages()
+print(freed - start, resident() - start)
+"""
+
+
+def _held_and_left(environment: dict[str, str], script: str = HOLES) -> tuple[int, int]:
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, check=True, cwd=REPO,
                           env=environment, timeout=120)
     held, left = map(int, done.stdout.split())
     return held, left
@@ -64,3 +90,27 @@ def test_the_environment_s_threshold_stands(monkeypatch):
     assert return_freed_arrays()
     monkeypatch.setenv("MALLOC_MMAP_THRESHOLD_", str(2**20))
     assert not return_freed_arrays()
+
+
+@pytest.mark.skipif(not GLIBC, reason="glibc's allocator")
+def test_free_pages_between_small_arrays_go_back():
+    environment = {key: value for key, value in os.environ.items() if not key.startswith("MALLOC_")}
+    environment["PYTHONPATH"] = os.pathsep.join([str(REPO), environment.get("PYTHONPATH", "")])
+    freed, left = _held_and_left(environment, SMALL_HOLES)
+    assert freed > 50 * 2**20  # the freed arrays' 60 MB stayed resident between the kept blocks
+    assert left < 20 * 2**20, f"{left / 2**20:.0f} MB stayed resident after give_back_free_pages (kept: 8 MB)"
+
+
+def test_the_undo_cache_gives_back_what_it_lets_go(monkeypatch):
+    """``KeptStates`` calls ``give_back_free_pages`` when it lets states go, and only then."""
+    calls = []
+    monkeypatch.setattr("fmr_editor.engine.kept_states.give_back_free_pages", lambda: calls.append(1))
+    kept = KeptStates(memory=100)
+    for size in (60, 30, 50):
+        kept.keep(_FakeState(size))
+    assert len(kept) == 2 and calls == [1]  # the third state (60 + 30 + 50 > 100) let the first go
+
+
+class _FakeState:
+    def __init__(self, nbytes: int) -> None:
+        self.nbytes, self.document = nbytes, object()
