@@ -22,7 +22,9 @@ raster is ``rasterise(rep, S, S, samples=1)``.  The
 error is the largest difference from the direct boundary integral
 (``method="direct"``) at ``K`` random points (``evaluate_points``) and at the
 centres of ``K`` random pixels of the raster, in 8-bit levels; ``load`` the
-one-minute load average when the cell finished.
+one-minute load average when the cell finished.  Two more tables say where
+the time goes: the passes' parts (P2M, M2M, the fine level's M2L and L2L,
+the coarser levels'; Table 1's cells) and the raster's far field alone.
 
 Markdown on stdout, progress on stderr.  Every time is the best of N runs
 (default 5) on a shared, noisy 2-core machine.
@@ -109,7 +111,7 @@ def pass_parts(segments, lattice, propagation_order: int, pixel_order: int, repe
         for (_, before), (stage, after) in zip(laps, laps[1:]):
             name = "fine" if stage == f"L{lattice.levels}" else "coarse" if stage.startswith("L") else stage
             parts[name] = parts.get(name, 0.0) + after - before
-        best = {name: min(time, best.get(name, time)) for name, time in parts.items()}
+        best = {name: min(seconds, best.get(name, seconds)) for name, seconds in parts.items()}
     return best
 
 
