@@ -66,7 +66,10 @@ print(freed - start, resident() - start)
 """
 
 
-def _held_and_left(environment: dict[str, str], script: str = HOLES) -> tuple[int, int]:
+def _held_and_left(script: str = HOLES) -> tuple[int, int]:
+    """The two numbers ``script`` prints, run in a fresh process with glibc's own defaults (no ``MALLOC_``)."""
+    environment = {key: value for key, value in os.environ.items() if not key.startswith("MALLOC_")}
+    environment["PYTHONPATH"] = os.pathsep.join([str(REPO), environment.get("PYTHONPATH", "")])
     done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, check=True, cwd=REPO,
                           env=environment, timeout=120)
     held, left = map(int, done.stdout.split())
@@ -78,9 +81,7 @@ GLIBC = sys.platform.startswith("linux") and platform.libc_ver()[0] == "glibc"
 
 @pytest.mark.skipif(not GLIBC, reason="glibc's allocator")
 def test_freed_arrays_leave_no_resident_holes():
-    environment = {key: value for key, value in os.environ.items() if not key.startswith("MALLOC_")}
-    environment["PYTHONPATH"] = os.pathsep.join([str(REPO), environment.get("PYTHONPATH", "")])
-    held, left = _held_and_left(environment)
+    held, left = _held_and_left()
     assert held > 100 * 2**20  # the arrays' 100 MB and the blocks' 10 MB were resident while held
     assert left < 30 * 2**20, f"{left / 2**20:.0f} MB stayed resident: the freed arrays' 100 MB did"
 
@@ -94,11 +95,16 @@ def test_the_environment_s_threshold_stands(monkeypatch):
 
 @pytest.mark.skipif(not GLIBC, reason="glibc's allocator")
 def test_free_pages_between_small_arrays_go_back():
-    environment = {key: value for key, value in os.environ.items() if not key.startswith("MALLOC_")}
-    environment["PYTHONPATH"] = os.pathsep.join([str(REPO), environment.get("PYTHONPATH", "")])
-    freed, left = _held_and_left(environment, SMALL_HOLES)
+    freed, left = _held_and_left(SMALL_HOLES)
     assert freed > 50 * 2**20  # the freed arrays' 60 MB stayed resident between the kept blocks
     assert left < 20 * 2**20, f"{left / 2**20:.0f} MB stayed resident after give_back_free_pages (kept: 8 MB)"
+
+
+class _FakeState:
+    """What ``KeptStates`` reads of a state: its size and its document."""
+
+    def __init__(self, nbytes: int) -> None:
+        self.nbytes, self.document = nbytes, object()
 
 
 def test_the_undo_cache_gives_back_what_it_lets_go(monkeypatch):
@@ -109,8 +115,3 @@ def test_the_undo_cache_gives_back_what_it_lets_go(monkeypatch):
     for size in (60, 30, 50):
         kept.keep(_FakeState(size))
     assert len(kept) == 2 and calls == [1]  # the third state (60 + 30 + 50 > 100) let the first go
-
-
-class _FakeState:
-    def __init__(self, nbytes: int) -> None:
-        self.nbytes, self.document = nbytes, object()
