@@ -152,27 +152,23 @@ def return_freed_arrays(threshold: int = OWN_PAGES) -> bool:
     bool
         True when the threshold was set.
     """
-    if not sys.platform.startswith("linux") or "MALLOC_MMAP_THRESHOLD_" in os.environ:
+    mallopt = _libc_function("mallopt", ctypes.c_int, ctypes.c_int)
+    if mallopt is None or "MALLOC_MMAP_THRESHOLD_" in os.environ:
         return False
-    try:
-        mallopt = ctypes.CDLL(None).mallopt
-    except (OSError, AttributeError):
-        return False
-    mallopt.argtypes, mallopt.restype = [ctypes.c_int, ctypes.c_int], ctypes.c_int
     return bool(mallopt(_M_MMAP_THRESHOLD, int(threshold)))
 
 
-@lru_cache(maxsize=1)
-def _malloc_trim():
-    """glibc's ``malloc_trim``, or None where there is none."""
+@lru_cache(maxsize=None)
+def _libc_function(name: str, *argtypes):
+    """The C library's function ``name`` (returning int) on Linux, or None where there is none."""
     if not sys.platform.startswith("linux"):
         return None
     try:
-        trim = ctypes.CDLL(None).malloc_trim
+        function = getattr(ctypes.CDLL(None), name)
     except (OSError, AttributeError):
         return None
-    trim.argtypes, trim.restype = [ctypes.c_size_t], ctypes.c_int
-    return trim
+    function.argtypes, function.restype = list(argtypes), ctypes.c_int
+    return function
 
 
 def give_back_free_pages() -> bool:
@@ -185,7 +181,7 @@ def give_back_free_pages() -> bool:
     when the undo cache lets states go (``kept_states``); 0.6 ms in a fresh
     process.  Returns False where there is no glibc.
     """
-    trim = _malloc_trim()
+    trim = _libc_function("malloc_trim", ctypes.c_size_t)
     if trim is None:
         return False
     trim(0)
