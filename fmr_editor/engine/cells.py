@@ -14,11 +14,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .fmm.far_field import far_field_at
 from .fmm.lattice import Lattice, cell_order, changed_runs, fine_multipoles, sort_into_cells
 from .fmm.orders import PassOrders, pass_orders, uniform_orders
 from .fmm.passes import build_passes
 from .fmm.sparse_downward import delta_local
 from .geometry.segments import Segments
+from .kernels.segment_sums import near_sum
 
 #: A fine cell whose multipoles changed by less than this share of the solve's
 #: own accuracy (relative to the largest multipole) keeps the change pending:
@@ -92,6 +94,13 @@ class Cells:
         orders = None if pixel_order is None else pass_orders(lattice.levels, min(pixel_order, order), order)
         local = np.array(local[..., : _local_terms(order, pixel_order)], dtype=complex)
         return cls(segments, cell_start, fine_multipoles(segments, cell_start, lattice, order), local, orders)
+
+    def field_at(self, points: np.ndarray, lattice: Lattice) -> np.ndarray:
+        """The segments' field ``(m, 3)`` at ``points`` off them: the local expansions plus each point's 3x3
+        block of segments (``evaluate_points`` without diffusion points)."""
+        seg = self.segments
+        return far_field_at(self.local, lattice, lattice.cell_of(points), points) + near_sum(
+            points, lattice.cells_per_side, lattice.cell_size, self.cell_start, seg.p, seg.q, seg.flux, seg.jump)
 
     @property
     def nbytes(self) -> int:

@@ -9,7 +9,8 @@ The FMR is linear in its sources, so an edit is applied as a change:
   segments that were replaced, so it is solved through that factorisation
   (``solve.updated``) with one defect-correction step, or factorised again when
   many were replaced.  A *preview* (``exact=False``, for drags) skips the solve:
-  moved segments keep their old densities, the representation is marked
+  the densities of the last exact state carried over and solved again near the
+  moved segments only (``solve.preview``), the representation is marked
   ``approximate`` and ``refine`` makes it exact.
 
 Either curve edit ends with the change of the fine multipoles carried through
@@ -43,13 +44,12 @@ from .points.field import (
 )
 from .representation import SOLVE_SEGMENTS_PER_CELL, Representation, Settings, choose_levels
 from .solve.solver import BoundarySolver
+from .solve.preview import GLOBAL_STEP_SEGMENTS, Previews
 from .solve.system_solvers import SystemSolvers
 from .solve.updated import UpdatedSolver, carried_unknowns
 
 Progress = Callable[[str, float], None]
 
-#: Relative accuracy a preview's densities are taken to have (only for what counts as negligible).
-PREVIEW_ACCURACY = 1e-3
 #: A cell is reported changed once its local expansion moved by more than this
 #: since it was last reported, so a view that uploads what is reported stays
 #: within it of the truth.
@@ -71,12 +71,16 @@ class Update:
     seconds : float
     exact : bool
         False for a preview whose shading is approximate (``refine`` follows).
+    stale : bool
+        True for a preview that shows the last exact picture instead: its
+        estimated error passed what the screen may show (``solve.preview``).
     """
 
     kind: str
     changed: np.ndarray
     seconds: float
     exact: bool = True
+    stale: bool = False
 
 
 class LiveRepresentation:
@@ -105,12 +109,18 @@ class LiveRepresentation:
         The current FMR, a snapshot: later updates replace its arrays, never change them.
     approximate : bool
         True after a preview of a geometry edit, until ``refine`` (or an exact update).
+    stale : bool
+        True while approximate and the representation is the last exact one (``Update.stale``).
+    factorisations : int
+        Boundary systems factorised so far (the work a geometry edit should not repeat: it is solved
+        through the kept factorisation, ``solve.updated``).
     """
 
     def __init__(self, document: Document, settings: Settings = Settings(), progress: Progress | None = None,
                  saved: Representation | None = None, memory: int = 500 * 2**20) -> None:
         self.settings = settings
         self.approximate = False
+        self.factorisations = 0
         self.document = document
         self.lattice: Lattice | None = None
         self.timings: dict[str, float] = {}
@@ -127,9 +137,15 @@ class LiveRepresentation:
         self._radii = np.zeros(0)  # the points' radii, sorted
         self._point_levels = 2  # the lattice depth the points asked for when it was built
         self._handed_out: tuple | None = None  # (state, Representation): see representation
+        self._previews: tuple[Previews, Cells] | None = None  # of the last exact state and its cells
+        self._shows_exact = False  # a preview not trusted: the cells are the last exact state's
         if saved is None or not self._resume(document, saved):
             self._rebuild(document, progress)
         self._kept.keep(self._state())
+
+    @property
+    def stale(self) -> bool:
+        return self.approximate and self._shows_exact
 
     @property
     def memory(self) -> int:
@@ -231,7 +247,7 @@ class LiveRepresentation:
         """
         twin = object.__new__(LiveRepresentation)
         twin.__dict__.update(self.__dict__)
-        twin.document, twin.timings = document, {"twin": 0.0}
+        twin.document, twin.timings, twin.factorisations = document, {"twin": 0.0}, 0
         twin._curve_cache = self._curve_cache.copy()
         twin._solvers = SystemSolvers(twin._new_solver)
         twin._solvers.move_to(self._boundary)
@@ -243,6 +259,7 @@ class LiveRepresentation:
 
     def _new_solver(self, boundary: Segments, progress: Callable[[float], None] | None = None) -> BoundarySolver:
         solve_lattice = Lattice(choose_levels(self._curves, self._side, SOLVE_SEGMENTS_PER_CELL), self._side)
+        self.factorisations += 1
         return BoundarySolver(boundary, solve_lattice, progress)
 
     @property
@@ -300,7 +317,7 @@ class LiveRepresentation:
             kind = self._refine(changed) if exact and self.approximate else "none"
             if not self.approximate:
                 self._kept.keep(self._state())  # an equal document, another object: undo may come back to it
-            return Update(kind, changed, time.perf_counter() - start, not self.approximate)
+            return Update(kind, changed, time.perf_counter() - start, not self.approximate, self.stale)
         removed = [before.points[i] for i in changes.removed_points]
         added = [document.points[i] for i in changes.added_points]
         recoloured = recoloured_curves(before, document, changes) if changes.curves_changed else None
@@ -326,7 +343,7 @@ class LiveRepresentation:
         self._forget_curves(before.curves)
         if not self.approximate:
             self._kept.keep(self._state())
-        return Update(kind, changed, time.perf_counter() - start, not self.approximate)
+        return Update(kind, changed, time.perf_counter() - start, not self.approximate, self.stale)
 
     def refine(self) -> Update:
         """Make an approximate representation (a preview of a geometry edit) exact; nothing if it is."""
@@ -358,15 +375,28 @@ class LiveRepresentation:
                 solver.right_hand_side(new.jump - old.jump, new.mean - old.mean), iterate=False))
             self._propagate(changed, self.solver.accuracy(iterate=False))
             return "colours"
+        if not exact and not self.approximate:  # every preview starts from the last exact state: no drift
+            self._previews = self._previews_of(old), self._cells
         self._solvers.move_to(new)
-        carried = carried_unknowns(old, self._unknowns, new)
         if exact:
-            self._unknowns = self._solvers.solve_geometry(carried)
+            self._unknowns = self._solvers.solve_geometry(carried_unknowns(old, self._unknowns, new))
             self._propagate(changed, self.solver.accuracy())
         else:
-            self._unknowns, self.approximate = carried, True
-            self._propagate(changed, PREVIEW_ACCURACY, local=True)
+            previews, exact_cells = self._previews
+            preview = previews.preview(new)
+            self._unknowns, self.approximate, self._shows_exact = preview.unknowns, True, not preview.trusted
+            if preview.trusted:  # a preview changes its densities on purpose: none is negligible
+                self._propagate(changed, 0.0, local=not preview.global_step)
+            else:
+                self._show(exact_cells, changed)
         return "geometry"
+
+    def _previews_of(self, boundary: Segments) -> Previews:
+        """Previews of geometries near the current, exact one (``boundary``): what a drag shows."""
+        cells, lattice = self._cells, self.lattice
+        solver = self._solvers.run(lambda solver: solver) if len(boundary) <= GLOBAL_STEP_SEGMENTS else None
+        return Previews(boundary, self._unknowns, lambda points: cells.field_at(points, lattice),
+                        None if solver is None else lambda rhs: solver.solve(rhs, iterate=False))
 
     def _propagate(self, changed: np.ndarray, accuracy: float, local: bool = False) -> None:
         """Carry the change of the fine multipoles of the new unknowns through the tree; mark what moved.
@@ -401,13 +431,17 @@ class LiveRepresentation:
         return State(self.document, self.lattice, self._curves, self._radii, self._boundary, self._unknowns,
                      self._cells, points)
 
+    def _show(self, cells: Cells, changed: np.ndarray, points_moved: np.ndarray | bool = False) -> None:
+        """Take ``cells`` (of this lattice) as the current ones, marking the cells whose pixels differ."""
+        moved = np.any(cells.fine != self._cells.fine, axis=(2, 3)) | points_moved
+        self._report(changed, largest_part(cells.local - self._cells.local, axis=(2, 3)), dilated(moved))
+        self._cells = cells
+
     def _restore(self, state: State, changed: np.ndarray) -> None:
         """Return to ``state`` (of this lattice), marking the cells whose pixels differ."""
-        cells = state.cells
-        moved = np.any(cells.fine != self._cells.fine, axis=(2, 3)) | changed_point_cells(self._points, state.points)
-        self._report(changed, largest_part(cells.local - self._cells.local, axis=(2, 3)), dilated(moved))
+        self._show(state.cells, changed, changed_point_cells(self._points, state.points))
         self.document, self._curves, self._radii = state.document, state.curves, state.radii
-        self._boundary, self._unknowns, self._cells = state.boundary, state.unknowns, cells
+        self._boundary, self._unknowns = state.boundary, state.unknowns
         self._points = state.points.copy() if state.points is not None else None
         self._solvers.move_to(state.boundary)
         self.approximate = False

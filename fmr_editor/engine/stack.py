@@ -51,6 +51,10 @@ class StackUpdate:
         return all(update.exact for update in self.fields.values())
 
     @property
+    def stale(self) -> bool:
+        return any(update.stale for update in self.fields.values())
+
+    @property
     def changed(self) -> np.ndarray | None:
         """The changed cells of the one field updated (see ``Update.changed``); None when several or none were."""
         return next(iter(self.fields.values())).changed if len(self.fields) == 1 else None
@@ -237,6 +241,10 @@ class LiveStack:
     @property
     def approximate(self) -> bool:
         return any(live.approximate for live in self.fields.values())
+
+    @property
+    def stale(self) -> bool:
+        return any(live.stale for live in self.fields.values())
 
     def warm_up(self) -> None:
         for live in self.fields.values():

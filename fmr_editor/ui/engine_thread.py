@@ -42,6 +42,8 @@ class Frame:
         The update's kind (see ``engine.StackUpdate``), or ``"build"``.
     exact : bool
         False while the shading is a drag's approximate preview.
+    stale : bool
+        True for a preview that shows the picture before the drag (``engine.Update.stale``).
     """
 
     document: Document
@@ -49,6 +51,7 @@ class Frame:
     changes: dict[tuple[int, str], np.ndarray]
     kind: str
     exact: bool = True
+    stale: bool = False
 
     @classmethod
     def first(cls, live: LiveStack) -> Frame:
@@ -58,7 +61,7 @@ class Frame:
             for kind, rep in layer.read:
                 n = rep.lattice.cells_per_side
                 changes[layer.id, kind] = np.ones((n, n), bool)
-        return cls(live.document, picture, changes, "build", not live.approximate)
+        return cls(live.document, picture, changes, "build", not live.approximate, live.stale)
 
     @property
     def representation(self) -> Representation:
@@ -122,7 +125,8 @@ class _Worker(QObject):
                     self._pending = None
             if update is not None:
                 changes = {key: field.changed for key, field in update.fields.items()}
-                self.ready.emit(Frame(document, self.live.composite, changes, update.kind, update.exact))
+                self.ready.emit(Frame(document, self.live.composite, changes, update.kind, update.exact,
+                                      update.stale))
 
 
 class EngineThread(QObject):

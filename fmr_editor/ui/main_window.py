@@ -127,9 +127,7 @@ class MainWindow(FileCommands, LayerCommands, DocumentTabs, ClipCommands, QMainW
         """Messages and the active tool's hint on the left; preview notice, progress and pointer on the right."""
         self.status_label = QLabel()
         self.hint_label = QLabel()  # what the active tool does
-        self.shading_label = QLabel("Preview: approximate shading")  # shown while a frame is a drag's preview
-        self.shading_label.setToolTip("While dragging, moved curves keep their old densities; "
-                                      "the exact image follows when the drag ends")
+        self.shading_label = QLabel()  # shown while a frame is a drag's preview
         self.shading_label.hide()
         self.position_label = QLabel()
         self.progress_bar = QProgressBar()
@@ -323,10 +321,23 @@ class MainWindow(FileCommands, LayerCommands, DocumentTabs, ClipCommands, QMainW
         self._update_title()
 
     def _frame_ready(self, frame) -> None:
-        self.shading_label.setVisible(not frame.exact)
+        self._show_shading(frame)
         self.canvas.update_representation(frame.picture, frame.changes)
         if self.job is None:
             self.progress_bar.hide()
+
+    def _show_shading(self, frame) -> None:
+        """Say in the status bar when the picture is a drag's preview, and which kind."""
+        self.shading_label.setVisible(not frame.exact)
+        if frame.stale:
+            self.shading_label.setText("Preview: shading when the drag ends")
+            self.shading_label.setToolTip("The picture before the drag, with the moved curve's outline: a preview "
+                                          "of this move would be off by more than 1/255")
+        else:
+            self.shading_label.setText("Preview")
+            self.shading_label.setToolTip("While dragging, the moved curve is solved again with the curves near it "
+                                          "(within 1/255 of the exact image); the exact image follows when the drag "
+                                          "ends")
 
     def _engine_failed(self, message: str) -> None:
         self.status_label.setText(f"The image could not be updated: {message.splitlines()[0]}")

@@ -257,7 +257,7 @@ class BoundarySolver:
     def __init__(self, segments: Segments, lattice: Lattice, progress: Callable[[float], None] | None = None) -> None:
         self.size = len(segments)
         taking_part = solved_segments(segments)
-        self.points = self.size - len(taking_part)  # segments too short to count (``solved_segments``)
+        self.taking_part = taking_part  # the others are too short to count (``solved_segments``)
         order, cell_start = cell_order(segments.take(taking_part), lattice)
         self.order = taking_part[order]
         ordered = segments.take(self.order)
@@ -322,10 +322,7 @@ class BoundarySolver:
         return unknown
 
     def _unsorted(self, values: np.ndarray) -> np.ndarray:
-        """``values`` of the segments taking part (cell order) back in input order; 0 on the others."""
-        out = np.zeros((self.size, *values.shape[1:]))
-        out[self.order] = values
-        return out
+        return scattered(values, self.order, self.size)
 
 
 def solved_segments(segments: Segments) -> np.ndarray:
@@ -343,8 +340,9 @@ def solved_segments(segments: Segments) -> np.ndarray:
     return np.flatnonzero(segments.on_border | (lengths > POINT_LENGTH * max(extent, 1.0)))
 
 
-def _unsorted(values: np.ndarray, order: np.ndarray) -> np.ndarray:
-    out = np.empty_like(values)
+def scattered(values: np.ndarray, order: np.ndarray, size: int) -> np.ndarray:
+    """``values`` of the segments ``order`` (the ones taking part, in cell order) in input order, 0 on the others."""
+    out = np.zeros((size, *values.shape[1:]))
     out[order] = values
     return out
 

@@ -36,7 +36,7 @@ from ..fmm.lattice import Lattice, cell_order
 from ..geometry.segments import Segments
 from .dense import assemble, trivial
 from .entries import CollocationEntries
-from .solver import BoundarySolver, CollocationOperator, solved_segments
+from .solver import BoundarySolver, CollocationOperator, scattered, solved_segments
 
 #: Reciprocal condition number below which a small factor of the update counts as singular: the new
 #: system is then (nearly) singular itself and is left to a fresh factorisation, which handles that.
@@ -113,17 +113,18 @@ def updated_solver(base: BoundarySolver, base_segments: Segments, segments: Segm
                    max_replaced: int = MAX_REPLACED) -> UpdatedSolver | None:
     """An ``UpdatedSolver`` for ``segments``, or None when a new factorisation is the better choice.
 
-    That is when ``base`` holds no curves (its system is trivial), when
-    ``segments`` hold none (theirs is), when either holds a segment as short
-    as a point (``solved_segments``), or when more than ``max_replaced``
-    segments differ from ``base_segments``.
+    That is when ``base`` holds no curves (its system is trivial) or was
+    solved by least squares, when ``segments`` hold none (theirs is
+    trivial), or when more than ``max_replaced`` of the segments taking part
+    (``solved_segments``: not those as short as a point, which keep E = 0 in
+    both systems) differ from ``base_segments``'.
     """
-    if base.trivial or base.least_squares or base.points or trivial(segments):
+    if base.trivial or base.least_squares or trivial(segments):
         return None
-    if len(solved_segments(segments)) < len(segments):  # a segment as short as a point: the base drops it
-        return None
-    kept_base, kept = match_segments(base_segments, segments)
-    if base.size - len(kept) + len(segments) - len(kept) > max_replaced:
+    taking_part = solved_segments(segments)
+    kept_base, kept = match_segments(base_segments.take(base.taking_part), segments.take(taking_part))
+    kept_base, kept = base.taking_part[kept_base], taking_part[kept]
+    if len(base.taking_part) - len(kept) + len(taking_part) - len(kept) > max_replaced:
         return None
     return UpdatedSolver(base, segments, lattice, kept_base, kept, columns)
 
@@ -165,7 +166,8 @@ class UpdatedSolver:
     lattice : Lattice
         Lattice for the FMM products.
     kept_base, kept : numpy.ndarray
-        ``match_segments(base_segments, segments)``.
+        Indices of the segments taking part in both systems (``solved_segments``) that are the same in both,
+        into ``base_segments`` and ``segments`` (``match_segments``).
     columns : dict, optional
         Cache of ``base`` applied to unit vectors, by base index; filled here
         and reusable by the next ``UpdatedSolver`` of the same base.
@@ -175,9 +177,11 @@ class UpdatedSolver:
                  kept: np.ndarray, columns: dict[int, np.ndarray] | None = None) -> None:
         self.base, self.size, self.trivial, self.dense = base, len(segments), False, base.dense
         self.kept_base, self.kept = kept_base, kept
-        self.removed = _others(base.size, kept_base)
-        self.added = _others(len(segments), kept)
-        self.order, cell_start = cell_order(segments, lattice)
+        taking_part = solved_segments(segments)
+        self.removed = np.setdiff1d(base.taking_part, kept_base)
+        self.added = np.setdiff1d(taking_part, kept)
+        order, cell_start = cell_order(segments.take(taking_part), lattice)
+        self.order = taking_part[order]
         ordered = segments.take(self.order)
         self.operator = CollocationOperator(ordered, cell_start, lattice, order=base.operator.order)
         self._columns = columns if columns is not None else {}
@@ -228,7 +232,7 @@ class UpdatedSolver:
     def solve(self, rhs: np.ndarray, progress=None, iterate: bool = False) -> np.ndarray:
         """Unknowns ``(n, m)`` for ``rhs (n, m)`` (this solver's input order), as accurate as the base factors."""
         w = self._kept_solve(rhs[self.kept])
-        out = np.empty_like(rhs, dtype=float)
+        out = np.zeros(rhs.shape)  # 0 on the segments as short as a point
         if self._schur is not None:
             added = scipy.linalg.lu_solve(self._schur, rhs[self.added] - self._added_to_kept @ w, check_finite=False)
             out[self.added] = added
@@ -238,10 +242,7 @@ class UpdatedSolver:
 
     def right_hand_side(self, jump: np.ndarray, mean: np.ndarray) -> np.ndarray:
         """As ``BoundarySolver.right_hand_side``."""
-        rhs = self.operator.right_hand_side(jump[self.order], mean[self.order])
-        out = np.empty_like(rhs)
-        out[self.order] = rhs
-        return out
+        return self._unsorted(self.operator.right_hand_side(jump[self.order], mean[self.order]))
 
     def residual(self, unknown: np.ndarray, jump: np.ndarray, mean: np.ndarray) -> np.ndarray:
         """``rhs - A unknown`` for colours ``jump``, ``mean`` (input order), in one FMM product."""
@@ -250,14 +251,15 @@ class UpdatedSolver:
         x = unknown[order]
         curve_jump = np.where(border, 0.0, jump[order])
         field = operator.field(np.where(border, 0.0, x), curve_jump + np.where(border, x, 0.0))
-        sorted_residual = np.where(border, 0.5 * x, mean[order]) - field
-        out = np.empty_like(sorted_residual)
-        out[order] = sorted_residual
-        return out
+        return self._unsorted(np.where(border, 0.5 * x, mean[order]) - field)
 
     def correct(self, initial: np.ndarray, jump: np.ndarray, mean: np.ndarray) -> np.ndarray:
         """One defect-correction step from ``initial``: ``x + solve(rhs - A x)`` (one FMM product)."""
-        return initial + self.solve(self.residual(initial, jump, mean))
+        corrected = initial + self.solve(self.residual(initial, jump, mean))
+        return self._unsorted(corrected[self.order])  # E = 0 on segments as short as a point, carried or not
+
+    def _unsorted(self, values: np.ndarray) -> np.ndarray:
+        return scattered(values, self.order, self.size)
 
     def accuracy(self, iterate: bool = True) -> float:
         """Relative accuracy of ``solve`` (the base factorisation's; ``correct`` does better)."""
@@ -270,16 +272,22 @@ def carried_unknowns(old: Segments, unknowns: np.ndarray, new: Segments) -> np.n
     Identical segments keep their values; any other segment of a curve takes
     the value of the old segment of the same curve nearest along it
     (``Segments.origin``), so a moved piece keeps the densities it had; the
-    rest start at 0.  A drag's preview shows this without a solve, and it
-    is where ``UpdatedSolver.correct`` starts from.
+    rest start at 0.  This is where ``UpdatedSolver.correct`` starts from.
     """
+    return carried_unknowns_and_loose(old, unknowns, new)[0]
+
+
+def carried_unknowns_and_loose(old: Segments, unknowns: np.ndarray,
+                               new: Segments) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray]]:
+    """``carried_unknowns``, the indices of ``new``'s curve segments that ``old`` does not hold, and
+    ``match_segments(old, new)``."""
     out = np.zeros((len(new), unknowns.shape[1]))
-    kept_old, kept = match_segments(old, new)
+    matched = kept_old, kept = match_segments(old, new)
     out[kept] = unknowns[kept_old]
     loose = _others(len(new), np.concatenate([kept, np.flatnonzero(new.on_border)]))
     sources = np.flatnonzero(~old.on_border)
     if len(loose) == 0 or len(sources) == 0:
-        return out
+        return out, loose, matched
     span = float(np.nanmax(np.abs(np.concatenate([old.origin[:, 1], new.origin[:, 1]])), initial=0.0)) + 1.0
     curve_ids = np.unique(np.concatenate([old.origin[:, 0], new.origin[:, 0]]))
 
@@ -296,7 +304,7 @@ def carried_unknowns(old: Segments, unknowns: np.ndarray, new: Segments) -> np.n
     nearest = np.where(np.abs(keys[left] - wanted) <= np.abs(keys[right] - wanted), left, right)
     same_curve = old.origin[sources[nearest], 0] == new.origin[loose, 0]
     out[loose[same_curve]] = unknowns[sources[nearest[same_curve]]]
-    return out
+    return out, loose, matched
 
 
 def solve_reference(segments: Segments) -> np.ndarray:
