@@ -33,7 +33,7 @@ pytest.importorskip("pytestqt", reason="pytest-qt is in the [test] extra")
 
 from PySide6.QtCore import Qt  # noqa: E402
 
-from fmr_editor.engine import build, evaluate_points, rasterise  # noqa: E402
+from fmr_editor.engine import build, rasterise  # noqa: E402
 from fmr_editor.io import save_fmr  # noqa: E402
 from fmr_editor.model import ColorStop, DiffusionCurve, DiffusionPoint, Document, edits  # noqa: E402
 
