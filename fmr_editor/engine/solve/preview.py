@@ -138,7 +138,7 @@ class Previews:
         solved[rows] = True
         samples = in_new[self._samples]
         samples = samples[samples >= 0]
-        held, held_samples = np.setdiff1d(kept, rows), samples[~solved[samples]]
+        held, held_samples = kept[~solved[kept]], samples[~solved[samples]]
         gone = _Sources.of(base.take(removed), known[removed])
 
         # 1. the moved segments and those near them solved again, the rest held; on a moved row the residual
