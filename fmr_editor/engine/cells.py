@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -20,7 +21,7 @@ from .fmm.orders import PassOrders, pass_orders, uniform_orders
 from .fmm.passes import build_passes
 from .fmm.sparse_downward import delta_local
 from .geometry.segments import Segments
-from .kernels.segment_sums import near_sum
+from .kernels.segment_sums import near_sum, near_tables
 
 #: A fine cell whose multipoles changed by less than this share of the solve's
 #: own accuracy (relative to the largest multipole) keeps the change pending:
@@ -100,7 +101,14 @@ class Cells:
         block of segments (``evaluate_points`` without diffusion points)."""
         seg = self.segments
         return far_field_at(self.local, lattice, lattice.cell_of(points), points) + near_sum(
-            points, lattice.cells_per_side, lattice.cell_size, self.cell_start, seg.p, seg.q, seg.flux, seg.jump)
+            points, lattice.cells_per_side, lattice.cell_size, self.cell_start, seg.p, seg.q, seg.flux, seg.jump,
+            tables=self._near_tables)
+
+    @cached_property
+    def _near_tables(self) -> tuple[np.ndarray, np.ndarray]:
+        """``near_tables`` of the segments, made by the first ``field_at`` (a drag's previews ask it again)."""
+        seg = self.segments
+        return near_tables(seg.p, seg.q, seg.flux, seg.jump)
 
     @property
     def nbytes(self) -> int:
