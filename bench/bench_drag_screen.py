@@ -29,6 +29,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_edits import edited_curve  # noqa: E402
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "orzan_xml" / "berkbavas"
+FILES = ("lady_bug", "fruits", "roses")
 TARGETS = {"lady_bug": "<= 50 ms", "roses": "<= 150 ms"}
 
 
@@ -68,7 +69,7 @@ def drag(app, window, steps: int) -> tuple[list[float], int, float]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("files", nargs="*", default=[str(DATA / f"{name}.xml") for name in ("lady_bug", "fruits", "roses")])
+    parser.add_argument("files", nargs="*", default=[str(DATA / f"{name}.xml") for name in FILES])
     parser.add_argument("--steps", type=int, default=10)
     parser.add_argument("--repeat", type=int, default=3)
     args = parser.parse_args()
