@@ -11,7 +11,7 @@ from shapes import straight_chain, uniform_curve
 
 from fmr_editor.engine import build, evaluate_points, rasterise
 from fmr_editor.engine.geometry.discretise import curve_segments
-from fmr_editor.engine.geometry.overlaps import drop_covered_parts, overlapping_pairs
+from fmr_editor.engine.geometry.overlaps import drop_covered_parts, drop_covered_parts_reference, overlapping_pairs
 from fmr_editor.io import load_document
 from fmr_editor.model import Document
 
@@ -127,3 +127,42 @@ def test_the_bucket_filter_finds_every_pair_a_full_search_finds():
                    zip(*(np.round(v, 9).tolist() for v in overlaps.reference_pairs(segments)))
                    if twins[a] == b or (twins[a] == a and twins[b] == b)]
     assert sorted(zip(*(np.round(v, 9).tolist() for v in overlapping_pairs(segments)))) == sorted(plain_pairs)
+
+
+def assert_same_segments(got, expected) -> None:
+    for name in ("p", "q", "jump", "mean", "on_border", "flux", "origin"):
+        np.testing.assert_array_equal(getattr(got, name), getattr(expected, name), err_msg=name)
+        assert getattr(got, name).tobytes() == getattr(expected, name).tobytes(), name  # -0.0 too
+
+
+def test_dropping_covered_parts_equals_the_plain_sweep():
+    """Stretches nested, chained, starting together, ending together, covering a segment whole: the vectorised
+    sweep gives the plain loop's pieces (``drop_covered_parts_reference``) bit for bit."""
+    from fmr_editor.engine.geometry.segments import Segments
+
+    rng = np.random.default_rng(11)
+    ends = np.sort(rng.choice(np.linspace(0, 90, 31), (120, 2)), axis=1)  # shared end points: ties
+    ends = ends[ends[:, 1] > ends[:, 0]]
+    y = rng.choice([10.0, 40.0, 70.0], len(ends))
+    p, q = np.column_stack([ends[:, 0] + 5, y]), np.column_stack([ends[:, 1] + 5, y])
+    flip = rng.random(len(p)) < 0.5
+    p[flip], q[flip] = q[flip].copy(), p[flip].copy()
+    n = len(p)
+    segments = Segments(p, q, rng.random((n, 3)), rng.random((n, 3)), np.zeros(n, bool), np.zeros((n, 3)))
+    pairs = overlapping_pairs(segments)
+    assert len(pairs[0]) > 200
+    assert_same_segments(drop_covered_parts(segments, pairs=pairs), drop_covered_parts_reference(segments, pairs=pairs))
+
+
+@pytest.mark.parametrize("name", ["flower", "fruits"])
+def test_dropping_covered_parts_of_real_files_equals_the_plain_sweep(shared_data, name):
+    from fmr_editor.engine.geometry.discretise import clip_to_canvas, from_curve
+    from fmr_editor.engine.geometry.flatten import flatten_curves
+    from fmr_editor.engine.geometry.segments import concatenate
+
+    doc = load_document(shared_data / "orzan_xml" / "berkbavas" / f"{name}.xml")
+    flat = flatten_curves(doc.curves, 0.05, 2.0)
+    segments = clip_to_canvas(concatenate([from_curve(part, curve.id) for part, curve in zip(flat, doc.curves)]),
+                              doc.width, doc.height)
+    pairs = overlapping_pairs(segments)
+    assert_same_segments(drop_covered_parts(segments, pairs=pairs), drop_covered_parts_reference(segments, pairs=pairs))

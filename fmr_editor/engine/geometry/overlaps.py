@@ -56,7 +56,7 @@ def overlapping_pairs(segments: Segments, tolerance: float = COLLINEAR_TOLERANCE
     repeated = np.flatnonzero(~searched)  # wholly covered by their last twin
     earlier, later = np.concatenate([earlier, repeated]), np.concatenate([later, twin_of[repeated]])
     forward = earlier < later if among is None else (earlier < later) & (among[earlier] | among[later])
-    return _shared_stretches(segments, earlier[forward], later[forward], tolerance)
+    return shared_stretches(segments, earlier[forward], later[forward], tolerance)
 
 
 def last_twins(segments: Segments) -> np.ndarray:
@@ -113,30 +113,82 @@ def reference_pairs(segments: Segments, tolerance: float = COLLINEAR_TOLERANCE):
     lines = shapely.linestrings(np.stack([segments.p, segments.q], axis=1))
     earlier, later = shapely.STRtree(lines).query(lines, predicate="dwithin", distance=tolerance)
     forward = earlier < later
-    return _shared_stretches(segments, earlier[forward], later[forward], tolerance)
+    return shared_stretches(segments, earlier[forward], later[forward], tolerance)
 
 
-def _shared_stretches(segments: Segments, earlier: np.ndarray, later: np.ndarray, tolerance: float):
+def shared_stretches(segments: Segments, earlier: np.ndarray, later: np.ndarray, tolerance: float):
     """The pairs of candidates ``earlier < later`` that share a stretch of line, with the stretch along ``earlier``."""
-    d = segments.q - segments.p
+    origin = segments.p[earlier]
+    d = segments.q[earlier] - origin  # of these rows only: the search after an edit looks at a few
     length = np.hypot(d[:, 0], d[:, 1])
-    t = d[earlier] / np.maximum(length[earlier, None], np.finfo(float).tiny)
+    t = d / np.maximum(length[:, None], np.finfo(float).tiny)
 
     def along_and_off(points):
-        rel = points[later] - segments.p[earlier]
-        return (rel * t).sum(axis=1) / np.maximum(length[earlier], np.finfo(float).tiny), \
+        rel = points[later] - origin
+        return (rel * t).sum(axis=1) / np.maximum(length, np.finfo(float).tiny), \
             np.abs(rel[:, 0] * t[:, 1] - rel[:, 1] * t[:, 0])
 
     (a, off_a), (b, off_b) = along_and_off(segments.p), along_and_off(segments.q)
     start = np.clip(np.minimum(a, b), 0.0, 1.0)
     end = np.clip(np.maximum(a, b), 0.0, 1.0)
-    shared = (off_a <= tolerance) & (off_b <= tolerance) & ((end - start) * length[earlier] > tolerance)
+    shared = (off_a <= tolerance) & (off_b <= tolerance) & ((end - start) * length > tolerance)
     return earlier[shared], later[shared], start[shared], end[shared]
+
+
 def drop_covered_parts(segments: Segments, tolerance: float = COLLINEAR_TOLERANCE, pairs=None) -> Segments:
     """``segments`` without the stretches that a later segment covers collinearly.
 
     ``pairs``: ``overlapping_pairs(segments, tolerance)`` when known already.
+    ``drop_covered_parts_reference`` is the plain loop it equals bit for bit.
     """
+    if len(segments) < 2:
+        return segments
+    earlier, _, start, end = overlapping_pairs(segments, tolerance) if pairs is None else pairs
+    if len(earlier) == 0:
+        return segments
+    return segments.split(*uncovered_parts(segments, earlier, start, end, np.arange(len(segments)), tolerance))
+
+
+def uncovered_parts(segments: Segments, earlier: np.ndarray, start: np.ndarray, end: np.ndarray, rows: np.ndarray,
+                    tolerance: float = COLLINEAR_TOLERANCE) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The parts ``(owner, t0, t1)`` of the segments ``rows`` (sorted) that no stretch ``[start, end]`` of a pair
+    with them as ``earlier`` covers, longer than ``tolerance``, in order (``drop_covered_parts``).
+
+    Every pair whose ``earlier`` is one of ``rows`` must be given; others are ignored.
+    """
+    mine = np.zeros(len(segments), bool)
+    mine[rows] = True
+    mine = mine[earlier]
+    order = np.lexsort((start[mine], earlier[mine]))
+    owner, start, end = earlier[mine][order], start[mine][order], end[mine][order]
+    group_start = np.ones(len(owner), bool)
+    group_start[1:] = owner[1:] != owner[:-1]
+    group = np.cumsum(group_start) - 1
+    # the sweep's cursor before each stretch: the largest end before it in its group, 0 at the group's start.
+    # A running maximum that restarts per group: ranks of the ends, offset by group, are ordered group by group.
+    by_end = np.argsort(end, kind="stable")
+    rank = np.empty(len(end), np.int64)
+    rank[by_end] = np.arange(len(end))
+    reach = np.maximum.accumulate(group * len(end) + rank) - group * len(end)  # rank of the furthest end so far
+    furthest = end[by_end[reach]]
+    cursor = np.where(group_start, 0.0, np.roll(furthest, 1))
+    gap = start > cursor
+    last = np.append(group_start[1:], True)
+    tail = last & (furthest < 1.0)
+    covered = np.unique(owner)
+    untouched = np.setdiff1d(rows, covered)
+    owner = np.concatenate([untouched, owner[gap], owner[tail]])
+    t0 = np.concatenate([np.zeros(len(untouched)), cursor[gap], furthest[tail]])
+    t1 = np.concatenate([np.ones(len(untouched)), start[gap], np.ones(int(tail.sum()))])
+    order = np.argsort(owner, kind="stable")  # per owner: the gaps in order, then the tail
+    owner, t0, t1 = owner[order], t0[order], t1[order]
+    d = segments.q[owner] - segments.p[owner]
+    long_enough = np.hypot(d[:, 0], d[:, 1]) * (t1 - t0) > tolerance  # Segments.lengths, of these rows only
+    return owner[long_enough], t0[long_enough], t1[long_enough]
+
+
+def drop_covered_parts_reference(segments: Segments, tolerance: float = COLLINEAR_TOLERANCE, pairs=None) -> Segments:
+    """``drop_covered_parts`` by the plain sweep, one segment at a time."""
     if len(segments) < 2:
         return segments
     earlier, _, start, end = overlapping_pairs(segments, tolerance) if pairs is None else pairs
