@@ -11,6 +11,7 @@ cell edges (``cut_at_cells``), so that each lies in one fine cell.
 from __future__ import annotations
 
 from dataclasses import replace
+from functools import lru_cache
 
 import numpy as np
 
@@ -18,6 +19,7 @@ from ...model import DiffusionCurve, Document
 from .flatten import flatten_curves, stop_colors
 from .overlaps import drop_covered_parts
 from .segments import Segments, concatenate, empty_segments
+from .splice import RowCache
 
 
 def clip_to_canvas(segments: Segments, width: float, height: float) -> Segments:
@@ -151,11 +153,32 @@ def curve_segments(document: Document, tolerance: float = 0.05, max_length: floa
 def boundary_segments(curves: Segments, document: Document, cell_size: float, border_spacing: float = 1.0) -> Segments:
     """Curve segments plus the canvas border, cut at the lattice's cell edges.
 
+    Only the segments that differ from those of a recent call are cut; the
+    others' pieces are taken over (``boundary_segments_reference`` cuts all
+    of them: the same result, bit for bit).
+
     Returns
     -------
     Segments
         Curve segments (``on_border`` False) and border segments, each lying
         in one fine cell.
     """
+    border = _border(float(document.width), float(document.height), float(border_spacing))
+    return _CUTS([curves, border], float(cell_size))
+
+
+def boundary_segments_reference(curves: Segments, document: Document, cell_size: float,
+                                border_spacing: float = 1.0) -> Segments:
+    """``boundary_segments`` with every segment cut anew."""
     border = canvas_border(document.width, document.height, border_spacing)
     return cut_at_cells(concatenate([curves, border]), cell_size)
+
+
+@lru_cache(maxsize=8)
+def _border(width: float, height: float, spacing: float) -> Segments:
+    """``canvas_border``, one object per canvas: ``_CUTS`` knows its pieces by it."""
+    return canvas_border(width, height, spacing)
+
+
+#: The cuts of recent ``boundary_segments`` calls (a few documents' or layers' at once).
+_CUTS = RowCache(lambda segments, cell_size: cell_cuts(segments, cell_size), size=4)

@@ -1,0 +1,136 @@
+"""Row-wise results kept between edits (``engine/geometry/splice.py``) and the boundary cut only where curves
+changed (``discretise.boundary_segments`` against ``boundary_segments_reference``)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from shapes import circle_points, scattered_document, straight_chain, uniform_curve
+
+from fmr_editor.engine.geometry import discretise
+from fmr_editor.engine.geometry.discretise import (
+    boundary_segments,
+    boundary_segments_reference,
+    curve_segments,
+    cut_at_cells,
+)
+from fmr_editor.engine.geometry.segments import Segments, concatenate
+from fmr_editor.engine.geometry.splice import RowCache, reused_rows, splice
+from fmr_editor.model import Document, edits
+
+FIELDS = ("p", "q", "jump", "mean", "on_border", "flux", "origin")
+
+
+def assert_same(got: Segments, expected: Segments) -> None:
+    """Equal bit for bit (-0.0 is not 0.0), field by field."""
+    assert len(got) == len(expected)
+    for name in FIELDS:
+        assert getattr(got, name).tobytes() == getattr(expected, name).tobytes(), name
+
+
+def labelled(count: int, seed: int) -> Segments:
+    rng = np.random.default_rng(seed)
+    p = rng.uniform(0, 64, (count, 2))
+    q = p + rng.normal(0, 6, (count, 2))
+    jump = np.repeat(np.arange(count, dtype=float)[:, None], 3, axis=1)
+    return Segments(p, q, jump, rng.random((count, 3)), np.zeros(count, bool), np.zeros((count, 3)))
+
+
+def test_reused_rows_match_bits_in_place_or_by_common_start_and_end():
+    old = labelled(50, 1)
+    changed = old.take(np.arange(50))
+    changed.mean[[3, 30]] += 1.0
+    reuse = reused_rows(old, changed)
+    assert reuse.tolist() == [i if i not in (3, 30) else -1 for i in range(50)]
+    signed = old.take(np.arange(50))
+    signed.flux[7, 1] = -0.0  # the same value, other bits: its pieces would differ
+    assert reused_rows(old, signed)[7] == -1
+    longer = concatenate([old.take(np.arange(20)), labelled(3, 2), old.take(np.arange(22, 50))])
+    reuse = reused_rows(old, longer)
+    assert reuse[:20].tolist() == list(range(20)) and reuse[20:23].tolist() == [-1] * 3
+    assert reuse[23:].tolist() == list(range(22, 50))
+
+
+def test_splice_takes_old_pieces_and_puts_new_ones_between():
+    old = labelled(10, 3)
+    starts = np.array([0, 1, 3, 3, 4, 6, 7, 8, 9, 9, 10])  # rows 2 and 8 made no pieces
+    fresh = labelled(4, 4)
+    reuse = np.array([0, -1, 1, 2, 3, -1, -1, 8, 9])
+    pieces, got_starts = splice(old, starts, reuse, fresh, np.array([0, 2, 2, 4]))
+    expected = [old.take([0]), fresh.take([0, 1]), old.take([1, 2]), old.take([3]), fresh.take([2, 3]),
+                old.take([9])]
+    assert_same(pieces, concatenate(expected))
+    np.testing.assert_array_equal(got_starts, [0, 1, 3, 5, 5, 6, 6, 8, 8, 9])
+
+
+def test_a_row_cache_works_out_only_changed_rows_and_forgets_dropped_outputs():
+    calls = []
+
+    def cut(segments, cell):
+        calls.append(len(segments))
+        return discretise.cell_cuts(segments, cell)
+
+    cache = RowCache(cut)
+    first = labelled(40, 5)
+    out = cache([first], 8.0)
+    assert_same(out, cut_at_cells(first, 8.0))
+    second = concatenate([first.take(np.arange(10)), labelled(2, 6), first.take(np.arange(13, 40))])
+    assert_same(cache([second], 8.0), cut_at_cells(second, 8.0))
+    assert calls == [40, 2]
+    assert_same(cache([second], 5.0), cut_at_cells(second, 5.0))  # another key: all rows
+    assert calls[-1] == 39
+    del out
+    third = labelled(40, 5)  # equal to first, another object: its output went, so everything is cut
+    cache([third], 8.0)
+    assert calls[-1] == 40
+
+
+def drag_steps(document: Document) -> list[Document]:
+    """Edits that change the curves' rows in every way: a moved anchor, an added and a removed curve, a
+    recoloured curve, curves reordered, a curve leaving the canvas."""
+    first, last = document.curves[0].id, document.curves[-1].id
+    return [
+        edits.move_control_point(document, first, 3, tuple(document.curves[0].control_points[3] + (1.5, 0.5))),
+        edits.add_curve(document, uniform_curve(straight_chain([(5, 60), (100, 70)]), 0.2, 0.9)),
+        edits.remove_curves(document, [first]),
+        edits.set_stop_color(document, last, "left", 0, (0.1, 0.2, 0.3)),
+        Document(document.width, document.height, document.curves[::-1]),
+        edits.translate(document, (90.0, 0.0), curves=[last]),
+    ]
+
+
+def test_boundary_segments_equal_the_reference_edit_after_edit():
+    document = scattered_document(size=128)
+    held = []  # as LiveRepresentation, the last curves and boundary stay alive until replaced
+    for cell in (8.0, 16.0):
+        for step in [document, *drag_steps(document), document]:
+            curves = curve_segments(step)
+            got = boundary_segments(curves, step, cell)
+            assert_same(got, boundary_segments_reference(curves, step, cell))
+            held = [curves, got]
+    assert held
+
+
+def test_an_anchor_move_cuts_only_the_moved_curves_rows():
+    document = Document(200, 200, [uniform_curve(circle_points(40 + 30 * i, 100, 12), 0.1 * i, 0.5)
+                                   for i in range(5)])
+    curves = curve_segments(document)
+    held = [curves, boundary_segments(curves, document, 16.0)]
+    moved = edits.move_control_point(document, document.curves[2].id, 0, (112.0, 101.0))
+    moved_curves = curve_segments(moved)
+    got = boundary_segments(moved_curves, moved, 16.0)
+    assert_same(got, boundary_segments_reference(moved_curves, moved, 16.0))
+    changed = (reused_rows(curves, moved_curves) < 0).sum()
+    assert 0 < discretise._CUTS.computed_rows == changed <= (moved_curves.origin[:, 0] == moved.curves[2].id).sum()
+    assert held
+
+
+@pytest.mark.parametrize("spacing", [1.0, 3.0])
+def test_another_canvas_gets_its_own_border(spacing):
+    document = scattered_document(size=96)
+    curves = curve_segments(document)
+    held = [boundary_segments(curves, document, 12.0, spacing)]
+    wider = Document(120, 96, document.curves)
+    assert_same(boundary_segments(curves, wider, 12.0, spacing), boundary_segments_reference(curves, wider, 12.0,
+                                                                                              spacing))
+    assert held
