@@ -26,6 +26,14 @@ document (mean and 99th percentile over the canvas, one sample a pixel, the
 worst drag), how many previews showed the last exact picture instead (stale),
 the factorisations the session made after opening, and the final image
 against a fresh build.
+
+The geometry step of an anchor move (``--geometry``, on lady_bug, fruits and
+roses): what ``LiveRepresentation.update`` asks of ``engine.geometry`` per
+edit, the document's curve segments (``CurveSegments.segments``) and the
+boundary cut at the cells (``boundary_segments``), the last results alive
+as the live representation holds them; beside it the plain pipeline
+(``curve_segments``, ``boundary_segments_reference``), which it must equal
+bit for bit.
 """
 
 from __future__ import annotations
@@ -42,6 +50,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_engine import best_of, machine  # noqa: E402
 
 from fmr_editor.engine import LiveRepresentation, build, rasterise  # noqa: E402
+from fmr_editor.engine.fmm.lattice import Lattice  # noqa: E402
+from fmr_editor.engine.geometry import discretise  # noqa: E402
+from fmr_editor.engine.geometry.curve_cache import CurveSegments  # noqa: E402
+from fmr_editor.engine.memory import affordable_levels  # noqa: E402
+from fmr_editor.engine.representation import Settings, choose_levels  # noqa: E402
 from fmr_editor.io import load_document, open_live  # noqa: E402
 from fmr_editor.model import DiffusionPoint, Document, edits  # noqa: E402
 
@@ -228,6 +241,36 @@ def session_table(results: dict[str, dict]) -> None:
           + " | exact |")
 
 
+def geometry_step(path: Path, repeat: int) -> None:
+    """The geometry step of ``repeat`` anchor moves of the edited curve, best of them (see the module)."""
+    settings, document = Settings(), load_document(path)
+    cache = CurveSegments(settings.tolerance, settings.max_length)
+    curves = cache.segments(document)
+    side = float(max(document.width, document.height))
+    cell = Lattice(affordable_levels(choose_levels(curves, side)), side).cell_size
+    held = curves, discretise.boundary_segments(curves, document, cell, settings.border_spacing)
+    k = edited_curve(document)
+    anchor = document.curves[k].control_points[3]
+    step, plain, exact = [], [], True
+    for run in range(repeat):
+        moved = edits.move_control_point(document, document.curves[k].id, 3, tuple(anchor + (0.5 * (run + 1), 0.25)))
+        start = time.perf_counter()
+        curves = cache.segments(moved)
+        boundary = discretise.boundary_segments(curves, moved, cell, settings.border_spacing)
+        step.append(time.perf_counter() - start)
+        cache.forget(document.curves + moved.curves)
+        start = time.perf_counter()
+        expected = discretise.curve_segments(moved, settings.tolerance, settings.max_length)
+        expected_boundary = discretise.boundary_segments_reference(expected, moved, cell, settings.border_spacing)
+        plain.append(time.perf_counter() - start)
+        exact &= all(getattr(a, name).tobytes() == getattr(b, name).tobytes() for a, b in
+                     ((curves, expected), (boundary, expected_boundary)) for name in ("p", "q", "jump", "mean",
+                                                                                       "on_border", "flux", "origin"))
+        document, held = moved, (curves, boundary)
+    print(f"| {path.stem} | {len(document.curves):,} | {len(held[0]):,} | {len(held[1]):,} | {spread(step)} | "
+          f"{spread(plain)} | {'yes' if exact else 'NO'} |", flush=True)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=5, help="updates per edit (best of)")
@@ -235,7 +278,17 @@ def main() -> None:
     parser.add_argument("--data", type=Path, default=DATA)
     parser.add_argument("--session", nargs="*", metavar="FILE",
                         help="the editing session (issues 11, 25) on these files (default: lady_bug fruits roses) instead")
+    parser.add_argument("--geometry", nargs="*", metavar="FILE",
+                        help="the geometry step of an anchor move on these files (default: lady_bug fruits roses) "
+                             "instead")
     args = parser.parse_args()
+    if args.geometry is not None:
+        print(f"# Geometry step of an anchor move\n\n{machine()}\n\nBest of {args.repeat} (slowest in brackets).\n")
+        print("| file | curves | curve segments | boundary segments | step ms | plain pipeline ms | equal |")
+        print("| --- | ---: | ---: | ---: | ---: | ---: | --- |")
+        for name in args.geometry or ["lady_bug", "fruits", "roses"]:
+            geometry_step(args.data / f"{name}.xml", args.repeat)
+        return
     if args.session is not None:
         print(f"# Editing session\n\n{machine()}\n\nBest of {args.repeat} (slowest in brackets).\n")
         session_table({name: session(args.data / f"{name}.xml", args.repeat) for name in args.session or SESSION_FILES})
