@@ -283,3 +283,17 @@ def test_fruits_with_twins(shared_data):
         got = cache.segments(document)
         assert cache.last_search < len(got) / 10
         assert_equal(got, curve_segments(document))
+
+
+def test_forgetting_keeps_the_curves_of_the_last_document_and_those_asked_for():
+    document = twins_document()
+    cache = CurveSegments(0.05, 2.0)
+    cache.segments(document)
+    for step in range(5):
+        moved = edits.move_control_point(document, document.curves[3].id, 0, (10.0 + step, 40.0))
+        cache.segments(moved)
+        cache.forget(document.curves + moved.curves)  # as LiveRepresentation: the document before and now
+        assert len(cache._entries) == len(moved.curves) + 1  # the moved curve's version before stays
+        document = moved
+    cache.forget(())
+    assert len(cache._entries) == len(document.curves)

@@ -15,7 +15,7 @@ from fmr_editor.engine.geometry.discretise import (
     cut_at_cells,
 )
 from fmr_editor.engine.geometry.segments import Segments, concatenate
-from fmr_editor.engine.geometry.splice import RowCache, reused_rows, splice
+from fmr_editor.engine.geometry.splice import Blocks, RowCache, reused_rows, splice
 from fmr_editor.model import Document, edits
 
 FIELDS = ("p", "q", "jump", "mean", "on_border", "flux", "origin")
@@ -36,31 +36,50 @@ def labelled(count: int, seed: int) -> Segments:
     return Segments(p, q, jump, rng.random((count, 3)), np.zeros(count, bool), np.zeros((count, 3)))
 
 
+def taken(blocks: Blocks) -> list[int]:
+    """Each row's old row, -1 for rows worked out anew."""
+    return blocks.to_old(np.arange(blocks.rows)).tolist()
+
+
 def test_reused_rows_match_bits_in_place_or_by_common_start_and_end():
     old = labelled(50, 1)
     changed = old.take(np.arange(50))
     changed.mean[[3, 30]] += 1.0
-    reuse = reused_rows(old, changed)
-    assert reuse.tolist() == [i if i not in (3, 30) else -1 for i in range(50)]
+    assert taken(reused_rows(old, changed)) == [i if i not in (3, 30) else -1 for i in range(50)]
     signed = old.take(np.arange(50))
     signed.flux[7, 1] = -0.0  # the same value, other bits: its pieces would differ
-    assert reused_rows(old, signed)[7] == -1
+    assert taken(reused_rows(old, signed))[7] == -1
     longer = concatenate([old.take(np.arange(20)), labelled(3, 2), old.take(np.arange(22, 50))])
-    reuse = reused_rows(old, longer)
-    assert reuse[:20].tolist() == list(range(20)) and reuse[20:23].tolist() == [-1] * 3
-    assert reuse[23:].tolist() == list(range(22, 50))
+    assert taken(reused_rows(old, longer)) == [*range(20), -1, -1, -1, *range(22, 50)]
+    assert reused_rows(old, longer).gone(50).tolist() == [20, 21]
+
+
+def test_blocks_map_rows_both_ways_and_take_more_rows_anew():
+    blocks = Blocks.of([3, 0, 2, 4, 1, 2], [10, 5, -1, 0, -1, -1])  # an empty block, two fresh ones joined
+    assert (blocks.at.tolist(), blocks.length.tolist(), blocks.source.tolist()) == ([0, 3, 5, 9], [3, 2, 4, 3],
+                                                                                     [10, -1, 0, -1])
+    assert taken(blocks) == [10, 11, 12, -1, -1, 0, 1, 2, 3, -1, -1, -1]
+    assert blocks.to_new(np.arange(14)).tolist() == [5, 6, 7, 8, -1, -1, -1, -1, -1, -1, 0, 1, 2, -1]
+    assert blocks.fresh_rows().tolist() == [3, 4, 9, 10, 11] and blocks.gone(14).tolist() == [4, 5, 6, 7, 8, 9, 13]
+    more = blocks.refreshed(np.array([0, 4, 6, 7]))
+    assert taken(more) == [-1, 11, 12, -1, -1, 0, -1, -1, 3, -1, -1, -1]
+    assert taken(Blocks.of([4, 4], [0, 4])) == list(range(8)) and len(Blocks.of([4, 4], [0, 4]).at) == 1
 
 
 def test_splice_takes_old_pieces_and_puts_new_ones_between():
     old = labelled(10, 3)
     starts = np.array([0, 1, 3, 3, 4, 6, 7, 8, 9, 9, 10])  # rows 2 and 8 made no pieces
     fresh = labelled(4, 4)
-    reuse = np.array([0, -1, 1, 2, 3, -1, -1, 8, 9])
-    pieces, got_starts = splice(old, starts, reuse, fresh, np.array([0, 2, 2, 4]))
+    blocks = Blocks.of([1, 1, 3, 2, 2], [0, -1, 1, -1, 8])
+    pieces, got_starts = splice(old, starts, blocks, fresh, np.array([0, 2, 2, 4]))
     expected = [old.take([0]), fresh.take([0, 1]), old.take([1, 2]), old.take([3]), fresh.take([2, 3]),
                 old.take([9])]
     assert_same(pieces, concatenate(expected))
     np.testing.assert_array_equal(got_starts, [0, 1, 3, 5, 5, 6, 6, 8, 8, 9])
+    rows, none = splice(old, None, blocks, fresh.take([0, 1, 2]), None)  # one piece a row: the rows themselves
+    assert none is None
+    assert_same(rows, concatenate([old.take([0]), fresh.take([0]), old.take([1, 2, 3]), fresh.take([1, 2]),
+                                   old.take([8, 9])]))
 
 
 def test_a_row_cache_works_out_only_changed_rows_and_forgets_dropped_outputs():
@@ -120,7 +139,7 @@ def test_an_anchor_move_cuts_only_the_moved_curves_rows():
     moved_curves = curve_segments(moved)
     got = boundary_segments(moved_curves, moved, 16.0)
     assert_same(got, boundary_segments_reference(moved_curves, moved, 16.0))
-    changed = (reused_rows(curves, moved_curves) < 0).sum()
+    changed = len(reused_rows(curves, moved_curves).fresh_rows())
     assert 0 < discretise._CUTS.computed_rows == changed <= (moved_curves.origin[:, 0] == moved.curves[2].id).sum()
     assert held
 

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from itertools import repeat
+from operator import is_
 
 import numpy as np
 
@@ -31,7 +32,7 @@ from .flatten import flatten_curves, flattened_count
 from .overlap_index import OverlapIndex, RowIds
 from .overlaps import overlapping_pairs, uncovered_parts
 from .segments import Segments, concatenate, empty_segments
-from .splice import row_starts, splice
+from .splice import Blocks, row_starts, splice
 
 #: Most segments the curves of a document may be flattened into (roses: 70,000).
 MAX_SEGMENTS = 2_000_000
@@ -127,7 +128,7 @@ class _Result:
     pairs: tuple
     index: OverlapIndex | None
     output: Segments
-    output_starts: np.ndarray  # where each clipped row's pieces start in output
+    output_starts: np.ndarray | None  # where each clipped row's pieces start in output; None: one piece each
 
 
 class CurveSegments:
@@ -159,10 +160,10 @@ class CurveSegments:
 
     def forget(self, keep: tuple[DiffusionCurve, ...]) -> None:
         """Drop the kept segments of curves in neither ``keep`` nor the last document."""
-        wanted = set(map(id, keep))
-        wanted.update(self._last.position if self._last is not None else ())
-        for key in self._entries.keys() - wanted:
-            del self._entries[key]
+        stale = self._entries.keys() - (self._last.position.keys() if self._last is not None else ())
+        for key in stale:  # few (the curves an edit replaced): each looked for in keep, not keep hashed
+            if not any(map(is_, keep, repeat(self._entries[key].curve))):
+                del self._entries[key]
 
     def segments(self, document: Document) -> Segments:
         """The document's curve segments, as ``discretise.curve_segments(document, tolerance, max_length)``."""
@@ -190,7 +191,9 @@ class CurveSegments:
             return None
         if sum(len(entries[i].flat) for i in fresh) > FRESH_SHARE * len(last.clipped):
             return None
-        gone = np.setdiff1d(np.arange(len(last.curves)), kept)
+        gone = np.ones(len(last.curves), bool)
+        gone[kept] = False
+        gone = np.flatnonzero(gone)
         outside = last.outside - sum(not last.entries[j].inside(*canvas) for j in gone) + sum(
             not entries[i].inside(*canvas) for i in fresh)
         return outside if (outside > 0) == (last.outside > 0) else None
@@ -251,32 +254,20 @@ class CurveSegments:
         first[fresh] = [entries[i].first_id for i in fresh]
         ids = RowIds(first, counts)
         fresh_rows = concatenate([empty_segments()] + [parts[i] for i in fresh])
-        fresh_starts = np.concatenate([[0], np.cumsum(counts[fresh])])
-        old_curve_starts = np.concatenate([[0], last.ids.ends])
-        (p, q), _ = splice(last.clipped, old_curve_starts, was, fresh_rows, fresh_starts, ("p", "q"))
+        # a kept curve's rows are the same rows of the last result, a new curve's are new
+        blocks = Blocks.of(counts, np.where(was >= 0, (last.ids.ends - last.ids.counts)[was], -1))
+        (p, q), _ = splice(last.clipped, None, blocks, fresh_rows, None, ("p", "q"))
         clipped = _Rows(parts, ids.ends, p, q)
-        # each old row's row now: a kept curve's rows move as a block
-        old_counts, kept = last.ids.counts, was >= 0
-        shift = np.zeros(len(old_counts), np.int64)
-        shift[was[kept]] = (ids.ends - counts)[kept] - (last.ids.ends - old_counts)[was[kept]]
-        stays = np.zeros(len(old_counts), bool)
-        stays[was[kept]] = True
-        moved_to = np.where(np.repeat(stays, old_counts), np.arange(len(last.clipped)) + np.repeat(shift, old_counts),
-                            -1)
-        index, pairs, changed = last.index.updated(last.clipped, clipped, moved_to, ids, last.pairs)
+        index, pairs, changed = last.index.updated(last.clipped, clipped, blocks, ids, last.pairs)
         self.last_search = index.searched
-        reuse = np.full(len(clipped), -1, np.int64)
-        reuse[moved_to[moved_to >= 0]] = np.flatnonzero(moved_to >= 0)
         if _splits(clipped, pairs) != _splits(last.clipped, last.pairs):
             output, output_starts = _dropped(clipped.whole(), pairs)
         elif not _splits(clipped, pairs):  # each row its own piece, as it is
-            output, output_starts = splice(last.output, last.output_starts, reuse, fresh_rows,
-                                           np.arange(len(fresh_rows) + 1))
+            output, output_starts = splice(last.output, None, blocks, fresh_rows, None)
         else:
             owner, t0, t1 = uncovered_parts(clipped, pairs[0], pairs[2], pairs[3], changed)
-            reuse[changed] = -1
-            output, output_starts = splice(last.output, last.output_starts, reuse, clipped.split(owner, t0, t1),
-                                           np.append(np.searchsorted(owner, changed), len(owner)))
+            output, output_starts = splice(last.output, last.output_starts, blocks.refreshed(changed),
+                                           clipped.split(owner, t0, t1), row_starts(owner, changed))
         return _Result(curves, entries, dict(zip(map(id, curves), range(len(curves)))), canvas, outside, ids,
                        clipped, parts, pairs, index, output, output_starts)
 
@@ -286,9 +277,10 @@ def _splits(segments: Segments | _Rows, pairs: tuple) -> bool:
     return len(segments) >= 2 and len(pairs[0]) > 0
 
 
-def _dropped(segments: Segments, pairs: tuple) -> tuple[Segments, np.ndarray]:
-    """``drop_covered_parts(segments, pairs=pairs)`` and where each row's pieces start in it."""
+def _dropped(segments: Segments, pairs: tuple) -> tuple[Segments, np.ndarray | None]:
+    """``drop_covered_parts(segments, pairs=pairs)`` and where each row's pieces start in it (None: each row is its
+    own piece)."""
     if not _splits(segments, pairs):
-        return segments, np.arange(len(segments) + 1)
+        return segments, None
     owner, t0, t1 = uncovered_parts(segments, pairs[0], pairs[2], pairs[3], np.arange(len(segments)))
     return segments.split(owner, t0, t1), row_starts(owner, len(segments))

@@ -26,6 +26,7 @@ import shapely
 
 from .overlaps import COLLINEAR_TOLERANCE, last_twins, shared_stretches
 from .segments import Segments
+from .splice import Blocks
 
 #: Rows added since the tree was built, beyond which it is built anew (and at least this share of all rows).
 REBUILD_ROWS, REBUILD_SHARE = 4096, 0.125
@@ -98,7 +99,7 @@ class OverlapIndex:
         self._tree_ids = ids.ids(np.arange(len(segments)))
         self._tree_curves = np.unique(np.append(ids.first, -1))  # the curves (by first id) in the tree, all rows
 
-    def updated(self, old: Segments, new: Segments, moved_to: np.ndarray, ids: RowIds,
+    def updated(self, old: Segments, new: Segments, blocks: Blocks, ids: RowIds,
                 pairs: tuple) -> tuple[OverlapIndex, tuple, np.ndarray]:
         """The index, the pairs and the rows whose pairs as ``earlier`` changed after an edit.
 
@@ -106,8 +107,8 @@ class OverlapIndex:
         ----------
         old, new : Segments
             The segments before and after; rows kept are bit for bit the same and in the same order.
-        moved_to : numpy.ndarray
-            Each old row's row in ``new``, -1 for rows gone.
+        blocks : Blocks
+            Which rows of ``new`` are rows of ``old``.
         ids : RowIds
             The ids of ``new``'s rows: a kept curve's as before, a new curve's unlike any the index has seen.
         pairs : tuple
@@ -122,29 +123,29 @@ class OverlapIndex:
             Sorted rows of ``new`` that are new or whose pairs as ``earlier`` differ from before.
         """
         tolerance = self.tolerance
-        moved_from = np.full(len(new), -1, np.int64)
-        moved_from[moved_to[moved_to >= 0]] = np.flatnonzero(moved_to >= 0)
-        fresh, gone = np.flatnonzero(moved_from < 0), np.flatnonzero(moved_to < 0)
+        fresh, gone = blocks.fresh_rows(), blocks.gone(len(old))
         at = np.minimum(np.searchsorted(self._tree_curves, ids.first), len(self._tree_curves) - 1)
         extra = ids.rows_of(np.flatnonzero(self._tree_curves[at] != ids.first))  # curves not in the tree
         near = _Near(self, ids, new, extra)
         # one search for the rows that came (their twins and pairs) and went (their twins)
         asked, found = near(np.concatenate([_lines(new, fresh), _lines(old, gone)]))
-        twin_of, affected, repeated = self._twins(old, new, moved_to, moved_from, asked, found)
+        twins, affected, repeated = self._twins(old, new, blocks, fresh, gone, asked, found)
         from_fresh = asked < len(fresh)
         asked, found = fresh[asked[from_fresh]], found[from_fresh]
-        searched = affected[~np.isin(affected, repeated)]  # kept rows that became their twins' last
+        is_repeated = np.zeros(len(new), bool)
+        is_repeated[repeated] = True
+        searched = affected[~is_repeated[affected]]  # kept rows that became their twins' last
         if len(searched):
             more_asked, more_found = near(_lines(new, searched))
             asked, found = np.concatenate([asked, searched[more_asked]]), np.concatenate([found, more_found])
-        keep = (found != asked) & ~np.isin(asked, repeated) & ~np.isin(found, repeated)
+        keep = (found != asked) & ~is_repeated[asked] & ~is_repeated[found]
         earlier, later = _distinct_pairs(np.minimum(asked, found)[keep], np.maximum(asked, found)[keep])
         among = np.union1d(fresh, affected)
-        among = among[np.isin(among, repeated)]
+        among = among[is_repeated[among]]
         found = [shared_stretches(new, *_within(new, earlier, later, tolerance), tolerance),
-                 shared_stretches(new, among, twin_of[among], tolerance)]
+                 shared_stretches(new, among, twins[1][np.searchsorted(twins[0], among)], tolerance)]
 
-        old_earlier, old_later = moved_to[pairs[0]], moved_to[pairs[1]]
+        old_earlier, old_later = blocks.to_new(pairs[0]), blocks.to_new(pairs[1])
         is_affected = np.zeros(len(new), bool)
         is_affected[affected] = True
         stay = (old_earlier >= 0) & (old_later >= 0)
@@ -162,23 +163,22 @@ class OverlapIndex:
             index._tree, index._tree_ids, index._tree_curves = self._tree, self._tree_ids, self._tree_curves
         return index, pairs, changed
 
-    def _twins(self, old: Segments, new: Segments, moved_to: np.ndarray, moved_from: np.ndarray, asked: np.ndarray,
-               found: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The twins of the rows that came and went after an edit.
+    def _twins(self, old: Segments, new: Segments, blocks: Blocks, fresh: np.ndarray, gone: np.ndarray,
+               asked: np.ndarray, found: np.ndarray) -> tuple[tuple, np.ndarray, np.ndarray]:
+        """The twins of the rows that came (``fresh``) and went (``gone``) after an edit.
 
         ``asked``, ``found``: pairs of those rows (the new ones, then the
         ones gone) and rows now near them: their twins among those.
 
         Returns
         -------
-        twin_of : numpy.ndarray
-            For each row of ``new`` with a twin in those groups, the last one's row; -1 for others.
+        twins : tuple of numpy.ndarray
+            The rows of ``new`` in those groups of twins (sorted) and the last twin of each.
         affected : numpy.ndarray
             Rows kept from ``old`` whose last twin changed (they pair differently now).
         repeated : numpy.ndarray
             The rows of ``new`` with a later twin.
         """
-        fresh, gone = np.flatnonzero(moved_from < 0), np.flatnonzero(moved_to < 0)
         ends = np.concatenate([_ends(new, fresh), _ends(old, gone)])
         equal = np.all(ends[asked] == _ends(new, found), axis=1)
         group = np.unique(ends, axis=0, return_inverse=True)[1].reshape(-1)  # equal end points, one group
@@ -186,20 +186,19 @@ class OverlapIndex:
         member_group, member = _distinct_pairs(group[asked[equal]], found[equal])  # (group, row now) once each
         last_now = np.full(groups, -1, np.int64)
         np.maximum.at(last_now, member_group, member)
-        was = np.concatenate([moved_from[member], gone])
+        was = np.concatenate([blocks.to_old(member), gone])
         was_group = np.concatenate([member_group, group[len(fresh):]])
         last_before = np.full(groups, -1, np.int64)
         np.maximum.at(last_before, was_group[was >= 0], was[was >= 0])
-        new_last = np.append(moved_to, -1)[last_before] != last_now  # (-1: none before)
-        affected = np.unique(member[new_last[member_group] & (moved_from[member] >= 0)])
+        new_last = np.where(last_before >= 0, blocks.to_new(np.maximum(last_before, 0)), -1) != last_now
+        affected = np.unique(member[new_last[member_group] & (was[:len(member)] >= 0)])
         touched = np.zeros(len(new), bool)
         touched[member] = True
-        kept = moved_to[self.repeated]
+        kept = blocks.to_new(self.repeated)
         kept = kept[kept >= 0]
         repeated = np.union1d(kept[~touched[kept]], member[member != last_now[member_group]])
-        twin_of = np.full(len(new), -1, np.int64)
-        twin_of[member] = last_now[member_group]
-        return twin_of, affected, repeated
+        order = np.argsort(member, kind="stable")
+        return (member[order], last_now[member_group][order]), affected, repeated
 
 
 class _Near:
@@ -234,10 +233,12 @@ def _ends(segments: Segments, rows: np.ndarray) -> np.ndarray:
 
 def _distinct_pairs(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The distinct pairs ``(a, b)`` of non-negative integers, sorted."""
+    a, b = np.asarray(a, np.int64), np.asarray(b, np.int64)
     if len(a) == 0:
-        return a.astype(np.int64), b.astype(np.int64)
-    pairs = np.unique(np.stack([a, b], axis=1).astype(np.int64), axis=0)
-    return pairs[:, 0], pairs[:, 1]
+        return a, b
+    scale = int(b.max()) + 1
+    pairs = np.unique(a * scale + b)
+    return pairs // scale, pairs % scale
 
 
 def _within(segments: Segments, earlier: np.ndarray, later: np.ndarray, tolerance: float):
