@@ -165,6 +165,19 @@ def test_edits_of_documents_with_twins_give_the_segments_of_a_fresh_discretisati
         cache.forget(history[-2].curves + document.curves)
 
 
+def test_a_curve_of_no_segments_takes_no_other_curves_rows():
+    """A curve flattened into no segments (all its points at one place) holds no rows; the curve made after it
+    is told apart from it."""
+    point = uniform_curve(np.full((4, 2), 50.0), 0.0, 1.0)
+    document = Document(100, 100, (*twins_document().curves, point))
+    cache = CurveSegments(0.05, 2.0)
+    assert_same(cache, document)
+    line = uniform_curve(straight_chain([(20, 70), (60, 70)]), 0.6, 0.6)
+    document = Document(100, 100, (*document.curves[:-1], line, point))  # made after the point, put before it
+    assert_same(cache, document)
+    assert_same(cache, edits.add_curve(document, uniform_curve(straight_chain([(30, 70), (50, 70)]), 0.2, 0.2)))
+
+
 def test_a_curve_over_the_edge_sends_every_segment_through_the_clip():
     """``clip_to_canvas`` of the whole set leaves it alone only when every segment lies inside; otherwise every
     end point is recomputed, which moves some near the origin by an ulp."""

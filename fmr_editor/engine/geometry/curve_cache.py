@@ -220,7 +220,7 @@ class CurveSegments:
         new = {id(curves[i]): curves[i] for i in fresh if id(curves[i]) not in self._entries}
         for curve, flat in zip(new.values(), flatten_curves(list(new.values()), self.tolerance, self.max_length)):
             self._entries[id(curve)] = _Curve(curve, flat, self._next_id)
-            self._next_id += len(flat)
+            self._next_id += max(len(flat), 1)  # a curve of no segments still gets an id of its own
         for i in fresh:
             entries[i] = self._entries[id(curves[i])]
         return entries
