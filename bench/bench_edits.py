@@ -32,7 +32,7 @@ roses): what ``LiveRepresentation.update`` asks of ``engine.geometry`` per
 edit, the document's curve segments (``CurveSegments.segments``) and the
 boundary cut at the cells (``boundary_segments``), the last results alive
 as the live representation holds them; beside it the plain pipeline
-(``curve_segments``, ``boundary_segments_reference``), which it must equal
+(``curve_segments``, ``boundary_segments``), which it must equal
 bit for bit.
 """
 
@@ -248,7 +248,8 @@ def geometry_step(path: Path, repeat: int) -> None:
     curves = cache.segments(document)
     side = float(max(document.width, document.height))
     cell = Lattice(affordable_levels(choose_levels(curves, side)), side).cell_size
-    held = curves, discretise.boundary_segments(curves, document, cell, settings.border_spacing)
+    cuts = discretise.BoundaryCuts()
+    held = curves, cuts(curves, document, cell, settings.border_spacing)
     k = edited_curve(document)
     anchor = document.curves[k].control_points[3]
     step, plain, exact = [], [], True
@@ -256,12 +257,12 @@ def geometry_step(path: Path, repeat: int) -> None:
         moved = edits.move_control_point(document, document.curves[k].id, 3, tuple(anchor + (0.5 * (run + 1), 0.25)))
         start = time.perf_counter()
         curves = cache.segments(moved)
-        boundary = discretise.boundary_segments(curves, moved, cell, settings.border_spacing)
+        boundary = cuts(curves, moved, cell, settings.border_spacing)
         step.append(time.perf_counter() - start)
         cache.forget(document.curves + moved.curves)
         start = time.perf_counter()
         expected = discretise.curve_segments(moved, settings.tolerance, settings.max_length)
-        expected_boundary = discretise.boundary_segments_reference(expected, moved, cell, settings.border_spacing)
+        expected_boundary = discretise.boundary_segments(expected, moved, cell, settings.border_spacing)
         plain.append(time.perf_counter() - start)
         exact &= all(getattr(a, name).tobytes() == getattr(b, name).tobytes() for a, b in
                      ((curves, expected), (boundary, expected_boundary)) for name in ("p", "q", "jump", "mean",

@@ -1,5 +1,5 @@
 """Row-wise results kept between edits (``engine/geometry/splice.py``) and the boundary cut only where curves
-changed (``discretise.boundary_segments`` against ``boundary_segments_reference``)."""
+changed (``discretise.BoundaryCuts`` against the plain ``boundary_segments``)."""
 
 from __future__ import annotations
 
@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 from shapes import circle_points, scattered_document, straight_chain, uniform_curve
 
-from fmr_editor.engine.geometry import discretise
 from fmr_editor.engine.geometry.discretise import (
+    BoundaryCuts,
     boundary_segments,
-    boundary_segments_reference,
+    cell_cuts,
     curve_segments,
     cut_at_cells,
 )
@@ -87,7 +87,7 @@ def test_a_row_cache_works_out_only_changed_rows_and_forgets_dropped_outputs():
 
     def cut(segments, cell):
         calls.append(len(segments))
-        return discretise.cell_cuts(segments, cell)
+        return cell_cuts(segments, cell)
 
     cache = RowCache(cut)
     first = labelled(40, 5)
@@ -120,12 +120,13 @@ def drag_steps(document: Document) -> list[Document]:
 
 def test_boundary_segments_equal_the_reference_edit_after_edit():
     document = scattered_document(size=128)
+    cuts = BoundaryCuts()
     held = []  # as LiveRepresentation, the last curves and boundary stay alive until replaced
     for cell in (8.0, 16.0):
         for step in [document, *drag_steps(document), document]:
             curves = curve_segments(step)
-            got = boundary_segments(curves, step, cell)
-            assert_same(got, boundary_segments_reference(curves, step, cell))
+            got = cuts(curves, step, cell)
+            assert_same(got, boundary_segments(curves, step, cell))
             held = [curves, got]
     assert held
 
@@ -134,13 +135,14 @@ def test_an_anchor_move_cuts_only_the_moved_curves_rows():
     document = Document(200, 200, [uniform_curve(circle_points(40 + 30 * i, 100, 12), 0.1 * i, 0.5)
                                    for i in range(5)])
     curves = curve_segments(document)
-    held = [curves, boundary_segments(curves, document, 16.0)]
+    cuts = BoundaryCuts()
+    held = [curves, cuts(curves, document, 16.0)]
     moved = edits.move_control_point(document, document.curves[2].id, 0, (112.0, 101.0))
     moved_curves = curve_segments(moved)
-    got = boundary_segments(moved_curves, moved, 16.0)
-    assert_same(got, boundary_segments_reference(moved_curves, moved, 16.0))
+    got = cuts(moved_curves, moved, 16.0)
+    assert_same(got, boundary_segments(moved_curves, moved, 16.0))
     changed = len(reused_rows(curves, moved_curves).fresh_rows())
-    assert 0 < discretise._CUTS.computed_rows == changed <= (moved_curves.origin[:, 0] == moved.curves[2].id).sum()
+    assert 0 < cuts.computed_rows == changed <= (moved_curves.origin[:, 0] == moved.curves[2].id).sum()
     assert held
 
 
@@ -148,8 +150,8 @@ def test_an_anchor_move_cuts_only_the_moved_curves_rows():
 def test_another_canvas_gets_its_own_border(spacing):
     document = scattered_document(size=96)
     curves = curve_segments(document)
-    held = [boundary_segments(curves, document, 12.0, spacing)]
+    cuts = BoundaryCuts()
+    held = [cuts(curves, document, 12.0, spacing)]
     wider = Document(120, 96, document.curves)
-    assert_same(boundary_segments(curves, wider, 12.0, spacing), boundary_segments_reference(curves, wider, 12.0,
-                                                                                              spacing))
+    assert_same(cuts(curves, wider, 12.0, spacing), boundary_segments(curves, wider, 12.0, spacing))
     assert held

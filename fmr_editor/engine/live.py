@@ -35,16 +35,21 @@ from ..model.changes import ChangeSet, recoloured_curves
 from .cells import Cells, largest_part, propagated, saved_unknowns
 from .fmm.lattice import Lattice, dilated
 from .geometry.curve_cache import CurveSegments
-from .geometry.discretise import boundary_segments, with_curve_colors
+from .geometry.discretise import BoundaryCuts, with_curve_colors
 from .geometry.segments import Segments
 from .kept_states import KeptStates, State
 from .memory import affordable_levels, check_build_memory
 from .points.field import (
-    LivePoints, changed_point_cells, lattice_radius, point_levels, sorted_radii_after, warm_up_points,
+    LivePoints,
+    changed_point_cells,
+    lattice_radius,
+    point_levels,
+    sorted_radii_after,
+    warm_up_points,
 )
 from .representation import SOLVE_SEGMENTS_PER_CELL, Representation, Settings, choose_levels
-from .solve.solver import BoundarySolver
 from .solve.preview import GLOBAL_STEP_SEGMENTS, Previews
+from .solve.solver import BoundarySolver
 from .solve.system_solvers import SystemSolvers
 from .solve.updated import UpdatedSolver, carried_unknowns
 
@@ -126,6 +131,7 @@ class LiveRepresentation:
         self.timings: dict[str, float] = {}
         self._side = float(max(document.width, document.height))
         self._curve_cache = CurveSegments(settings.tolerance, settings.max_length)
+        self._cuts = BoundaryCuts()
         self._solvers = SystemSolvers(self._new_solver)
         self._kept = KeptStates(memory)
         self._curves: Segments | None = None  # the document's clipped curve segments (no border, not cut)
@@ -217,7 +223,7 @@ class LiveRepresentation:
         self._radii = np.sort([point.radius for point in document.points])
         self._point_levels = point_levels(lattice_radius(self._radii), self._side)
         self.lattice = Lattice(self._levels(self._curves), self._side)
-        self._boundary = boundary_segments(self._curves, document, self.lattice.cell_size, self.settings.border_spacing)
+        self._boundary = self._cuts(self._curves, document, self.lattice.cell_size, self.settings.border_spacing)
         check_build_memory(len(self._boundary), self.lattice.levels)
 
     def _resume(self, document: Document, saved: Representation) -> bool:
@@ -248,7 +254,7 @@ class LiveRepresentation:
         twin = object.__new__(LiveRepresentation)
         twin.__dict__.update(self.__dict__)
         twin.document, twin.timings, twin.factorisations = document, {"twin": 0.0}, 0
-        twin._curve_cache = self._curve_cache.copy()
+        twin._curve_cache, twin._cuts = self._curve_cache.copy(), BoundaryCuts()
         twin._solvers = SystemSolvers(twin._new_solver)
         twin._solvers.move_to(self._boundary)
         twin._kept = KeptStates(self.memory)
@@ -366,7 +372,7 @@ class LiveRepresentation:
         if recoloured is not None:
             new, same_geometry = with_curve_colors(old, document, recoloured), True
         else:
-            new = boundary_segments(curves, document, self.lattice.cell_size, self.settings.border_spacing)
+            new = self._cuts(curves, document, self.lattice.cell_size, self.settings.border_spacing)
             same_geometry = len(new) == len(old) and all(
                 np.array_equal(getattr(new, name), getattr(old, name)) for name in ("p", "q", "on_border"))
         self._boundary, self._curves = new, curves

@@ -11,7 +11,6 @@ cell edges (``cut_at_cells``), so that each lies in one fine cell.
 from __future__ import annotations
 
 from dataclasses import replace
-from functools import lru_cache
 
 import numpy as np
 
@@ -153,32 +152,36 @@ def curve_segments(document: Document, tolerance: float = 0.05, max_length: floa
 def boundary_segments(curves: Segments, document: Document, cell_size: float, border_spacing: float = 1.0) -> Segments:
     """Curve segments plus the canvas border, cut at the lattice's cell edges.
 
-    Only the segments that differ from those of a recent call are cut; the
-    others' pieces are taken over (``boundary_segments_reference`` cuts all
-    of them: the same result, bit for bit).
-
     Returns
     -------
     Segments
         Curve segments (``on_border`` False) and border segments, each lying
         in one fine cell.
     """
-    border = _border(float(document.width), float(document.height), float(border_spacing))
-    return _CUTS([curves, border], float(cell_size))
-
-
-def boundary_segments_reference(curves: Segments, document: Document, cell_size: float,
-                                border_spacing: float = 1.0) -> Segments:
-    """``boundary_segments`` with every segment cut anew."""
     border = canvas_border(document.width, document.height, border_spacing)
     return cut_at_cells(concatenate([curves, border]), cell_size)
 
 
-@lru_cache(maxsize=8)
-def _border(width: float, height: float, spacing: float) -> Segments:
-    """``canvas_border``, one object per canvas: ``_CUTS`` knows its pieces by it."""
-    return canvas_border(width, height, spacing)
+class BoundaryCuts:
+    """``boundary_segments`` of one document after another, cutting only the segments that changed since one of
+    the last ``kept`` calls: the others' pieces are taken over, the same result bit for bit.
 
+    Attributes
+    ----------
+    computed_rows : int
+        Segments the last call cut.
+    """
 
-#: The cuts of recent ``boundary_segments`` calls (a few documents' or layers' at once).
-_CUTS = RowCache(lambda segments, cell_size: cell_cuts(segments, cell_size), size=4)
+    def __init__(self, kept: int = 4) -> None:
+        self._cuts = RowCache(cell_cuts, size=kept)
+        self._borders: dict[tuple[float, float, float], Segments] = {}  # one object a canvas: cuts know it by it
+
+    def __call__(self, curves: Segments, document: Document, cell_size: float, border_spacing: float = 1.0) -> Segments:
+        canvas = (float(document.width), float(document.height), float(border_spacing))
+        if canvas not in self._borders:
+            self._borders = {canvas: canvas_border(*canvas)}
+        return self._cuts([curves, self._borders[canvas]], float(cell_size))
+
+    @property
+    def computed_rows(self) -> int:
+        return self._cuts.computed_rows

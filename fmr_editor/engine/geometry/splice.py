@@ -18,7 +18,6 @@ faults, and on roses those cost an edit more than the copying itself.
 
 from __future__ import annotations
 
-import threading
 import weakref
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -220,7 +219,6 @@ class RowCache:
                  size: int = 4) -> None:
         self._pieces, self._size = pieces, size
         self._entries: list[tuple] = []  # (key, weak parts, weak output, starts), most recent first
-        self._lock = threading.Lock()
         #: Rows worked out by the last call (for tests and benchmarks).
         self.computed_rows = 0
 
@@ -228,8 +226,7 @@ class RowCache:
         """``pieces`` of the rows of ``parts`` (concatenated), taken from a kept output where the rows match."""
         parts = list(parts)
         rows = sum(len(part) for part in parts)
-        with self._lock:
-            kept = [(entry, [part() for part in entry[1]], entry[2]()) for entry in self._entries]
+        kept = [(entry, [part() for part in entry[1]], entry[2]()) for entry in self._entries]
         best = Blocks.of([rows], [-1]), empty_segments(), np.zeros(1, np.int64)
         for (old_key, _, _, old_starts), old_parts, old_output in kept:
             if old_key != key or old_output is None or len(old_parts) != len(parts) or any(
@@ -241,10 +238,9 @@ class RowCache:
             if 8 * (rows - blocks.taken) <= rows:
                 break
         output, starts = self._spliced(parts, *best, key)
-        with self._lock:
-            self._entries = [(key, [weakref.ref(part) for part in parts], weakref.ref(output), starts)] + [
-                entry for entry in self._entries if entry[2]() is not None and entry[2]() is not output
-            ][:self._size - 1]
+        self._entries = [(key, [weakref.ref(part) for part in parts], weakref.ref(output), starts)] + [
+            entry for entry in self._entries if entry[2]() is not None and entry[2]() is not output
+        ][:self._size - 1]
         return output
 
     def _spliced(self, parts: list[Segments], blocks: Blocks, old: Segments, old_starts: np.ndarray,
