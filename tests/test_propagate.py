@@ -3,15 +3,21 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
+from fmr_editor.engine.cells import largest_part
+from fmr_editor.engine.fmm import orders
 from fmr_editor.engine.fmm.lattice import (
     Lattice,
     cell_order,
     changed_runs,
     changed_runs_reference,
+    coarser_multipoles,
     cut_into_cells,
+    downward_pass,
     sort_into_cells,
 )
+from fmr_editor.engine.fmm.passes import downward_onto, level_sources
 from fmr_editor.engine.geometry.segments import Segments
 
 SIDE = 256.0
@@ -76,3 +82,31 @@ def test_changed_runs_equal_the_reference():
     assert 40 < len(expected) < 32 * 32 / 2
     assert np.array_equal(changed_runs(old, old_start, new, new_start), expected)
     assert len(changed_runs(old, old_start, old, old_start)) == 0
+
+
+def random_delta(rng, cells: np.ndarray, n: int) -> np.ndarray:
+    """Random multipoles ``(len(cells), 3, WIDTH + 1)`` of the size real ones fall off with."""
+    shape = (len(cells), 3, WIDTH + 1)
+    return (rng.normal(size=shape) + 1j * rng.normal(size=shape)) * 0.3 ** np.arange(WIDTH + 1)
+
+
+@pytest.mark.parametrize("chosen", [False, True])
+@pytest.mark.parametrize("count", [1, 6, 60, 3000])  # one cell; a few (corners, borders); sparse; most (grids)
+def test_a_change_goes_down_onto_the_local_expansions_as_the_plain_pass(count, chosen):
+    rng = np.random.default_rng(count)
+    lattice = Lattice(6, SIDE)
+    n = lattice.cells_per_side
+    pass_orders = orders.pass_orders(6, 8, WIDTH) if chosen else orders.uniform_orders(6, WIDTH)
+    corners = np.array([0, n - 1, n * (n - 1), n * n - 1, n // 2, n * n // 2])  # the edges of the index maps
+    cells = np.unique(np.concatenate([corners[:count], rng.choice(n * n, max(count - 6, 0), replace=False)]))
+    moments = random_delta(rng, cells, n)
+    terms = 9 if chosen else WIDTH + 1
+    base = rng.normal(size=(n, n, 3, terms)) + 1j * rng.normal(size=(n, n, 3, terms))
+    local, change = downward_onto(level_sources(moments, np.arange(len(cells)), cells, lattice, pass_orders),
+                                  lattice, pass_orders, base)
+    delta = np.zeros((n * n, 3, WIDTH + 1), complex)
+    delta[cells] = moments
+    expected = downward_pass(coarser_multipoles(delta.reshape(n, n, 3, -1), WIDTH), lattice, WIDTH,
+                             pass_orders if chosen else None)[..., :terms]
+    assert relative(local - base, expected) < 1e-12
+    assert np.abs(change - largest_part(expected, axis=(2, 3))).max() < 1e-12 * np.abs(expected).max()

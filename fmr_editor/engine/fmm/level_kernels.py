@@ -20,6 +20,9 @@ keeps LLVM from vectorising).
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
+
 import numba
 import numpy as np
 
@@ -35,6 +38,23 @@ PAIR = 2
 DX, DY, GRID_Y, GRID_X, SHIFT_Y, SHIFT_X, PAIRS, LOCAL = range(8)
 #: Which entries of a translation's matrix ``m[k, l]`` ``_add_row`` reads: all, ``l >= k`` or ``l <= k``.
 FULL, UPPER, LOWER = 0, 1, 2
+#: Cells (or pieces of work of about a cell's) below which a kernel's parallel loop runs on one thread: waking
+#: the other costs more than such work, 4-8 ms (a scheduler tick or two) while another process holds a core.
+PARALLEL_CELLS = 4096
+
+
+@contextmanager
+def threads_for(cells: int) -> Iterator[None]:
+    """Within the block, numba's parallel loops run on one thread when ``cells < PARALLEL_CELLS``."""
+    if cells >= PARALLEL_CELLS:
+        yield
+        return
+    before = numba.get_num_threads()
+    numba.set_num_threads(1)
+    try:
+        yield
+    finally:
+        numba.set_num_threads(before)
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH, inline="always")
@@ -72,13 +92,14 @@ def _gather(acc_re, acc_im, b, row, column, index, src_re, src_im, table, o0, o1
 
     Summed in ``buf (3, terms)`` first: the innermost loop runs along the local terms of one matrix row.
     """
-    buf_re[:] = 0.0
-    buf_im[:] = 0.0
     hits = 0
     for o in range(o0, o1):
         s = index[row + INDEX_PAD + table[o, DY], column + INDEX_PAD + table[o, DX]]
         if s < 0:
             continue
+        if hits == 0:
+            buf_re[:] = 0.0
+            buf_im[:] = 0.0
         hits += 1
         top = table[o, LOCAL] + 1
         for ch in range(3):
@@ -94,10 +115,45 @@ def _gather(acc_re, acc_im, b, row, column, index, src_re, src_im, table, o0, o1
                 acc_im[l, ch, b] += buf_im[ch, l]
 
 
+@numba.njit(cache=True, inline="always")
+def _sources_near(index, row):
+    """Whether a sparse level has sources within the reach of an interaction list of row ``row``."""
+    for r in range(row, row + 2 * INDEX_PAD + 1):
+        for c in range(index.shape[1]):
+            if index[r, c] >= 0:
+                return True
+    return False
+
+
+@numba.njit(cache=True, fastmath=FAST_MATH, inline="always")
+def _write_fine(fine, base, change, acc_re, acc_im, row, terms):
+    """Row ``row`` of the fine level from ``acc (2, terms, 3, half)`` (its cells of column parity 0, then 1), in
+    the order of memory: ``fine = acc`` or, with a ``base``, ``base + acc`` (``base`` past ``terms``) and
+    ``change`` the largest part of ``acc``."""
+    added = base.size > 0
+    for column in range(fine.shape[1]):
+        px, b = column % 2, column // 2
+        largest = 0.0
+        for ch in range(3):
+            for l in range(terms):
+                x, y = acc_re[px, l, ch, b], acc_im[px, l, ch, b]
+                if added:
+                    fine[row, column, ch, l] = base[row, column, ch, l] + complex(x, y)
+                    largest = max(largest, abs(x), abs(y))
+                else:
+                    fine[row, column, ch, l] = complex(x, y)
+            if added:
+                for l in range(terms, base.shape[3]):
+                    fine[row, column, ch, l] = base[row, column, ch, l]
+        if added:
+            change[row, column] = largest
+
+
 @numba.njit(parallel=True, cache=True, fastmath=FAST_MATH)
 def level_local(size, parent_re, parent_im, l2l_re, l2l_im, grid_re, grid_im, src_re, src_im, index,
-                table, starts, m2l_re, m2l_im, terms, coarse_re, coarse_im, fine):
-    """The local expansions of one level: L2L from the level above plus M2L, row by row of each parity.
+                table, starts, m2l_re, m2l_im, terms, coarse_re, coarse_im, fine, base, change):
+    """The local expansions of one level: L2L from the level above plus M2L, a row at a time (each column
+    parity apart, then the row written whole).
 
     Parameters
     ----------
@@ -121,40 +177,44 @@ def level_local(size, parent_re, parent_im, l2l_re, l2l_im, grid_re, grid_im, sr
         ``(size, terms, 3, size)`` output of a coarse level (empty at the fine level).
     fine : numpy.ndarray
         ``(size, size, 3, >= terms)`` complex output of the fine level (empty otherwise).
+    base, change : numpy.ndarray
+        Empty, or (an edit's change) ``base (size, size, 3, K)`` complex, ``K >= terms``, and ``change (size,
+        size)``: ``fine`` (``K`` terms) is then ``base`` plus the level's expansions, and ``change`` their
+        largest real or imaginary part per cell (``cells.largest_part``).
     """
     half = size // 2
     dense = grid_re.size > 0
-    for task in numba.prange(4 * half):
-        parity, a = np.int64(task) // half, np.int64(task) % half
-        py, px = parity // 2, parity % 2
-        acc_re = np.zeros((terms, 3, half))
-        acc_im = np.zeros((terms, 3, half))
-        if parent_re.size > 0:
-            _add_row(acc_re, acc_im, parent_re[a], parent_im[a], 0, half, l2l_re.shape[1] // PAIR, terms - 1,
-                     l2l_re, l2l_im, parity, LOWER)
+    for task in numba.prange(2 * half):
+        py, a = np.int64(task) // half, np.int64(task) % half
+        row = 2 * a + py
+        both_re = np.zeros((2, terms, 3, half))
+        both_im = np.zeros((2, terms, 3, half))
         buf_re = np.empty((3, terms))
         buf_im = np.empty((3, terms))
-        for o in range(starts[parity], starts[parity + 1]):
-            if dense:
-                rows_re = grid_re[table[o, GRID_Y], table[o, GRID_X], a + GRID_PAD + table[o, SHIFT_Y]]
-                rows_im = grid_im[table[o, GRID_Y], table[o, GRID_X], a + GRID_PAD + table[o, SHIFT_Y]]
-                _add_row(acc_re, acc_im, rows_re, rows_im, GRID_PAD + table[o, SHIFT_X], half, table[o, PAIRS],
-                         table[o, LOCAL], m2l_re, m2l_im, o)
-        if not dense:
-            for b in range(half):
-                _gather(acc_re, acc_im, b, 2 * a + py, 2 * b + px, index, src_re, src_im, table, starts[parity],
-                        starts[parity + 1], m2l_re, m2l_im, buf_re, buf_im)
+        for px in range(2):
+            parity = 2 * py + px
+            acc_re, acc_im = both_re[px], both_im[px]
+            if parent_re.size > 0:
+                _add_row(acc_re, acc_im, parent_re[a], parent_im[a], 0, half, l2l_re.shape[1] // PAIR, terms - 1,
+                         l2l_re, l2l_im, parity, LOWER)
+            for o in range(starts[parity], starts[parity + 1]):
+                if dense:
+                    rows_re = grid_re[table[o, GRID_Y], table[o, GRID_X], a + GRID_PAD + table[o, SHIFT_Y]]
+                    rows_im = grid_im[table[o, GRID_Y], table[o, GRID_X], a + GRID_PAD + table[o, SHIFT_Y]]
+                    _add_row(acc_re, acc_im, rows_re, rows_im, GRID_PAD + table[o, SHIFT_X], half, table[o, PAIRS],
+                             table[o, LOCAL], m2l_re, m2l_im, o)
+            if not dense and _sources_near(index, row):
+                for b in range(half):
+                    _gather(acc_re, acc_im, b, row, 2 * b + px, index, src_re, src_im, table, starts[parity],
+                            starts[parity + 1], m2l_re, m2l_im, buf_re, buf_im)
         if fine.size > 0:
-            for b in range(half):
-                for ch in range(3):
-                    for l in range(terms):
-                        fine[2 * a + py, 2 * b + px, ch, l] = complex(acc_re[l, ch, b], acc_im[l, ch, b])
+            _write_fine(fine, base, change, both_re, both_im, row, terms)
         else:
             for l in range(terms):
                 for ch in range(3):
-                    for b in range(half):
-                        coarse_re[2 * a + py, l, ch, 2 * b + px] = acc_re[l, ch, b]
-                        coarse_im[2 * a + py, l, ch, 2 * b + px] = acc_im[l, ch, b]
+                    for column in range(size):
+                        coarse_re[row, l, ch, column] = both_re[column % 2, l, ch, column // 2]
+                        coarse_im[row, l, ch, column] = both_im[column % 2, l, ch, column // 2]
 
 
 @numba.njit(parallel=True, cache=True, fastmath=FAST_MATH)

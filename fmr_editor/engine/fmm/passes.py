@@ -39,6 +39,7 @@ _NO_SOURCES = np.zeros((0, 0, 0))
 _NO_INDEX = np.zeros((0, 0), np.int64)
 _NO_PLANES = np.zeros((0, 0, 0, 0))
 _NO_FINE = np.zeros((0, 0, 0, 0), complex)
+_NO_CHANGE = np.zeros((0, 0))
 
 
 @dataclass(frozen=True)
@@ -104,6 +105,22 @@ def upward(segments, cell_start: np.ndarray, lattice: Lattice, orders: PassOrder
                       segments.jump, moments)
     if lap is not None:
         lap("P2M")
+    return fine, level_sources(moments, cells, cells, lattice, orders)
+
+
+def level_sources(moments: np.ndarray, rows: np.ndarray, cells: np.ndarray, lattice: Lattice,
+                  orders: PassOrders) -> list[LevelSources | None]:
+    """Every level's sources (M2M) from the multipoles ``moments[rows[i]]`` of the fine cells ``cells[i]``.
+
+    Parameters
+    ----------
+    moments : numpy.ndarray
+        ``(m, 3, >= 1)`` complex fine multipoles (terms past ``width`` are not read).
+    rows, cells : numpy.ndarray
+        The row of ``moments`` of each fine cell (flat ``row * 2^L + column``, sorted, distinct) that holds
+        sources; every other cell holds none.
+    """
+    n, width = lattice.cells_per_side, orders.width
     values_re = values_im = None  # the sparse levels' multipoles, as planes
     sources: list[LevelSources | None] = [None] * (lattice.levels + 1)
     grid = None
@@ -111,32 +128,36 @@ def upward(segments, cell_start: np.ndarray, lattice: Lattice, orders: PassOrder
         size, terms = 2**level, _carried_terms(orders, level)
         if grid is None and len(cells) >= _dense_count(size):
             grid = _empty_grid(size, terms)
-            if values_re is None:  # the fine level: ``moments`` holds every cell at its flat index
-                position = np.where(np.diff(cell_start) > 0, np.arange(n * n), -1).reshape(n, n)
-                kernels.fill_grid_complex(position, moments, *grid)
-            else:
-                pad = kernels.INDEX_PAD
-                kernels.fill_grid(_index_map(cells, size)[pad:-pad, pad:-pad], values_re, values_im, *grid)
+            with kernels.threads_for(size * size):
+                if values_re is None:  # the fine level: ``moments`` as they are
+                    position = np.full(n * n, -1, np.int64)
+                    position[cells] = rows
+                    kernels.fill_grid_complex(position.reshape(n, n), moments, *grid)
+                else:
+                    pad = kernels.INDEX_PAD
+                    kernels.fill_grid(_index_map(cells, size)[pad:-pad, pad:-pad], values_re, values_im, *grid)
         if grid is not None:
             sources[level] = LevelSources(grid_re=grid[0], grid_im=grid[1])
             if level > 2:
                 parent_terms = _carried_terms(orders, level - 1)
                 parent = _empty_grid(size // 2, parent_terms)
-                kernels.grid_m2m(*grid, *_m2m_tables(terms, parent_terms, width), *parent)
+                with kernels.threads_for(size * size):
+                    kernels.grid_m2m(*grid, *_m2m_tables(terms, parent_terms, width), *parent)
                 grid = parent
             continue
         index = _index_map(cells, size)
         if values_re is None:
-            values_re, values_im = _split(moments[cells], terms)
+            values_re, values_im = _split(moments[rows], terms)
         sources[level] = LevelSources(src_re=values_re, src_im=values_im, index=index)
         if level > 2:
             parents = np.unique(_parent_cells(cells, size))
             parent_terms = _carried_terms(orders, level - 1)
             values_re, values_im = (np.zeros((len(parents), 3, parent_terms)) for _ in range(2))
-            kernels.compact_m2m(size, parents, index, sources[level].src_re, sources[level].src_im,
-                                *_m2m_tables(terms, parent_terms, width), values_re, values_im)
+            with kernels.threads_for(len(cells)):
+                kernels.compact_m2m(size, parents, index, sources[level].src_re, sources[level].src_im,
+                                    *_m2m_tables(terms, parent_terms, width), values_re, values_im)
             cells = parents
-    return fine, sources
+    return sources
 
 
 def _dense_count(size: int) -> int:
@@ -208,8 +229,41 @@ def downward(sources: list[LevelSources | None], lattice: Lattice, orders: PassO
     """
     n = lattice.cells_per_side
     local = np.zeros((n, n, 3, orders.width + 1 if terms is None else terms), complex)
+    _downward(sources, lattice, orders, local, _NO_FINE, _NO_CHANGE, lap)
+    return local
+
+
+def downward_onto(sources: list[LevelSources | None], lattice: Lattice, orders: PassOrders,
+                  base: np.ndarray, out: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """``base`` plus ``downward`` of ``sources`` (an edit's change), without the change as an array of its own.
+
+    Parameters
+    ----------
+    sources : list
+        ``level_sources`` of the change of the fine multipoles (set to None level by level, as ``downward``).
+    base : numpy.ndarray
+        ``(2^L, 2^L, 3, K)`` complex fine local expansions, ``K`` at least the fine level's ``kept + 1``.
+    out : numpy.ndarray, optional
+        Where to write the sum (C-contiguous, ``base``'s shape and type, not ``base``); default a new array.
+
+    Returns
+    -------
+    local : numpy.ndarray
+        ``out``: ``base`` plus the change (zero past ``kept``).
+    change : numpy.ndarray
+        ``(2^L, 2^L)`` largest real or imaginary part of each cell's change (``cells.largest_part``).
+    """
+    n = lattice.cells_per_side
+    local, change = np.empty_like(base) if out is None else out, np.empty((n, n))
+    _downward(sources, lattice, orders, local, np.ascontiguousarray(base), change, None)
+    return local, change
+
+
+def _downward(sources: list[LevelSources | None], lattice: Lattice, orders: PassOrders, local: np.ndarray,
+              base: np.ndarray, change: np.ndarray, lap: Callable[[str], None] | None) -> None:
+    """``downward`` into ``local``; with a ``base`` (not empty), ``downward_onto``."""
     if local.shape[-1] < orders.kept(lattice.levels) + 1:
-        raise ValueError(f"the fine level keeps {orders.kept(lattice.levels) + 1} local terms, not {terms}")
+        raise ValueError(f"the fine level keeps {orders.kept(lattice.levels) + 1} local terms, not {local.shape[-1]}")
     parent_re = parent_im = _NO_PLANES
     l2l = (np.zeros((0, 0, 0)), np.zeros((0, 0, 0)))
     for level in range(2, lattice.levels + 1):
@@ -221,14 +275,15 @@ def downward(sources: list[LevelSources | None], lattice: Lattice, orders: PassO
         coarse = (_NO_PLANES, _NO_PLANES) if fine else (np.zeros((size, _even(kept), 3, size)),
                                                          np.zeros((size, _even(kept), 3, size)))
         tables = _level_tables(orders, level, float(np.log(lattice.level_size(level))))
-        kernels.level_local(size, parent_re, parent_im, *l2l, level_sources.grid_re, level_sources.grid_im,
-                            level_sources.src_re, level_sources.src_im, level_sources.index, *tables, kept,
-                            *coarse, local if fine else _NO_FINE)
+        with kernels.threads_for(size * size):
+            kernels.level_local(size, parent_re, parent_im, *l2l, level_sources.grid_re, level_sources.grid_im,
+                                level_sources.src_re, level_sources.src_im, level_sources.index, *tables, kept,
+                                *coarse, local if fine else _NO_FINE, base if fine else _NO_FINE,
+                                change if fine else _NO_CHANGE)
         sources[level] = level_sources = None
         parent_re, parent_im = coarse
         if lap is not None:
             lap(f"L{level}")
-    return local
 
 
 def build_passes(segments, cell_start: np.ndarray, lattice: Lattice, orders: PassOrders,
