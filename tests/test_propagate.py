@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 import pytest
 
-from fmr_editor.engine.cells import largest_part
-from fmr_editor.engine.fmm import orders
+from fmr_editor.engine import cells as cells_module
+from fmr_editor.engine.cells import Cells, largest_part, propagated, propagated_reference
+from fmr_editor.engine.fmm import level_kernels, orders, passes
 from fmr_editor.engine.fmm.lattice import (
     Lattice,
     cell_order,
@@ -110,3 +112,106 @@ def test_a_change_goes_down_onto_the_local_expansions_as_the_plain_pass(count, c
                              pass_orders if chosen else None)[..., :terms]
     assert relative(local - base, expected) < 1e-12
     assert np.abs(change - largest_part(expected, axis=(2, 3))).max() < 1e-12 * np.abs(expected).max()
+
+
+def edited(segments: Segments, rng, moved: int) -> Segments:
+    """``segments`` with ``moved`` of them shifted and given new E (a preview's change)."""
+    index = rng.choice(len(segments), moved, replace=False)
+    p, q, flux = segments.p.copy(), segments.q.copy(), segments.flux.copy()
+    shift = rng.normal(0.0, 3.0, (moved, 2))
+    p[index] = np.clip(p[index] + shift, 0.5, SIDE - 0.5)
+    q[index] = np.clip(q[index] + shift, 0.5, SIDE - 0.5)
+    flux[index] += rng.normal(size=(moved, 3))
+    return Segments(**{**{name: getattr(segments, name) for name in FIELDS}, "p": p, "q": q, "flux": flux})
+
+
+def assert_same_cells(got, expected):
+    (cells, change, moved), (ref, ref_change, ref_moved) = got, expected
+    assert np.array_equal(moved, ref_moved)
+    assert np.array_equal(cells.cell_start, ref.cell_start)
+    for name in FIELDS:
+        assert np.array_equal(getattr(cells.segments, name), getattr(ref.segments, name), equal_nan=True)
+    assert np.array_equal(cells.fine, ref.fine)
+    assert relative(cells.local, ref.local) < 1e-12
+    assert np.abs(change - ref_change).max() <= 1e-12 * max(ref_change.max(), 1e-300)
+    assert cells.orders is ref.orders
+
+
+@pytest.mark.parametrize("pixel_order", [8, None])
+def test_a_preview_propagates_as_the_reference_and_a_rebuild(pixel_order):
+    rng = np.random.default_rng(5)
+    lattice = Lattice(6, SIDE)
+    segments = cut(random_segments(rng, 3000), lattice)
+    cells = Cells.build(segments, lattice, WIDTH, pixel_order=pixel_order)
+    new = edited(segments, rng, 25)
+    got = propagated(cells, new, lattice, WIDTH, 0.0, only_moved=True)
+    assert 10 < got[2].sum() < 60
+    assert_same_cells(got, propagated_reference(cells, new, lattice, WIDTH, 0.0, only_moved=True))
+    rebuilt = Cells.build(new, lattice, WIDTH, pixel_order=pixel_order)
+    assert relative(got[0].local, rebuilt.local) < 1e-12
+    assert relative(got[0].fine, rebuilt.fine) < 1e-14
+
+
+@pytest.mark.parametrize("only_moved", [False, True])
+def test_a_solve_propagates_as_the_reference(only_moved):
+    """Every E moves a little (some cells' changes negligible, they wait), or most cells move (whole grids)."""
+    rng = np.random.default_rng(6)
+    lattice = Lattice(6, SIDE)
+    segments = cut(random_segments(rng, 4000, spread=0.5), lattice)
+    cells = Cells.build(segments, lattice, WIDTH, pixel_order=8)
+    occupied = np.count_nonzero(np.diff(cells.cell_start))
+    for size, least, most in ((1e-6, 0.01, 0.1), (1e-2, 0.9, 1.0)):
+        flux = segments.flux * (1.0 + size * rng.normal(size=segments.flux.shape) ** 3)
+        new = Segments(**{**{name: getattr(segments, name) for name in FIELDS}, "flux": flux})
+        got = propagated(cells, new, lattice, WIDTH, 1e-5, only_moved=only_moved)
+        assert_same_cells(got, propagated_reference(cells, new, lattice, WIDTH, 1e-5, only_moved=only_moved))
+        assert least * occupied < got[2].sum() < most * occupied
+
+
+def test_an_edit_that_moves_no_cell_shares_the_arrays():
+    rng = np.random.default_rng(7)
+    lattice = Lattice(5, SIDE)
+    segments = cut(random_segments(rng, 1000), lattice)
+    cells = Cells.build(segments, lattice, WIDTH, pixel_order=8)
+    same, change, moved = propagated(cells, segments, lattice, WIDTH, 1e-6)
+    assert same.fine is cells.fine and same.local is cells.local
+    assert not change.any() and not moved.any()
+
+
+def test_a_preview_touches_only_the_changed_cells_and_their_ancestors(monkeypatch):
+    """Work, not time: P2M of the changed cells only, M2M of their ancestors only, small levels on one thread."""
+    rng = np.random.default_rng(8)
+    lattice = Lattice(7, SIDE)
+    segments = cut(random_segments(rng, 6000, spread=0.4), lattice)
+    cells = Cells.build(segments, lattice, WIDTH, pixel_order=8)
+    new = edited(segments, rng, 4)
+    seen = {}
+    original_p2m, original_sources = cells_module.fine_multipoles, cells_module.level_sources
+
+    def recorded_p2m(*args):
+        seen["p2m"] = args[4]
+        return original_p2m(*args)
+
+    def recorded_sources(*args):
+        sources = original_sources(*args)
+        seen["sources"] = [None if level is None else (level.dense, len(level.src_re)) for level in sources]
+        return sources
+
+    monkeypatch.setattr(cells_module, "fine_multipoles", recorded_p2m)
+    monkeypatch.setattr(cells_module, "level_sources", recorded_sources)
+    threads = []
+    original_level = level_kernels.level_local
+    monkeypatch.setattr(level_kernels, "level_local",
+                        lambda *args: threads.append((args[0], numba.get_num_threads())) or original_level(*args))
+    _, _, moved = propagated(cells, new, lattice, WIDTH, 0.0, only_moved=True)
+    old, new_sorted = cells, sort_into_cells(new, lattice)
+    assert np.array_equal(seen["p2m"], changed_runs(old.segments, old.cell_start, *new_sorted))
+    assert len(seen["p2m"]) <= 8 + 2 * 4  # each moved piece: its old and new cell, a few cut in two
+    ancestors, dense = np.flatnonzero(moved), False
+    for level in range(lattice.levels, 1, -1):
+        dense = dense or len(ancestors) >= np.ceil(passes.DENSE_SHARE * 4**level)
+        assert seen["sources"][level] == ((True, 0) if dense else (False, len(ancestors))), level
+        rows, columns = np.divmod(ancestors, 2**level)
+        ancestors = np.unique((rows // 2) * 2 ** (level - 1) + columns // 2)
+    assert threads == [(2**level, 1 if 4**level < level_kernels.PARALLEL_CELLS else numba.get_num_threads())
+                       for level in range(2, lattice.levels + 1)]

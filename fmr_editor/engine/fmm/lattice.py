@@ -18,7 +18,7 @@ import numpy as np
 from ..geometry.discretise import cell_cuts
 from ..geometry.segments import Segments, concatenate
 from .expansions import l2l_matrix, m2l_matrix, m2m_matrix
-from .moments import cell_moments
+from .moments import cell_moments, fine_moments_into
 
 
 @lru_cache(maxsize=None)
@@ -234,11 +234,16 @@ def fine_multipoles(segments: Segments, cell_start: np.ndarray, lattice: Lattice
     With ``cells`` (flat indices ``row * 2^L + column``), only theirs: ``(len(cells), 3, order + 1)``.
     """
     n = lattice.cells_per_side
-    flat = np.arange(n * n) if cells is None else np.asarray(cells, np.int64)
+    if cells is None:  # straight into the whole array, as a build's passes do
+        occupied = np.flatnonzero(np.diff(cell_start))
+        fine = np.zeros((n * n, 3, order + 1), complex)
+        fine_moments_into(cell_start, occupied, lattice.cell_centres(np.stack(np.divmod(occupied, n), axis=1)),
+                          lattice.cell_size, segments.p, segments.q, segments.flux, segments.jump, fine)
+        return fine.reshape(n, n, 3, order + 1)
+    flat = np.asarray(cells, np.int64)
     centres = lattice.cell_centres(np.stack(np.divmod(flat, n), axis=1))
-    fine = cell_moments(cell_start, centres, lattice.cell_size, segments.p, segments.q, segments.flux, segments.jump,
-                        order, cells=None if cells is None else flat)
-    return fine.reshape(n, n, 3, order + 1) if cells is None else fine
+    return cell_moments(cell_start, centres, lattice.cell_size, segments.p, segments.q, segments.flux, segments.jump,
+                        order, cells=flat)
 
 
 def changed_runs(before: Segments, before_start: np.ndarray, after: Segments, after_start: np.ndarray) -> np.ndarray:
