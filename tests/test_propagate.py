@@ -20,6 +20,7 @@ from fmr_editor.engine.fmm.lattice import (
     sort_into_cells,
 )
 from fmr_editor.engine.fmm.passes import downward_onto, level_sources
+from fmr_editor.engine.fmm.sparse_downward import delta_local
 from fmr_editor.engine.geometry.segments import Segments
 
 SIDE = 256.0
@@ -112,6 +113,21 @@ def test_a_change_goes_down_onto_the_local_expansions_as_the_plain_pass(count, c
                              pass_orders if chosen else None)[..., :terms]
     assert relative(local - base, expected) < 1e-12
     assert np.abs(change - largest_part(expected, axis=(2, 3))).max() < 1e-12 * np.abs(expected).max()
+
+
+@pytest.mark.parametrize("chosen", [False, True])
+@pytest.mark.parametrize("count", [1, 40, 900])
+def test_delta_local_equals_the_plain_pass(count, chosen):
+    rng = np.random.default_rng(count + 1)
+    lattice = Lattice(5, SIDE)
+    n = lattice.cells_per_side
+    pass_orders = orders.pass_orders(5, 8, WIDTH) if chosen else None
+    delta = np.zeros((n * n, 3, WIDTH + 1), complex)
+    cells = rng.choice(n * n, count, replace=False)
+    delta[cells] = random_delta(rng, cells, n)
+    delta = delta.reshape(n, n, 3, WIDTH + 1)
+    expected = downward_pass(coarser_multipoles(delta, WIDTH), lattice, WIDTH, pass_orders)
+    assert relative(delta_local(delta, lattice, WIDTH, pass_orders), expected) < 1e-12
 
 
 def edited(segments: Segments, rng, moved: int) -> Segments:

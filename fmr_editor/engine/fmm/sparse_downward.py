@@ -1,10 +1,12 @@
 """The downward pass from a few occupied cells to a set of wanted cells.
 
 The FMR is linear in its sources, so the local expansions of any set of
-sources are their downward pass alone: an edit's change (``delta_local``)
-or a clone layer's segments, which fill a part of the lattice and matter
-only inside the clone's region (``pass_levels`` of the wanted cells, their
-``interactions``, then ``cascade``; ``sparse_local`` does all three).
+sources are their downward pass alone: a change of some cells' multipoles
+(``delta_local``, on the build's compiled passes: every cell's local
+expansion changes) or a clone layer's segments, which fill a part of the
+lattice and matter only inside the clone's region (``pass_levels`` of the
+wanted cells, their ``interactions``, then ``cascade``; ``sparse_local``
+does all three).
 Sources are a list of fine cells with their multipoles; M2M carries them up
 to their parents only.  Targets are the wanted fine cells and their
 ancestors: each gathers M2L from the occupied members of its interaction
@@ -28,9 +30,9 @@ from scipy.special import comb
 
 from .expansions import l2l_matrix, m2m_matrix
 from .lattice import Lattice, child_offset, coarser_multipoles, downward_pass, offset_parities, times
+from .orders import uniform_orders
+from .passes import downward, level_sources
 
-#: Share of fine cells changed above which the whole-level passes are faster (measured at L = 6, 7).
-SPARSE_SOURCES = 0.25
 #: Targets per task of the compiled M2L loop.
 _CHUNK = 16
 
@@ -239,22 +241,13 @@ def sparse_local(cells: np.ndarray, moments: np.ndarray, lattice: Lattice, order
     return dense.reshape((n, n) + local.shape[1:])
 
 
-def _truncated_tables(order: int, log_size: float, orders, level: int) -> tuple[np.ndarray, ...]:
-    """``_m2l_tables`` with each offset's multipole terms past ``m`` and local terms past ``q`` of ``orders`` at
-    ``level`` zero (in ``pre`` and ``post``: the translation truncated as ``lattice.downward_pass`` does)."""
-    pre, pascal, post, log = _m2l_tables(order, log_size)
-    pre, post = pre.copy(), post.copy()
-    k = np.arange(order + 1)
-    pre *= k[None, None, :] <= orders.multipole[level][:, None, None]
-    post *= k[None, None, :] <= orders.local[level][:, None, None]
-    return pre, pascal, post, log
-
-
 def delta_local(delta_fine: np.ndarray, lattice: Lattice, order: int, orders=None) -> np.ndarray:
     """Change of the fine local expansions for a change ``delta_fine`` of the fine multipoles.
 
-    Every cell's expansion may change, so L2L runs over whole levels; M2L
-    only into the cells whose interaction list holds a changed cell.
+    The build's compiled passes from the changed cells (``passes.level_sources``, ``passes.downward``): M2M
+    up through their ancestors only, M2L into every cell (sparse levels gather from the occupied members
+    of each interaction list, whole rows without one are skipped), L2L over whole levels (every cell's far
+    field may change).
 
     Parameters
     ----------
@@ -271,38 +264,12 @@ def delta_local(delta_fine: np.ndarray, lattice: Lattice, order: int, orders=Non
         ``(2^L, 2^L, 3, order + 1)`` complex; equals ``downward_pass`` of
         ``coarser_multipoles(delta_fine)`` (with ``orders``) up to rounding.
     """
-    n = delta_fine.shape[0]
-    flat = delta_fine.reshape(n * n, *delta_fine.shape[2:])
+    n, channels = delta_fine.shape[0], delta_fine.shape[2]
+    if channels != 3:  # the compiled passes are written for three channels
+        return downward_pass(coarser_multipoles(delta_fine, order), lattice, order, orders)
+    orders = uniform_orders(lattice.levels, order) if orders is None else orders
+    if orders.width != order:
+        raise ValueError(f"orders of width {orders.width} for expansions of order {order}")
+    flat = delta_fine.reshape(n * n, channels, order + 1)
     cells = np.flatnonzero(np.any(flat != 0, axis=(1, 2)))
-    if len(cells) > SPARSE_SOURCES * n * n:
-        return downward_pass(coarser_multipoles(delta_fine, order), lattice, order, orders)  # most cells changed
-    sources = _upward(cells, flat[cells], lattice, order)
-    offsets, masks = offset_parities()
-    local = None
-    for depth in range(2, lattice.levels + 1):
-        size, (source_level, multipoles) = 2**depth, sources[depth]
-        level_local = np.zeros((size, size) + flat.shape[1:], complex)
-        if local is not None:
-            for py in (0, 1):
-                for px in (0, 1):
-                    level_local[py::2, px::2] = times(local, l2l_matrix(child_offset(px, py), order))
-        targets = _reached(source_level.cells, size)
-        reached = np.zeros((len(targets),) + flat.shape[1:], complex)
-        log_size = float(np.log(lattice.level_size(depth)))
-        tables = _m2l_tables(order, log_size) if orders is None else _truncated_tables(order, log_size, orders, depth)
-        _gathered_m2l(size, targets, source_level.row_of, _planes(multipoles), offsets, masks, *tables, reached)
-        level_local.reshape(size * size, *flat.shape[1:])[targets] += reached
-        if orders is not None:
-            level_local[..., orders.kept(depth) + 1 :] = 0.0
-        local = level_local
-    return local
-
-
-def _reached(cells: np.ndarray, size: int) -> np.ndarray:
-    """The cells (flat, sorted) of a level ``size`` wide whose interaction list holds one of ``cells``."""
-    offsets, masks = offset_parities()
-    rows, columns = np.divmod(cells, size)
-    target_rows, target_columns = rows[None, :] - offsets[:, 1:], columns[None, :] - offsets[:, :1]
-    inside = (target_rows >= 0) & (target_rows < size) & (target_columns >= 0) & (target_columns < size)
-    uses = masks[np.arange(len(offsets))[:, None], target_rows % 2, target_columns % 2]
-    return _distinct((target_rows * size + target_columns)[inside & uses], size * size)[0]
+    return downward(level_sources(flat, cells, cells, lattice, orders), lattice, orders, order + 1)
