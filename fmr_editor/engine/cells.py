@@ -17,11 +17,18 @@ import numba
 import numpy as np
 
 from .fmm.far_field import far_field_at
-from .fmm.lattice import Lattice, cell_order, changed_runs, fine_multipoles, sort_into_cells
+from .fmm.lattice import (
+    Lattice,
+    cell_order,
+    changed_runs,
+    coarser_multipoles,
+    downward_pass,
+    fine_multipoles,
+    sort_into_cells,
+)
 from .fmm.level_kernels import threads_for
 from .fmm.orders import PassOrders, pass_orders, uniform_orders
 from .fmm.passes import build_passes, downward_onto, level_sources
-from .fmm.sparse_downward import delta_local
 from .geometry.segments import Segments
 from .kernels.segment_sums import near_sum, near_tables
 
@@ -202,7 +209,8 @@ def _one_block(*like: np.ndarray) -> list[np.ndarray]:
 
 def propagated_reference(cells: Cells, solved: Segments, lattice: Lattice, order: int, accuracy: float,
                          only_moved: bool = False) -> tuple[Cells, np.ndarray, np.ndarray]:
-    """``propagated`` with whole arrays: the change of every fine cell, ``delta_local`` of it and sums of arrays."""
+    """``propagated`` with whole arrays: the change of every fine cell, the plain passes of it (``downward_pass`` of
+    ``coarser_multipoles``) and sums of arrays."""
     segments, cell_start = sort_into_cells(solved, lattice)
     if only_moved:
         n = lattice.cells_per_side
@@ -215,7 +223,7 @@ def propagated_reference(cells: Cells, solved: Segments, lattice: Lattice, order
     scale = max(largest_part(fresh), 1e-300)
     moved = largest_part(delta, axis=(2, 3)) > NEGLIGIBLE * accuracy * scale
     delta[~moved] = 0.0
-    local_change = delta_local(delta, lattice, order, cells.orders)
+    local_change = downward_pass(coarser_multipoles(delta, order), lattice, order, cells.orders)
     local_change = local_change[..., : cells.local.shape[-1]]  # zero past the pixels' terms with chosen orders
     new = Cells(segments, cell_start, cells.fine + delta, cells.local + local_change, cells.orders)
     return new, largest_part(local_change, axis=(2, 3)), moved
