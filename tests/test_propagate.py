@@ -184,6 +184,33 @@ def test_a_solve_propagates_as_the_reference(only_moved):
         assert least * occupied < got[2].sum() < most * occupied
 
 
+@pytest.mark.parametrize("applied", [False, True])  # a drag's patches; some applied
+def test_previews_patch_a_shared_base_until_an_exact_step(monkeypatch, applied):
+    """A drag: previews from previews (their patches merged), then the exact step; each as the reference."""
+    if applied:
+        monkeypatch.setattr(cells_module, "PATCH_SHARE", 0.015)  # 61 cells: patched twice, then applied
+    rng = np.random.default_rng(9)
+    lattice = Lattice(6, SIDE)
+    segments = cut(random_segments(rng, 3000), lattice)
+    cells = reference = Cells.build(segments, lattice, WIDTH, pixel_order=8)
+    bases = []
+    for step in range(4):
+        segments = edited(segments, rng, 12)
+        got = propagated(cells, segments, lattice, WIDTH, 0.0, only_moved=True)
+        expected = propagated_reference(reference, segments, lattice, WIDTH, 0.0, only_moved=True)
+        assert_same_cells(got, expected)
+        bases.append(got[0].fine_base is cells.fine_base)
+        cells, reference = got[0], expected[0]
+    assert bases == ([True, True, False, True] if applied else [True] * 4)
+    moved = rng.choice(len(segments.flux), 200, replace=False)  # the exact solve: some E change
+    flux = segments.flux.copy()
+    flux[moved] *= 1.01
+    segments = Segments(**{**{name: getattr(segments, name) for name in FIELDS}, "flux": flux})
+    got = propagated(cells, segments, lattice, WIDTH, 1e-6)
+    assert_same_cells(got, propagated_reference(reference, segments, lattice, WIDTH, 1e-6))
+    assert got[0].patched_cells is None
+
+
 def test_an_edit_that_moves_no_cell_shares_the_arrays():
     rng = np.random.default_rng(7)
     lattice = Lattice(5, SIDE)

@@ -2,15 +2,18 @@
 
 ``Cells`` is an immutable snapshot: an edit makes new ``Cells`` from the
 old ones (``propagated``), carrying only the change of the fine multipoles
-up the quadtree and down through the interaction lists from the cells that
-changed (``sparse_downward.delta_local``).  The FMR is linear in its
-sources, so that change of the local expansions is exact.
+up the quadtree from the cells that changed and down through the
+interaction lists and every level (``passes.level_sources``,
+``passes.downward_onto``).  The FMR is linear in its sources, so that
+change of the local expansions is exact.  Every local expansion changes, so
+each snapshot has its own; the multipoles of a preview are a patch of a few
+cells on the last exact snapshot's.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 
 import numba
@@ -48,8 +51,9 @@ class Cells:
         Sorted by fine cell.
     cell_start : numpy.ndarray
         CSR offsets of each fine cell's segments.
-    fine : numpy.ndarray
-        ``(2^L, 2^L, 3, P + 1)`` complex scaled multipoles of the fine cells.
+    fine_base : numpy.ndarray
+        ``(2^L, 2^L, 3, P + 1)`` complex scaled multipoles of the fine cells
+        but ``patched_cells`` (``fine`` is all of them).
     local : numpy.ndarray
         ``(2^L, 2^L, 3, K)`` complex scaled local expansions of each fine
         cell's far field: ``K = N + 1`` terms with chosen ``orders`` (the
@@ -58,13 +62,41 @@ class Cells:
     orders : PassOrders or None
         The terms each translation carried (``orders.pass_orders``); edits carry
         their change with the same.  None: every term.
+    patched_cells, patched_fine : numpy.ndarray or None
+        Flat fine cells (sorted) whose multipoles ``(len, 3, P + 1)`` are these
+        instead of ``fine_base``'s: a preview changes a few cells of a shared
+        ``fine_base`` instead of copying it (53 MB at roses' L8).
     """
 
     segments: Segments
     cell_start: np.ndarray
-    fine: np.ndarray
+    fine_base: np.ndarray
     local: np.ndarray
     orders: PassOrders | None = None
+    patched_cells: np.ndarray | None = None
+    patched_fine: np.ndarray | None = None
+
+    @property
+    def fine(self) -> np.ndarray:
+        """``(2^L, 2^L, 3, P + 1)`` complex scaled multipoles of the fine cells (with a patch, made on first use)."""
+        if self.patched_cells is None:
+            return self.fine_base
+        whole = self.__dict__.get("_whole_fine")
+        if whole is None:
+            whole = self.fine_base.copy()
+            whole.reshape(-1, *whole.shape[2:])[self.patched_cells] = self.patched_fine
+            object.__setattr__(self, "_whole_fine", whole)  # a cache: the snapshot's value does not change
+        return whole
+
+    def fine_of(self, cells: np.ndarray) -> np.ndarray:
+        """The multipoles ``(len(cells), 3, P + 1)`` of the fine cells ``cells`` (flat)."""
+        base = self.fine_base
+        rows = base.reshape(-1, *base.shape[2:])[cells]
+        if self.patched_cells is not None:
+            at = np.minimum(np.searchsorted(self.patched_cells, cells), len(self.patched_cells) - 1)
+            patched = self.patched_cells[at] == cells
+            rows[patched] = self.patched_fine[at[patched]]
+        return rows
 
     @classmethod
     def build(cls, solved: Segments, lattice: Lattice, order: int, lap: Callable[[str], None] = lambda stage: None,
@@ -122,7 +154,8 @@ class Cells:
     @property
     def nbytes(self) -> int:
         """Bytes of the arrays held (shared ones counted too)."""
-        return self.segments.nbytes + self.cell_start.nbytes + self.fine.nbytes + self.local.nbytes
+        patch = 0 if self.patched_cells is None else self.patched_cells.nbytes + self.patched_fine.nbytes
+        return self.segments.nbytes + self.cell_start.nbytes + self.fine_base.nbytes + patch + self.local.nbytes
 
 
 def propagated(cells: Cells, solved: Segments, lattice: Lattice, order: int, accuracy: float,
@@ -131,7 +164,9 @@ def propagated(cells: Cells, solved: Segments, lattice: Lattice, order: int, acc
 
     Only the rows of the fine cells that moved are made anew; the change goes
     down the tree from them (``passes.level_sources``, ``passes.downward_onto``)
-    and is added to the local expansions as they are written.
+    and is added to the local expansions as they are written.  A preview's
+    multipoles are a patch of ``cells``' (``Cells.patched_cells``) until the
+    patch passes ``PATCH_SHARE`` of the cells; an exact step writes them whole.
     ``propagated_reference`` is the plain form.
 
     Parameters
@@ -148,7 +183,7 @@ def propagated(cells: Cells, solved: Segments, lattice: Lattice, order: int, acc
     Returns
     -------
     cells : Cells
-        When no fine cell moved, it shares ``cells``' multipoles and local expansions.
+        When no fine cell moved, it shares ``cells``' multipoles and local expansions (and patch).
     local_change : numpy.ndarray
         ``(2^L, 2^L)`` size of the change of each cell's local expansion (``largest_part``).
     moved : numpy.ndarray
@@ -156,55 +191,67 @@ def propagated(cells: Cells, solved: Segments, lattice: Lattice, order: int, acc
     """
     segments, cell_start = sort_into_cells(solved, lattice)
     n = lattice.cells_per_side
-    before = cells.fine.reshape(n * n, *cells.fine.shape[2:])
     if only_moved:
         changed = changed_runs(cells.segments, cells.cell_start, segments, cell_start)
         with threads_for(len(changed)):
             fresh = fine_multipoles(segments, cell_start, lattice, order, changed)
-        delta = fresh - before[changed]
-        sizes = largest_part(delta, axis=(1, 2))
+        before = cells.fine_of(changed)
+        sizes = largest_part(fresh - before, axis=(1, 2))
         if accuracy > 0:
-            sizes_before = largest_part(before, axis=(1, 2))
+            sizes_before = largest_part(cells.fine, axis=(2, 3)).ravel()
             sizes_before[changed] = largest_part(fresh, axis=(1, 2))
             scale = max(float(sizes_before.max(initial=0.0)), 1e-300)
         else:  # the threshold is zero whatever the scale
             scale = 1.0
         kept = sizes > NEGLIGIBLE * accuracy * scale
-        moved_cells, delta = changed[kept], delta[kept]
+        moved_cells, fresh, before = changed[kept], fresh[kept], before[kept]
     else:
-        fresh = fine_multipoles(segments, cell_start, lattice, order).reshape(before.shape)
-        largest, sizes = change_sizes(fresh, before)
+        whole = fine_multipoles(segments, cell_start, lattice, order)
+        fresh = whole.reshape(n * n, *whole.shape[2:])
+        largest, sizes = change_sizes(fresh, cells.fine_base.reshape(fresh.shape))
+        if cells.patched_cells is not None:
+            sizes[cells.patched_cells] = largest_part(fresh[cells.patched_cells] - cells.patched_fine, axis=(1, 2))
         moved_cells = np.flatnonzero(sizes > NEGLIGIBLE * accuracy * max(largest, 1e-300))
-        delta = fresh[moved_cells] - before[moved_cells]
+        fresh, before = fresh[moved_cells], cells.fine_of(moved_cells)
+    delta = fresh - before
     moved = np.zeros(n * n, bool)
     moved[moved_cells] = True
     moved = moved.reshape(n, n)
     if not len(moved_cells):
-        return Cells(segments, cell_start, cells.fine, cells.local, cells.orders), np.zeros((n, n)), moved
-    if only_moved:
-        fine, local = _one_block(cells.fine, cells.local)
-    else:  # into the pages P2M has already touched
-        fine, local = fresh.reshape(cells.fine.shape), None
-    np.copyto(fine, cells.fine)
-    fine.reshape(before.shape)[moved_cells] = before[moved_cells] + delta
+        return replace(cells, segments=segments, cell_start=cell_start), np.zeros((n, n)), moved
     orders = uniform_orders(lattice.levels, order) if cells.orders is None else cells.orders
     sources = level_sources(delta, np.arange(len(moved_cells)), moved_cells, lattice, orders)
-    local, local_change = downward_onto(sources, lattice, orders, cells.local, local)
-    return Cells(segments, cell_start, fine, local, cells.orders), local_change, moved
+    local, local_change = downward_onto(sources, lattice, orders, cells.local)
+    if only_moved:
+        patched = _patched(cells, moved_cells, before + delta)
+    else:  # into the pages P2M has touched
+        np.copyto(whole, cells.fine_base)
+        rows = whole.reshape(n * n, *whole.shape[2:])
+        if cells.patched_cells is not None:
+            rows[cells.patched_cells] = cells.patched_fine
+        rows[moved_cells] = before + delta
+        patched = replace(cells, fine_base=whole, patched_cells=None, patched_fine=None)
+    return replace(patched, segments=segments, cell_start=cell_start, local=local), local_change, moved
 
 
-def _one_block(*like: np.ndarray) -> list[np.ndarray]:
-    """Empty C-contiguous arrays shaped and typed as ``like`` (one type), views of one block of memory.
+#: A patch of more than this share of the fine cells is applied (a copy of the whole array).
+PATCH_SHARE = 1 / 16
 
-    One mapping of 4 MB or more gets huge pages; arrays of a few megabytes apart pay a page fault per 4 kB
-    (measured here: 5.0 ms to fill 3.3 and 1.8 MB apart, 1.3 together).
-    """
-    block = np.empty(sum(a.size for a in like), like[0].dtype)
-    views, start = [], 0
-    for a in like:
-        views.append(block[start : start + a.size].reshape(a.shape))
-        start += a.size
-    return views
+
+def _patched(cells: Cells, moved: np.ndarray, values: np.ndarray) -> Cells:
+    """``cells`` with the multipoles ``values`` at the fine cells ``moved`` (flat, sorted), as a patch."""
+    if cells.patched_cells is None:
+        rows, fine = moved, values
+    else:
+        rows = np.union1d(cells.patched_cells, moved)
+        fine = np.empty((len(rows),) + values.shape[1:], values.dtype)
+        fine[np.searchsorted(rows, cells.patched_cells)] = cells.patched_fine
+        fine[np.searchsorted(rows, moved)] = values
+    if len(rows) <= PATCH_SHARE * cells.fine_base.shape[0] * cells.fine_base.shape[1]:
+        return replace(cells, patched_cells=rows, patched_fine=fine)
+    whole = cells.fine_base.copy()
+    whole.reshape(-1, *whole.shape[2:])[rows] = fine
+    return replace(cells, fine_base=whole, patched_cells=None, patched_fine=None)
 
 
 def propagated_reference(cells: Cells, solved: Segments, lattice: Lattice, order: int, accuracy: float,
