@@ -19,7 +19,7 @@ from fmr_editor.engine.fmm.lattice import (
     downward_pass,
     sort_into_cells,
 )
-from fmr_editor.engine.fmm.passes import downward_onto, level_sources
+from fmr_editor.engine.fmm.passes import HUGE_PAGE, downward_onto, huge_pages_empty, level_sources
 from fmr_editor.engine.fmm.sparse_downward import delta_local
 from fmr_editor.engine.geometry.segments import Segments
 
@@ -258,3 +258,13 @@ def test_a_preview_touches_only_the_changed_cells_and_their_ancestors(monkeypatc
         ancestors = np.unique((rows // 2) * 2 ** (level - 1) + columns // 2)
     assert threads == [(2**level, 1 if 4**level < level_kernels.PARALLEL_CELLS else numba.get_num_threads())
                        for level in range(2, lattice.levels + 1)]
+
+
+def test_huge_pages_empty_is_an_empty_array_at_a_huge_page():
+    small = huge_pages_empty((10, 3), complex)
+    assert small.shape == (10, 3) and small.dtype == complex
+    big = huge_pages_empty((64, 64, 3, 9), complex)
+    assert big.shape == (64, 64, 3, 9) and big.dtype == complex and big.flags.c_contiguous and big.flags.writeable
+    assert big.ctypes.data % HUGE_PAGE == 0
+    big[...] = 1.0  # every byte of it is the array's own
+    assert big.sum() == big.size

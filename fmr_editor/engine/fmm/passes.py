@@ -254,9 +254,31 @@ def downward_onto(sources: list[LevelSources | None], lattice: Lattice, orders: 
         ``(2^L, 2^L)`` largest real or imaginary part of each cell's change (``cells.largest_part``).
     """
     n = lattice.cells_per_side
-    local, change = np.empty_like(base) if out is None else out, np.empty((n, n))
+    local, change = huge_pages_empty(base.shape, base.dtype) if out is None else out, np.empty((n, n))
     _downward(sources, lattice, orders, local, np.ascontiguousarray(base), change, None)
     return local, change
+
+
+#: Bytes of a huge page, and the size from which ``huge_pages_empty`` places an array on them.
+HUGE_PAGE = 1 << 21
+HUGE_FROM = 1 << 20
+
+
+def huge_pages_empty(shape: tuple[int, ...], dtype) -> np.ndarray:
+    """``numpy.empty(shape, dtype)``, from ``HUGE_FROM`` bytes on placed at a huge page's start in a larger block.
+
+    numpy asks for huge pages for blocks of 4 MB or more, and the kernel gives them only to whole aligned 2 MB
+    ranges.  A fresh array of a few megabytes otherwise pays a page fault per 4 kB, about 0.7 ms per MB on this
+    machine's VM: 1.27 ms to fill 1.8 MB (lady_bug's local expansions) against 0.22 on huge pages.  The block
+    past the array is never touched, so it costs address space, not memory (at most the rest of a 2 MB page).
+    """
+    dtype = np.dtype(dtype)
+    nbytes = int(np.prod(shape)) * dtype.itemsize
+    if nbytes < HUGE_FROM:
+        return np.empty(shape, dtype)
+    raw = np.empty(max(nbytes, 2 * HUGE_PAGE) + HUGE_PAGE, np.uint8)
+    start = -raw.ctypes.data % HUGE_PAGE
+    return raw[start : start + nbytes].view(dtype).reshape(shape)
 
 
 def _downward(sources: list[LevelSources | None], lattice: Lattice, orders: PassOrders, local: np.ndarray,
