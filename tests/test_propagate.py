@@ -252,7 +252,7 @@ def test_a_preview_touches_only_the_changed_cells_and_their_ancestors(monkeypatc
     assert len(seen["p2m"]) <= 8 + 2 * 4  # each moved piece: its old and new cell, a few cut in two
     ancestors, dense = np.flatnonzero(moved), False
     for level in range(lattice.levels, 1, -1):
-        dense = dense or len(ancestors) >= np.ceil(passes.DENSE_SHARE * 4**level)
+        dense = dense or len(ancestors) >= passes._dense_count(2**level)
         assert seen["sources"][level] == ((True, 0) if dense else (False, len(ancestors))), level
         rows, columns = np.divmod(ancestors, 2**level)
         ancestors = np.unique((rows // 2) * 2 ** (level - 1) + columns // 2)

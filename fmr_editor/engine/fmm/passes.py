@@ -6,10 +6,11 @@ orders) are the reference.  The work follows the occupied cells:
 - P2M only in occupied fine cells; their moments at full width are what
   ``Cells`` keeps (``fine``), the passes read the first ``carried`` terms.
 - A level is *dense* when at least ``DENSE_SHARE`` of its cells are
-  occupied, else *sparse* (``level_kernels``): dense levels run M2M and M2L
-  as row sweeps over whole grids, sparse ones M2M from the occupied children
-  and M2L gathered per target from the occupied members of its list.  Coarser
-  levels are never sparser, so the dense ones are the top of the tree.
+  occupied (and it is ``DENSE_SIDE`` cells wide), else *sparse*
+  (``level_kernels``): dense levels run M2M and M2L as row sweeps over
+  whole grids, sparse ones M2M from the occupied children and M2L gathered
+  per target from the occupied members of its list.  The levels above a
+  dense one are dense, so the dense ones are the top of the tree.
 - Every target cell gets its local expansion (pixels need all of them), with
   ``orders.kept(level)`` terms; the fine level's are written straight into
   the array ``Cells`` keeps, zero past ``kept``.
@@ -33,6 +34,10 @@ from .orders import PassOrders
 #: crossover of the two M2L kernels (at L9 a dense fine level's sweep cost 0.71-0.82 s of one core, the
 #: gather at 7% occupied 0.32 s).
 DENSE_SHARE = 0.15
+
+#: Cells per side below which a level is always sparse: row sweeps of a few cells are all loop overhead (a
+#: level 2 of lady_bug's L6 edit, 3 of 16 cells occupied: 0.6-0.8 ms as a grid, ~0.1 gathered).
+DENSE_SIDE = 16
 
 _NO_GRID = np.zeros((0,) * 6)
 _NO_SOURCES = np.zeros((0, 0, 0))
@@ -61,6 +66,7 @@ def _even(terms: int) -> int:
     return terms + terms % kernels.PAIR
 
 
+@lru_cache(maxsize=256)
 def _carried_terms(orders: PassOrders, level: int) -> int:
     """Multipole terms (even) the cells of ``level`` carry."""
     return _even(orders.carried(level) + 1)
@@ -161,8 +167,8 @@ def level_sources(moments: np.ndarray, rows: np.ndarray, cells: np.ndarray, latt
 
 
 def _dense_count(size: int) -> int:
-    """Occupied cells from which a level of ``size`` cells per side counts as dense."""
-    return int(np.ceil(DENSE_SHARE * size * size))
+    """Occupied cells from which a level of ``size`` cells per side counts as dense (never below ``DENSE_SIDE``)."""
+    return int(np.ceil(DENSE_SHARE * size * size)) if size >= DENSE_SIDE else size * size + 1
 
 
 def _parent_cells(cells: np.ndarray, size: int) -> np.ndarray:
