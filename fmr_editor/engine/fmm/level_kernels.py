@@ -191,6 +191,7 @@ def level_local(size, parent_re, parent_im, l2l_re, l2l_im, grid_re, grid_im, sr
         both_im = np.zeros((2, terms, 3, half))
         buf_re = np.empty((3, terms))
         buf_im = np.empty((3, terms))
+        gathers = not dense and _sources_near(index, row)
         for px in range(2):
             parity = 2 * py + px
             acc_re, acc_im = both_re[px], both_im[px]
@@ -203,7 +204,7 @@ def level_local(size, parent_re, parent_im, l2l_re, l2l_im, grid_re, grid_im, sr
                     rows_im = grid_im[table[o, GRID_Y], table[o, GRID_X], a + GRID_PAD + table[o, SHIFT_Y]]
                     _add_row(acc_re, acc_im, rows_re, rows_im, GRID_PAD + table[o, SHIFT_X], half, table[o, PAIRS],
                              table[o, LOCAL], m2l_re, m2l_im, o)
-            if not dense and _sources_near(index, row):
+            if gathers:
                 for b in range(half):
                     _gather(acc_re, acc_im, b, row, 2 * b + px, index, src_re, src_im, table, starts[parity],
                             starts[parity + 1], m2l_re, m2l_im, buf_re, buf_im)
