@@ -211,6 +211,20 @@ def test_previews_patch_a_shared_base_until_an_exact_step(monkeypatch, applied):
     assert got[0].patched_cells is None
 
 
+def test_the_cells_two_patches_move_are_those_their_whole_arrays_differ_in():
+    rng = np.random.default_rng(12)
+    lattice = Lattice(6, SIDE)
+    segments = cut(random_segments(rng, 3000), lattice)
+    base = Cells.build(segments, lattice, WIDTH, pixel_order=8)
+    one = propagated(base, edited(segments, rng, 12), lattice, WIDTH, 0.0, only_moved=True)[0]
+    other = propagated(base, edited(segments, rng, 12), lattice, WIDTH, 0.0, only_moved=True)[0]
+    assert one.fine_base is other.fine_base is base.fine_base  # patches of one snapshot
+    for a, b in ((one, other), (one, base), (base, one), (one, one)):
+        expected = np.any(a.fine != b.fine, axis=(2, 3))
+        np.testing.assert_array_equal(a.moved_from(b), expected)
+    assert one.moved_from(other).sum() > 10
+
+
 def test_an_edit_that_moves_no_cell_shares_the_arrays():
     rng = np.random.default_rng(7)
     lattice = Lattice(5, SIDE)

@@ -79,14 +79,27 @@ class Cells:
     @property
     def fine(self) -> np.ndarray:
         """``(2^L, 2^L, 3, P + 1)`` complex scaled multipoles of the fine cells (with a patch, made on first use)."""
-        if self.patched_cells is None:
-            return self.fine_base
-        whole = self.__dict__.get("_whole_fine")
-        if whole is None:
-            whole = self.fine_base.copy()
-            whole.reshape(-1, *whole.shape[2:])[self.patched_cells] = self.patched_fine
-            object.__setattr__(self, "_whole_fine", whole)  # a cache: the snapshot's value does not change
+        return self.fine_base if self.patched_cells is None else self._patched_whole
+
+    @cached_property
+    def _patched_whole(self) -> np.ndarray:
+        whole = self.fine_base.copy()
+        whole.reshape(-1, *whole.shape[2:])[self.patched_cells] = self.patched_fine
         return whole
+
+    def moved_from(self, other: Cells) -> np.ndarray:
+        """``(2^L, 2^L)`` bool: the fine cells whose multipoles differ from ``other``'s (of the same lattice).
+
+        Two patches of one snapshot differ only where either is patched: no whole array is made for them.
+        """
+        if self.fine_base is not other.fine_base:
+            return np.any(self.fine != other.fine, axis=(2, 3))
+        n = self.fine_base.shape[0]
+        cells = np.union1d(*(np.zeros(0, np.int64) if each.patched_cells is None else each.patched_cells
+                             for each in (self, other)))
+        moved = np.zeros(n * n, bool)
+        moved[cells] = np.any(self.fine_of(cells) != other.fine_of(cells), axis=(1, 2))
+        return moved.reshape(n, n)
 
     def fine_of(self, cells: np.ndarray) -> np.ndarray:
         """The multipoles ``(len(cells), 3, P + 1)`` of the fine cells ``cells`` (flat)."""

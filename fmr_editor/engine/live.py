@@ -439,7 +439,7 @@ class LiveRepresentation:
 
     def _show(self, cells: Cells, changed: np.ndarray, points_moved: np.ndarray | bool = False) -> None:
         """Take ``cells`` (of this lattice) as the current ones, marking the cells whose pixels differ."""
-        moved = np.any(cells.fine != self._cells.fine, axis=(2, 3)) | points_moved
+        moved = cells.moved_from(self._cells) | points_moved
         self._report(changed, largest_part(cells.local - self._cells.local, axis=(2, 3)), dilated(moved))
         self._cells = cells
 
