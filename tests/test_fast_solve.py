@@ -54,6 +54,20 @@ def test_fmm_right_hand_side_equals_the_dense_one(system):
     assert np.abs(got - rhs).max() <= 1e-8 * np.abs(rhs).max()
 
 
+@pytest.mark.parametrize("direct", [True, False], ids=["summed directly", "fmm"])
+def test_a_product_of_few_sources_equals_the_dense_matrix_product(system, direct, monkeypatch):
+    """A colour edit's right-hand side: one curve's jumps (and some border unknowns) carry densities."""
+    segments, cell_start, lattice, matrix, _ = system
+    monkeypatch.setattr(fast_solve, "DIRECT_PAIRS", 10**9 if direct else 0)
+    rng = np.random.default_rng(8)
+    unknown = np.zeros((len(segments), 3))
+    few = rng.choice(len(segments), 30, replace=False)
+    unknown[few] = rng.normal(size=(30, 3))
+    got = CollocationOperator(segments, cell_start, lattice, 20).apply(unknown)
+    expected = matrix @ unknown
+    assert np.abs(got - expected).max() <= (1e-12 if direct else 1e-8) * np.abs(expected).max()
+
+
 def compressed(segments, tolerance):
     """A factorisation small boxes and a small top make compress through several levels."""
     return SkeletonFactorization(segments, tolerance, leaf_size=16, top_size=40)
