@@ -132,6 +132,44 @@ def test_change_sets_match_items_by_value():
     assert changes.curves_changed and changes.removed_curves == () and changes.added_curves == ()
 
 
+def test_matching_past_the_same_head_and_tail_finds_what_counting_everything_finds():
+    from fmr_editor.model.changes import _difference, _unmatched
+
+    rng = np.random.default_rng(3)
+    pool = [dot(i % 4) for i in range(8)]  # pairs of equal values as distinct objects
+    for _ in range(200):
+        before = tuple(pool[i] for i in rng.integers(0, 8, rng.integers(0, 9)))
+        after = list(before)
+        for _ in range(rng.integers(0, 3)):
+            where = rng.integers(0, len(after) + 1)
+            if rng.random() < 0.5 and after:
+                after.pop(min(where, len(after) - 1))
+            else:
+                after.insert(where, pool[rng.integers(0, 8)])
+        after = tuple(after)
+        removed, added = _unmatched(before, after)
+        expected_removed, expected_added = _difference(before, after)
+
+        def values(items, indices):  # equal items are interchangeable: compare the multisets of values
+            return sorted(items[i].position for i in indices)
+
+        assert values(before, removed) == values(before, expected_removed)
+        assert values(after, added) == values(after, expected_added)
+
+
+def test_a_curve_replaced_among_many_is_matched_without_hashing_the_others(monkeypatch):
+    from fmr_editor.model import DiffusionCurve
+
+    doc = scattered_document(64, circles=40, seed=2)
+    after = edits.set_stop_color(doc, doc.curves[17].id, "left", 0, (0.1, 0.2, 0.3))
+    hashed = []
+    original = DiffusionCurve.__hash__
+    monkeypatch.setattr(DiffusionCurve, "__hash__", lambda curve: hashed.append(curve) or original(curve))
+    changes = ChangeSet.between(doc, after)
+    assert changes.removed_curves == (17,) and changes.added_curves == (17,)
+    assert hashed and all(curve is doc.curves[17] or curve is after.curves[17] for curve in hashed)
+
+
 def test_edits_change_only_what_they_name():
     doc = scattered_document(64, circles=2, seed=3)
     moved = edits.move_control_point(doc, doc.curves[0].id, 2, (5.0, 6.0))

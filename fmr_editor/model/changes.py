@@ -17,9 +17,25 @@ from .document import Document
 
 
 def _unmatched(before: tuple, after: tuple) -> tuple[tuple[int, ...], tuple[int, ...]]:
-    """Indices of items in ``before`` without a match in ``after`` and vice versa (multiset difference)."""
+    """Indices of items in ``before`` without a match in ``after`` and vice versa (multiset difference).
+
+    Items that are the very same objects at the head and the tail of both
+    match without hashing (an edit replaces a few curves of thousands): only
+    what lies between is compared by value.
+    """
     if len(after) >= len(before) and after[: len(before)] == before:  # appended (a brush dab): no hashing
         return (), tuple(range(len(before), len(after)))
+    shortest, head, tail = min(len(before), len(after)), 0, 0
+    while head < shortest and before[head] is after[head]:
+        head += 1
+    while tail < shortest - head and before[-1 - tail] is after[-1 - tail]:
+        tail += 1
+    removed, added = _difference(before[head: len(before) - tail], after[head: len(after) - tail])
+    return tuple(head + index for index in removed), tuple(head + index for index in added)
+
+
+def _difference(before: tuple, after: tuple) -> tuple[list[int], list[int]]:
+    """``_unmatched`` by counting every item's copies (hashing all of them)."""
     spare = Counter(after) - Counter(before)  # items after has more of
     missing = Counter(before) - Counter(after)
     removed, added = [], []
@@ -31,7 +47,7 @@ def _unmatched(before: tuple, after: tuple) -> tuple[tuple[int, ...], tuple[int,
         if spare[item]:
             spare[item] -= 1
             added.append(index)
-    return tuple(removed), tuple(added)
+    return removed, added
 
 
 @dataclass(frozen=True)

@@ -44,7 +44,7 @@ from scipy.spatial import cKDTree
 from ..geometry.segments import Segments
 from ..kernels.segment_sums import direct_sum, pair_matrices
 from .entries import CollocationEntries
-from .solver import solved_segments
+from .solver import POINT_LENGTH, extent_of, solved_segments
 from .updated import carried_unknowns_and_loose
 
 #: Segments solved for again around the moved ones (besides those): a dense system of about this size.
@@ -117,6 +117,8 @@ class Previews:
         self._columns: dict[int, np.ndarray] = {}  # the base's inverse applied to unit vectors, by segment
         self._taking = np.zeros(len(base), bool)
         self._taking[solved_segments(base)] = True
+        self._flux = _net_flux(base, unknowns)
+        self._extent = extent_of(base)  # a new geometry's too: the border spans the canvas, curves are clipped to it
         rng = np.random.default_rng(0)  # the same samples every time: a deterministic decision
         self._samples = np.sort(rng.choice(len(base), min(SAMPLES, len(base)), replace=False))
 
@@ -124,8 +126,10 @@ class Previews:
         """The preview of the geometry ``new``."""
         base, known = self.base, self.base_unknowns
         carried, loose, (kept_base, kept) = carried_unknowns_and_loose(base, known, new)
-        taking = np.zeros(len(new), bool)
-        taking[solved_segments(new)] = True
+        taking = np.zeros(len(new), bool)  # kept segments take part as they did; of the loose, those not a point
+        taking[kept] = self._taking[kept_base]
+        taking[new.on_border] = True
+        taking[loose] = new.lengths[loose] > POINT_LENGTH * self._extent
         moved = loose[taking[loose]]
         if len(moved) == 0:
             return Preview(carried)
@@ -148,7 +152,8 @@ class Previews:
             new.midpoints[rows], rows)
         residual[len(near):] += new.mean[moved] - self.field(new.midpoints[moved])
         unknowns = carried
-        delta, level = local.solve(residual, _net_flux(new, unknowns) - _net_flux(base, known))
+        excess = _net_flux(new.take(loose), unknowns[loose]) - _net_flux(base.take(removed), known[removed])
+        delta, level = local.solve(residual, excess)  # excess: the change of the curves' net flux
         unknowns[rows] += delta
         # the residual elsewhere: the field of all that changed (on the rows solved: their level)
         missed = _Sources.join(gone, _Sources.of(new.take(loose), unknowns[loose], -1.0),
@@ -173,7 +178,7 @@ class Previews:
             # the kept rows are satisfied now; a moved row misses the kept segments' answer
             again = np.zeros((len(rows), 3))
             again[len(near):] = level - _Sources.of(new.take(kept), answer, colours=False).at(new.midpoints[moved])
-            delta, level = local.solve(again, _net_flux(new, unknowns) - _net_flux(base, known))
+            delta, level = local.solve(again, _net_flux(new, unknowns) - self._flux)
             unknowns[rows] += delta
             changed = _Sources.of(new.take(rows), delta, -1.0, colours=False)
             residual[held] = changed.at(new.midpoints[held])

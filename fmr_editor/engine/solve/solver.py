@@ -352,8 +352,12 @@ def solved_segments(segments: Segments) -> np.ndarray:
     lengths = segments.lengths
     if len(lengths) == 0:
         return np.zeros(0, np.int64)
-    extent = float(np.ptp(np.concatenate([segments.p, segments.q]), axis=0).max())
-    return np.flatnonzero(segments.on_border | (lengths > POINT_LENGTH * max(extent, 1.0)))
+    return np.flatnonzero(segments.on_border | (lengths > POINT_LENGTH * extent_of(segments)))
+
+
+def extent_of(segments: Segments) -> float:
+    """The longer side of the box around ``segments`` (at least 1), which ``solved_segments`` measures against."""
+    return max(float(np.ptp(np.concatenate([segments.p, segments.q]), axis=0).max()), 1.0)
 
 
 def scattered(values: np.ndarray, order: np.ndarray, size: int) -> np.ndarray:

@@ -56,8 +56,14 @@ def _others(count: int, taken: np.ndarray, among: np.ndarray | None = None) -> n
     return np.flatnonzero(free)
 
 
-def _rows(segments: Segments) -> np.ndarray:
-    return np.column_stack([segments.p, segments.q, segments.on_border]).astype(np.float64)
+def _rows(segments: Segments, part: slice = slice(None)) -> np.ndarray:
+    return np.column_stack([segments.p[part], segments.q[part], segments.on_border[part]]).astype(np.float64)
+
+
+def _same_rows(old: Segments, new: Segments, old_part: slice, new_part: slice) -> np.ndarray:
+    """Whether each of ``old``'s rows ``old_part`` equals ``new``'s ``new_part`` (as many), field by field."""
+    return ((old.p[old_part] == new.p[new_part]).all(axis=1) & (old.q[old_part] == new.q[new_part]).all(axis=1)
+            & (old.on_border[old_part] == new.on_border[new_part]))
 
 
 def match_segments(old: Segments, new: Segments) -> tuple[np.ndarray, np.ndarray]:
@@ -68,17 +74,17 @@ def match_segments(old: Segments, new: Segments) -> tuple[np.ndarray, np.ndarray
     head and tail are matched by comparing rows in place, and only what lies
     between by sorting (``match_segments_reference``).
     """
-    old_rows, new_rows = _rows(old), _rows(new)
-    shortest = min(len(old_rows), len(new_rows))
-    same = (old_rows[:shortest] == new_rows[:shortest]).all(axis=1)
+    n_old, n_new = len(old), len(new)
+    shortest = min(n_old, n_new)
+    same = _same_rows(old, new, slice(0, shortest), slice(0, shortest))
     head = int(np.argmin(same)) if not same.all() else shortest
     rest = shortest - head
-    same = (old_rows[len(old_rows) - rest:][::-1] == new_rows[len(new_rows) - rest:][::-1]).all(axis=1)
+    same = _same_rows(old, new, slice(n_old - rest, n_old), slice(n_new - rest, n_new))[::-1]
     tail = int(np.argmin(same)) if not same.all() else rest
-    old_end, new_end = len(old_rows) - tail, len(new_rows) - tail
-    middle_old, middle_new = _sorted_match(old_rows[head:old_end], new_rows[head:new_end])
-    return (np.concatenate([np.arange(head), head + middle_old, np.arange(old_end, len(old_rows))]),
-            np.concatenate([np.arange(head), head + middle_new, np.arange(new_end, len(new_rows))]))
+    old_end, new_end = n_old - tail, n_new - tail
+    middle_old, middle_new = _sorted_match(_rows(old, slice(head, old_end)), _rows(new, slice(head, new_end)))
+    return (np.concatenate([np.arange(head), head + middle_old, np.arange(old_end, n_old)]),
+            np.concatenate([np.arange(head), head + middle_new, np.arange(new_end, n_new)]))
 
 
 def match_segments_reference(old: Segments, new: Segments) -> tuple[np.ndarray, np.ndarray]:
@@ -287,7 +293,8 @@ def carried_unknowns_and_loose(old: Segments, unknowns: np.ndarray,
     matched = kept_old, kept = match_segments(old, new)
     out[kept] = unknowns[kept_old]
     loose = _others(len(new), np.concatenate([kept, np.flatnonzero(new.on_border)]))
-    sources = np.flatnonzero(~old.on_border)
+    # the old segments of the loose ones' curves (few curves of many: compare ids, not every segment's place)
+    sources = np.flatnonzero(~old.on_border & np.isin(old.origin[:, 0], np.unique(new.origin[loose, 0])))
     if len(loose) == 0 or len(sources) == 0:
         return out, loose, matched
     span = float(np.nanmax(np.abs(np.concatenate([old.origin[:, 1], new.origin[:, 1]])), initial=0.0)) + 1.0
