@@ -46,8 +46,9 @@ UNCONVERGED = 1e-6
 GMRES_RTOL = 1e-9
 #: Curve segments shorter than this fraction of the geometry's extent count as points (``solved_segments``).
 POINT_LENGTH = 1e-12
-#: Source-target pairs up to which a product with few sources (a colour edit of a curve) sums them directly:
-#: about 1 M pairs took what the FMM passes take on lady_bug's solve lattice (10 ms; fruits 30 ms).
+#: Source-target pairs up to which a product with few sources (an eighth of the segments or fewer: a colour
+#: edit of a curve) sums them directly: about 1 M pairs took what the FMM passes take on lady_bug's solve
+#: lattice (10 ms; fruits 30 ms).  A product of most segments stays the FMM's, as GMRES's products are.
 DIRECT_PAIRS = 1_000_000
 
 
@@ -97,7 +98,7 @@ class CollocationOperator:
         their cells only and the near field is summed only around them.
         """
         sources = np.flatnonzero(np.any(flux != 0, axis=1) | np.any(jump != 0, axis=1))
-        if len(sources) * len(flux) <= DIRECT_PAIRS:
+        if len(sources) * len(flux) <= DIRECT_PAIRS and 8 * len(sources) <= len(flux):
             return self._direct_field(sources, flux[sources], jump[sources])
         seg = replace(self.segments, flux=flux, jump=jump)
         lattice, order = self.lattice, self.order
