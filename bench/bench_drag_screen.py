@@ -5,7 +5,8 @@
 For each FILE (default lady_bug.xml, fruits.xml and roses.xml from ../shared/data),
 the editor window (1200x800, under a private Xvfb, Mesa's llvmpipe) opens it,
 the Select tool takes anchor 3 of the curve of median length (as
-``bench_edits.py`` does) and drags it by real Qt events: N steps of 1.5 px, each
+``bench_edits.py`` does) and drags it by real Qt events: past the drag
+threshold, then N steps of 1.5 px, each
 event sent once the frame of the one before is on the screen, timed from the
 event to the canvas's paint of its frame (the engine's preview, the upload of
 the changed cells and the shader's evaluation).  Reported: the best and the
@@ -40,7 +41,7 @@ def drag(app, window, steps: int) -> tuple[list[float], int, float]:
 
     canvas, workspace = window.canvas, window.workspace
     document = workspace.history.document
-    curve = document.curves[edited_curve(document)]
+    curve = document.curves[edited_curve(document)]  # where the last drag left its anchor
     x, y = curve.control_points[3]
 
     def at(px: float, py: float) -> QPoint:
@@ -51,17 +52,20 @@ def drag(app, window, steps: int) -> tuple[list[float], int, float]:
     wait(app, lambda: workspace.current)
     QTest.mousePress(canvas, Qt.MouseButton.LeftButton, Qt.KeyboardModifier.NoModifier, at(x, y))
     times, stale = [], 0
-    for step in range(1, steps + 1):
-        shown = canvas.frames_shown
+    for step in range(steps + 1):  # the first event passes the drag threshold (3 px): not timed
+        shown, before = canvas.frames_shown, workspace.history.document
         start = time.perf_counter()
-        QTest.mouseMove(canvas, at(x + 1.5 * step / canvas.view.scale, y + 0.5 * step / canvas.view.scale))
+        QTest.mouseMove(canvas, at(x + (4 + 1.5 * step) / canvas.view.scale, y + 0.5 * step / canvas.view.scale))
         dragged = workspace.history.document
-        wait(app, lambda: workspace.frame.document is dragged and canvas.frames_shown > shown)
-        times.append(time.perf_counter() - start)
-        stale += workspace.frame.stale
+        if dragged is before:
+            raise RuntimeError("a pointer event of the drag moved nothing: the anchor was not taken")
+        wait(app, lambda: workspace.frame.document is dragged and canvas.frames_shown > shown, timeout=60.0)
+        if step:
+            times.append(time.perf_counter() - start)
+            stale += workspace.frame.stale
     released = time.perf_counter()
     QTest.mouseRelease(canvas, Qt.MouseButton.LeftButton, Qt.KeyboardModifier.NoModifier,
-                       at(x + 1.5 * steps / canvas.view.scale, y + 0.5 * steps / canvas.view.scale))
+                       at(x + (4 + 1.5 * steps) / canvas.view.scale, y + 0.5 * steps / canvas.view.scale))
     wait(app, lambda: workspace.current)
     app.processEvents()
     return times, stale, time.perf_counter() - released
