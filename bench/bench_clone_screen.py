@@ -36,6 +36,29 @@ def wait(app, condition, timeout: float = 600.0) -> None:
         time.sleep(0.002)
 
 
+def editor_window(name: str):
+    """The editor's window, 1200x800, shown on a private Xvfb (its settings in /tmp/NAME.ini): (xvfb, app, window)."""
+    xvfb = start_xvfb()
+    os.environ["QT_QPA_PLATFORM"] = "xcb"
+    from PySide6.QtCore import QSettings
+    from PySide6.QtWidgets import QApplication
+
+    from fmr_editor.ui.main_window import MainWindow
+
+    app = QApplication([])
+    window = MainWindow(QSettings(str(Path("/tmp") / f"{name}.ini"), QSettings.Format.IniFormat))
+    window.resize(1200, 800)
+    window.show()
+    return xvfb, app, window
+
+
+def open_in(app, window, path: Path) -> None:
+    """Open ``path`` (absolute) in ``window`` and wait until its image is exact."""
+    window.open_path(path)
+    wait(app, lambda: window.job is None and window.workspace is not None and window.workspace.path == path
+         and window.workspace.current)
+
+
 def drag_clone(app, window, seconds: float) -> tuple[float, float]:
     """Drag the active clone for ``seconds``: (frames shown per second, seconds from release to the exact frame)."""
     from PySide6.QtCore import QPoint, Qt
@@ -73,25 +96,13 @@ def main() -> None:
     parser.add_argument("--seconds", type=float, default=2.0)
     parser.add_argument("--repeat", type=int, default=3)
     args = parser.parse_args()
-    xvfb = start_xvfb()
-    os.environ["QT_QPA_PLATFORM"] = "xcb"
-    from PySide6.QtCore import QSettings
-    from PySide6.QtWidgets import QApplication
-
-    from fmr_editor.ui.main_window import MainWindow
-
-    app = QApplication([])
-    window = MainWindow(QSettings(str(Path("/tmp") / "bench-clone-screen.ini"), QSettings.Format.IniFormat))
-    window.resize(1200, 800)
-    window.show()
+    xvfb, app, window = editor_window("bench-clone-screen")
     print(f"# Seamless cloning on the screen\n\nEditor window 1200x800 under Xvfb (llvmpipe), {os.cpu_count()} cores; "
           f"one pointer event every {INTERVAL_MS} ms for {args.seconds:g} s; best of {args.repeat} drags.\n")
     print("| file | frames shown per second while dragging | release to exact frame (ms) | target |")
     print("|---|---:|---:|---|")
-    for path in map(Path, args.files):
-        window.open_path(path)
-        wait(app, lambda: window.job is None and window.workspace is not None and window.workspace.path == path
-             and window.workspace.current)
+    for path in (Path(file).absolute() for file in args.files):
+        open_in(app, window, path)
         document = window.workspace.history.document
         angles = np.linspace(0, 2 * np.pi, 41)[:-1]
         w, h = document.width, document.height

@@ -23,8 +23,7 @@ import sys
 import time
 from pathlib import Path
 
-from bench_canvas import start_xvfb
-from bench_clone_screen import wait
+from bench_clone_screen import editor_window, open_in, wait
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_edits import edited_curve  # noqa: E402
@@ -77,27 +76,16 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=10)
     parser.add_argument("--repeat", type=int, default=3)
     args = parser.parse_args()
-    xvfb = start_xvfb()
-    os.environ["QT_QPA_PLATFORM"] = "xcb"
-    from PySide6.QtCore import QSettings, Qt
+    xvfb, app, window = editor_window("bench-drag-screen")
+    from PySide6.QtCore import Qt
     from PySide6.QtTest import QTest
-    from PySide6.QtWidgets import QApplication
-
-    from fmr_editor.ui.main_window import MainWindow
-
-    app = QApplication([])
-    window = MainWindow(QSettings(str(Path("/tmp") / "bench-drag-screen.ini"), QSettings.Format.IniFormat))
-    window.resize(1200, 800)
-    window.show()
     print(f"# A geometry drag on the screen\n\nEditor window 1200x800 under Xvfb (llvmpipe), {os.cpu_count()} cores; "
           f"{args.steps} pointer events of 1.5 window px, each once the last one's frame is shown; best of "
           f"{args.repeat} drags.\n")
     print("| file | event to frame, best (slowest) ms | stale frames | release to exact frame (ms) | target |")
     print("|---|---:|---:|---:|---|")
     for path in (Path(file).absolute() for file in args.files):
-        window.open_path(path)
-        wait(app, lambda: window.job is None and window.workspace is not None and window.workspace.path == path
-             and window.workspace.current)
+        open_in(app, window, path)
         QTest.keyClick(window.canvas, Qt.Key.Key_V)
         runs = [drag(app, window, args.steps) for _ in range(args.repeat)]
         times = [t for run in runs for t in run[0]]
