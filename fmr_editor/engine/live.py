@@ -147,7 +147,7 @@ class LiveRepresentation:
         self._shows_exact = False  # a preview not trusted: the cells are the last exact state's
         if saved is None or not self._resume(document, saved):
             self._rebuild(document, progress)
-        self._kept.keep(self._state())
+        self._keep(self._state())
 
     @property
     def stale(self) -> bool:
@@ -322,7 +322,7 @@ class LiveRepresentation:
             self.document = document
             kind = self._refine(changed) if exact and self.approximate else "none"
             if not self.approximate:
-                self._kept.keep(self._state())  # an equal document, another object: undo may come back to it
+                self._keep(self._state())  # an equal document, another object: undo may come back to it
             return Update(kind, changed, time.perf_counter() - start, not self.approximate, self.stale)
         removed = [before.points[i] for i in changes.removed_points]
         added = [document.points[i] for i in changes.added_points]
@@ -333,7 +333,7 @@ class LiveRepresentation:
             curves = self._curve_cache.segments(document) if changes.curves_changed else self._curves
         if changes.canvas_changed or self._levels(curves) != self.lattice.levels:
             self._rebuild(document, progress)
-            self._kept.keep(self._state())
+            self._keep(self._state())
             n = self.lattice.cells_per_side
             return Update("rebuild", np.ones((n, n), bool), time.perf_counter() - start)
         kind = "points"
@@ -348,7 +348,7 @@ class LiveRepresentation:
         self.document = document
         self._forget_curves(before.curves)
         if not self.approximate:
-            self._kept.keep(self._state())
+            self._keep(self._state())
         return Update(kind, changed, time.perf_counter() - start, not self.approximate, self.stale)
 
     def refine(self) -> Update:
@@ -363,7 +363,7 @@ class LiveRepresentation:
         self._unknowns = self._solvers.solve_geometry(self._unknowns)
         self.approximate = False
         self._propagate(changed, self.solver.accuracy())
-        self._kept.keep(self._state())
+        self._keep(self._state())
         return "geometry"
 
     def _update_curves(self, document: Document, curves: Segments, changed: np.ndarray,
@@ -432,6 +432,11 @@ class LiveRepresentation:
             changed[a:b, c:d] = True
 
     # -- kept states (undo, redo) -------------------------------------------------------------
+    def _keep(self, state: State) -> None:
+        """Keep ``state``, exact, for undo; a drag's previews (and the cells they hold) are over."""
+        self._previews = None
+        self._kept.keep(state)
+
     def _state(self) -> State:
         points = self._points.copy() if self._points is not None else None
         return State(self.document, self.lattice, self._curves, self._radii, self._boundary, self._unknowns,
@@ -451,4 +456,4 @@ class LiveRepresentation:
         self._points = state.points.copy() if state.points is not None else None
         self._solvers.move_to(state.boundary)
         self.approximate = False
-        self._kept.keep(state)
+        self._keep(state)
