@@ -30,6 +30,14 @@ segments and solved unknowns), so that nothing drifts along the drag:
    lady_bug's drags, the samples' mean and 99th percentile came within a
    third of the picture's.  ``Preview.trusted`` holds them to the bound the
    screen promises (1/255 mean, 4/255 at the 99th percentile) with a margin.
+4. **Let the rest answer, where the bound is missed.**  Up to ``SWEEPS``
+   times, the held rows' residual is solved for through the base's
+   factorisation (the kept block's inverse, a Schur complement of it; a
+   curve moved towards another needs the whole system's answer), then the
+   rows near the change again.  Only for documents up to
+   ``GLOBAL_STEP_SEGMENTS``, where that fits in a frame; a preview still
+   beyond the bound is not shown (``LiveRepresentation`` shows the last
+   exact picture instead).
 """
 
 from __future__ import annotations
@@ -51,10 +59,10 @@ from .updated import carried_unknowns_and_loose
 NEARBY = 300
 #: Kept collocation points the residual is sampled at.
 SAMPLES = 2000
-#: Most boundary segments for which a preview may ask the base's factorisation (step 2 of the module): on
+#: Most boundary segments for which a preview may ask the base's factorisation (step 4 of the module): on
 #: lady_bug (7,291 segments) that and the propagation of every cell's change take about 40 ms more.
 GLOBAL_STEP_SEGMENTS = 15_000
-#: Rounds of the held rows' answer and the local solve after it, at most (step 2 of the module).
+#: Rounds of the held rows' answer and the local solve after it, at most (step 4 of the module).
 SWEEPS = 2
 #: Largest estimated error (colour units, from the residual's samples) of a preview that is shown: the
 #: screen's bound (1/255 mean, 4/255 at the 99th percentile) over a margin of 1.5 for the estimate.
