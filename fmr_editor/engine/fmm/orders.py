@@ -32,6 +32,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import lru_cache
+from pathlib import Path
 
 import numpy as np
 
@@ -42,6 +43,10 @@ from .lattice import offset_parities
 TABLE_ORDER = 24
 #: Boundary points per cell side where ``truncation_errors`` samples sources and targets.
 SAMPLES_PER_SIDE = 16
+#: ``truncation_errors`` of every offset the passes use, as ``scripts/generate_tables.py`` measured them: arrays
+#: ``offsets (k, 2)``, ``errors (k, TABLE_ORDER + 1, TABLE_ORDER + 1)`` and the ``table_order`` and
+#: ``samples_per_side`` they were measured with (measuring them took 1.2-1.9 s of every process).
+SHIPPED_TABLES = Path(__file__).with_name("truncation_errors.npz")
 #: Share of the pixels' own truncation error (nearest offset, degree N, the fine level's strength) each
 #: translation may add.  Measured on the Hilbert scenes against the direct sum at N = 8 (max over 1,500
 #: to 2,048 pixels, /255): order 16 everywhere 0.022, 0.004, 0.091; share 1: 0.67 (27 offsets a level
@@ -63,6 +68,28 @@ def _cell_boundary(centre: complex) -> np.ndarray:
 
 @lru_cache(maxsize=None)
 def truncation_errors(dx: int, dy: int) -> np.ndarray:
+    """``measured_truncation_errors(dx, dy)``, from ``SHIPPED_TABLES`` when it holds the offset (read-only)."""
+    shipped = _shipped_tables()
+    errors = shipped.get((dx, dy))
+    if errors is None:
+        errors = measured_truncation_errors(dx, dy)
+    errors.flags.writeable = False
+    return errors
+
+
+@lru_cache(maxsize=1)
+def _shipped_tables() -> dict[tuple[int, int], np.ndarray]:
+    """``SHIPPED_TABLES`` by offset; empty when the file is missing or was measured with other constants."""
+    try:
+        with np.load(SHIPPED_TABLES) as data:
+            if int(data["table_order"]) != TABLE_ORDER or int(data["samples_per_side"]) != SAMPLES_PER_SIDE:
+                return {}
+            return {(int(dx), int(dy)): errors for (dx, dy), errors in zip(data["offsets"], data["errors"])}
+    except (OSError, KeyError, ValueError):
+        return {}
+
+
+def measured_truncation_errors(dx: int, dy: int) -> np.ndarray:
     """Largest M2L error ``e[m, q]`` at offset ``(dx, dy)`` keeping multipole terms ``<= m`` and local ``<= q``.
 
     In cell-size units, for a unit logarithmic source (its real part, the
@@ -86,8 +113,12 @@ def truncation_errors(dx: int, dy: int) -> np.ndarray:
         log_sums = np.cumsum((logarithm[:, : m + 1] @ matrix[: m + 1])[:, None, :] * powers[None], axis=2).real
         errors[m] = np.maximum(np.abs(dipole_sums - exact_dipole[:, :, None]).max(axis=(0, 1)),
                                np.abs(log_sums - exact_log[:, :, None]).max(axis=(0, 1)))
-    errors.flags.writeable = False
     return errors
+
+
+def table_offsets() -> list[tuple[int, int]]:
+    """The offsets ``truncation_errors`` is asked for: ``(|dx|, |dy|)`` of the passes' offsets, larger first."""
+    return sorted({tuple(sorted((abs(int(dx)), abs(int(dy))), reverse=True)) for dx, dy in offset_parities()[0]})
 
 
 def pixel_error(pixel_order: int) -> float:
