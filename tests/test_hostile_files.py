@@ -8,6 +8,7 @@ not by the clock).
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -18,8 +19,9 @@ from shapes import circle_points
 from fmr_editor.engine import build, evaluate_points, rasterise
 from fmr_editor.engine.geometry import curve_cache
 from fmr_editor.engine.memory import affordable_levels, check_build_memory, check_image_memory
-from fmr_editor.io import DocumentLoadError, load_document, load_fmr
-from fmr_editor.model import ColorStop, DiffusionCurve, Document
+from fmr_editor.io import DocumentLoadError, load_document, load_fmr, orzan
+from fmr_editor.io.document_json import SchemaError, dumps_document, loads_document
+from fmr_editor.model import ColorStop, DiffusionCurve, Document, limits
 from fmr_editor.model.limits import LimitError
 
 HOSTILE = Path(__file__).parent / "data" / "hostile"
@@ -51,6 +53,10 @@ def test_an_entry_name_flagged_utf8_that_is_not_is_a_load_error():
 
 def test_a_colour_of_1e308_is_refused():
     refused(HOSTILE / "huge-colour.fmr", "colours must be finite")
+
+
+def test_a_point_colour_beyond_the_models_limit_is_a_load_error():
+    refused(HOSTILE / "point-colour.fmr", "points[0]", "at most 1000")
 
 
 def test_a_representation_with_shifted_segments_is_rebuilt_with_a_note():
@@ -152,6 +158,39 @@ def test_a_curve_of_300001_control_points_is_refused_on_reading(tmp_path):
 def test_100000_curves_are_refused_on_reading(tmp_path):
     square = np.array([[10.0, 10.0], [11.0, 10.0], [11.0, 11.0], [10.0, 11.0]])
     refused(orzan_file(tmp_path / "many-curves.xml", [square] * 100_000), "50,000", "100,000")
+
+
+def test_a_curve_with_more_stops_than_the_limit_is_refused_before_any_stop_is_read(tmp_path, monkeypatch):
+    corners = "".join(f'<control_point x="{x}" y="{y}"/>' for x, y in ((10, 10), (10, 11), (11, 11), (10, 10)))
+    stops = '<left_color G="0" R="0" B="255" globalID="0"/>' * (limits.MAX_CURVE_STOPS + 1)
+    path = tmp_path / "many-stops.xml"
+    path.write_text('<curve_set image_width="100" image_height="100"><curve><control_points_set>'
+                    f'{corners}</control_points_set><left_colors_set>{stops}'
+                    '</left_colors_set></curve></curve_set>')
+    read = []
+    monkeypatch.setattr(orzan, "_channel", lambda *args: read.append(args) or 0.0)
+    refused(path, "curve 1", "10,001 left_color stops", "at most 10,000")
+    assert read == []
+
+
+def test_a_document_json_with_more_stops_than_the_limit_is_refused():
+    document = Document(64, 64, [DiffusionCurve(circle_points(32.0, 32.0, 10.0), left=(ColorStop(0.0, (1, 0, 0)),))])
+    data = json.loads(dumps_document(document))
+    data["layers"][0]["curves"][0]["right"] = [{"position": 0.0, "color": [0, 0, 1]}] * (limits.MAX_CURVE_STOPS + 1)
+    with pytest.raises(SchemaError, match=r"curves\[0\]\.right holds 10,001 stops; at most 10,000"):
+        loads_document(json.dumps(data).encode())
+
+
+def test_documents_made_in_code_are_held_to_the_stop_limits(monkeypatch):
+    stops = tuple(ColorStop(i / 10, (0, 0, 1)) for i in range(41))
+    curves = [DiffusionCurve(circle_points(32.0, 32.0, 10.0), right=stops) for _ in range(3)]
+    monkeypatch.setattr(limits, "MAX_CURVE_STOPS", 40)
+    with pytest.raises(LimitError, match="at most 40 stops on a side of a curve .layer 1. are read, got 41"):
+        limits.check_document(Document(64, 64, curves))
+    monkeypatch.setattr(limits, "MAX_CURVE_STOPS", 41)
+    monkeypatch.setattr(limits, "MAX_STOPS", 100)
+    with pytest.raises(LimitError, match="at most 100 stops are read, got 123"):
+        build(Document(64, 64, curves))
 
 
 def test_curves_that_would_flatten_into_millions_of_segments_are_refused_before_flattening(monkeypatch):

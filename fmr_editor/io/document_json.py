@@ -300,6 +300,8 @@ def _curve(value: object, where: str) -> DiffusionCurve:
 def _stops(item: dict, key: str, where: str) -> list[tuple[str, dict]]:
     """``(place, object)`` for each element of the optional list ``item[key]``."""
     values = as_list(item.get(key, []), f"{where}.{key}")
+    if len(values) > limits.MAX_CURVE_STOPS:
+        raise SchemaError(f"{where}.{key} holds {len(values):,} stops; at most {limits.MAX_CURVE_STOPS:,} are read")
     return [(f"{where}.{key}[{i}]", as_object(value, f"{where}.{key}[{i}]")) for i, value in enumerate(values)]
 
 
@@ -315,4 +317,7 @@ def _point(value: object, where: str) -> DiffusionPoint:
         raise SchemaError(f"{where}.radius must be positive, got {shortened(radius)}")
     color = finite_tuple(required(item, "color", where), 3, f"{where}.color")
     amplitude = finite(item.get("amplitude", 1.0), f"{where}.amplitude")
-    return DiffusionPoint(position, radius, color, amplitude)
+    try:
+        return DiffusionPoint(position, radius, color, amplitude)
+    except ValueError as error:  # e.g. a colour beyond limits.MAX_COLOR
+        raise SchemaError(f"{where}: {error}") from None

@@ -264,7 +264,7 @@ def _color_stops(element: Element, path: str, where: str, convention: _Conventio
     """The colour stops found at ``path`` (``left_colors_set/left_color`` or the right one)."""
     tag = path.rsplit("/", 1)[1]
     stops = []
-    for number, child in enumerate(element.findall(path), 1):
+    for number, child in enumerate(_stop_elements(element, path, where), 1):
         label = f"{where}, {tag} {number}"
         red, green, blue = (_channel(child, attribute, label) for attribute in ("R", "G", "B"))
         if convention.swap_red_blue:
@@ -276,10 +276,19 @@ def _color_stops(element: Element, path: str, where: str, convention: _Conventio
 def _blur_stops(element: Element, where: str) -> list[BlurStop]:
     """The ``best_scale`` blur stops."""
     stops = []
-    for number, child in enumerate(element.findall("blur_points_set/best_scale"), 1):
+    for number, child in enumerate(_stop_elements(element, "blur_points_set/best_scale", where), 1):
         label = f"{where}, best_scale {number}"
         stops.append(BlurStop(_position(child, label), _number(child, "value", label)))
     return stops
+
+
+def _stop_elements(element: Element, path: str, where: str) -> list[Element]:
+    """The elements at ``path``, at most ``limits.MAX_CURVE_STOPS`` of them (counted before any is read)."""
+    children = element.findall(path)
+    if len(children) > limits.MAX_CURVE_STOPS:
+        raise _FormatError(f"{where} has {len(children):,} {path.rsplit('/', 1)[1]} stops; at most "
+                           f"{limits.MAX_CURVE_STOPS:,} are read")
+    return children
 
 
 def _position(element: Element, label: str) -> float:

@@ -75,6 +75,16 @@ def main() -> None:
 
     rewritten(good, HERE / "huge-colour.fmr", huge_colour)
 
+    # a diffusion point of colour 32768 (finite, beyond model.limits.MAX_COLOR) in document.json
+    def huge_point_colour(entry: str, data: bytes) -> bytes:
+        if entry != "document.json":
+            return data
+        content = json.loads(data)
+        content["layers"][0]["points"] = [{"position": [20.0, 20.0], "radius": 4.0, "color": [32768, 0, 0]}]
+        return json.dumps(content).encode()
+
+    rewritten(good, HERE / "point-colour.fmr", huge_point_colour)
+
     # the saved representation's segments shifted by a third of a pixel
     def shifted(entry: str, data: bytes) -> bytes:
         if not entry.endswith(("/p.npy", "/q.npy")):
