@@ -3,6 +3,7 @@
 #   1. system packages (as root: installs the missing ones; otherwise: says what to install)
 #   2. .venv in the repository root with Python >= 3.11
 #   3. pip install -e '.[test]', skipped while .venv/.setup-stamp matches pyproject.toml
+#   4. the engine's compiled kernels into numba's cache, skipped while none of the engine's sources changed
 set -euo pipefail
 
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
@@ -87,12 +88,27 @@ fi
 # The stamp holds a hash of pyproject.toml and the venv's Python version: while both match and the
 # entry points exist, the install is current.
 want="$({ cat pyproject.toml; "$VENV/bin/python" -c 'import sys; print(sys.version)'; } | sha256sum | cut -d' ' -f1)"
-if [[ -f "$STAMP" && "$(cat "$STAMP")" == "$want" && -x "$VENV/bin/fmr-editor" && -x "$VENV/bin/pytest" ]]; then
-    exit 0
+if ! [[ -f "$STAMP" && "$(cat "$STAMP")" == "$want" && -x "$VENV/bin/fmr-editor" && -x "$VENV/bin/pytest" ]]; then
+    say "installing fmr-editor and its dependencies into .venv (the first time takes a few minutes)"
+    rm -f "$STAMP"
+    "$VENV/bin/python" -m pip install --quiet --disable-pip-version-check -e '.[test]' \
+        || die "pip install -e '.[test]' failed (see above)"
+    printf '%s\n' "$want" >"$STAMP"
+    say "ready: $VENV"
 fi
-say "installing fmr-editor and its dependencies into .venv (the first time takes a few minutes)"
-rm -f "$STAMP"
-"$VENV/bin/python" -m pip install --quiet --disable-pip-version-check -e '.[test]' \
-    || die "pip install -e '.[test]' failed (see above)"
-printf '%s\n' "$want" >"$STAMP"
-say "ready: $VENV"
+
+# --- 4. compiled kernels ------------------------------------------------------------------------
+# Numba compiles a kernel on its first use and caches it beside its source (fmr_editor/**/__pycache__); its
+# cache is valid while the source's time and size are. The stamp holds those of every engine source and the
+# Python version; it lives in the cache's own folder, so that deleting the caches deletes it too.
+KERNEL_STAMP="$REPO/fmr_editor/engine/__pycache__/compiled-kernels.stamp"
+kernels="$({ find fmr_editor/engine -name '*.py' -print0 | sort -z | xargs -0 stat -c '%n %Y %s'; \
+    "$VENV/bin/python" -c 'import sys; print(sys.version)'; } | sha256sum | cut -d' ' -f1)"
+if [[ ! -f "$KERNEL_STAMP" || "$(cat "$KERNEL_STAMP")" != "$kernels" ]]; then
+    say "compiling the engine's kernels, once (2-4 minutes of one core, shared out over $(nproc) cores)"
+    rm -f "$KERNEL_STAMP"
+    "$VENV/bin/python" -m fmr_editor.engine.compile_kernels \
+        || die "compiling the engine's kernels failed (see above)"
+    mkdir -p "$(dirname "$KERNEL_STAMP")"
+    printf '%s\n' "$kernels" >"$KERNEL_STAMP"
+fi
