@@ -24,7 +24,7 @@ FAKE_ROOT = "fakeeditor"
 SUBPACKAGES = ("model", "engine", "io", "tools", "render", "ui")
 ENGINE_PACKAGES = ("geometry", "kernels", "fmm", "solve", "points")
 ENGINE_MODULES = ("representation", "composite", "live", "raster", "kept_states", "cells", "threads", "stack",
-                  "cloning")
+                  "cloning", "compile_kernels")
 
 pytest.importorskip("importlinter", reason="import-linter is in the [test] extra")
 

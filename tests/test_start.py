@@ -1,0 +1,35 @@
+"""Start-up stays light: the command line's own modules import nothing heavy until a command needs it
+(issue 26; ``bench/bench_start.py`` times the whole processes)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+HEAVY = ("numba", "scipy", "shapely", "PIL", "fmr_editor.engine", "fmr_editor.io", "PySide6", "OpenGL")
+
+
+def imported_after(code: str) -> set[str]:
+    """The top-level names of the modules a fresh interpreter holds after running ``code``."""
+    script = f"{code}\nimport sys\nprint('\\n'.join(sys.modules))"
+    listed = subprocess.run([sys.executable, "-c", script], check=True, capture_output=True, text=True).stdout
+    return set(listed.split())
+
+
+def test_importing_the_package_and_its_command_line_loads_nothing_heavy():
+    modules = imported_after("import fmr_editor, fmr_editor.cli")
+    assert "fmr_editor.cli" in modules
+    assert not [name for name in modules if name.startswith(HEAVY)]
+
+
+def test_the_version_is_printed_without_loading_the_engine():
+    modules = imported_after("import contextlib, io\nfrom fmr_editor.cli import main\n"
+                             "with contextlib.suppress(SystemExit), contextlib.redirect_stdout(io.StringIO()):\n"
+                             "    main(['--version'])")
+    assert not [name for name in modules if name.startswith(HEAVY)]
+
+
+def test_a_render_does_load_the_engine():  # the check above would pass vacuously if the listing were broken
+    modules = imported_after("from fmr_editor import render_image\nfrom fmr_editor.model import Document\n"
+                             "render_image(Document(8, 8, ()), samples=1)")
+    assert {"numba", "fmr_editor.engine"} <= modules
