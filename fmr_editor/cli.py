@@ -17,6 +17,8 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
+from . import __version__
+
 
 def _positive(text: str) -> int:
     value = int(text)
@@ -36,6 +38,7 @@ def _editor_parser() -> argparse.ArgumentParser:
                     "'fmr-editor clone --help' how to paste a region of one into another seamlessly.")
     parser.add_argument("files", nargs="*", metavar="FILE",
                         help="documents to open, each in a tab (.fmr, or Orzan CurveSetXML .xml)")
+    parser.add_argument("--version", action="version", version=f"fmr-editor {__version__}")
     return parser
 
 

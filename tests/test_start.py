@@ -6,6 +6,10 @@ from __future__ import annotations
 import subprocess
 import sys
 
+from cli_runs import run
+
+import fmr_editor
+
 HEAVY = ("numba", "scipy", "shapely", "PIL", "fmr_editor.engine", "fmr_editor.io", "PySide6", "OpenGL")
 
 
@@ -23,6 +27,8 @@ def test_importing_the_package_and_its_command_line_loads_nothing_heavy():
 
 
 def test_the_version_is_printed_without_loading_the_engine():
+    code, out, _ = run("--version")
+    assert code == 0 and out == f"fmr-editor {fmr_editor.__version__}\n"
     modules = imported_after("import contextlib, io\nfrom fmr_editor.cli import main\n"
                              "with contextlib.suppress(SystemExit), contextlib.redirect_stdout(io.StringIO()):\n"
                              "    main(['--version'])")
