@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import itertools
+import math
 
 import numpy as np
 import pytest
@@ -17,7 +18,7 @@ from fmr_editor.engine.fmm.expansions import (
     m2m_matrix,
     multipole_moments_reference,
 )
-from fmr_editor.engine.fmm.lattice import interaction_offsets
+from fmr_editor.engine.fmm.lattice import interaction_offsets, offset_parities
 from fmr_editor.engine.kernels.potentials import direct_sum_reference
 from fmr_editor.model import ColorStop, DiffusionCurve, Document
 
@@ -183,3 +184,24 @@ def test_compiled_cell_moments_equal_the_summed_reference():
     expected = np.zeros_like(got)
     np.add.at(expected, cells[:, 0] * 8 + cells[:, 1], per_segment)
     np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-12)
+
+
+def m2l_matrix_reference(offset: complex, order: int, log_size: float) -> np.ndarray:
+    """Term by term: ``T[0, 0] = ln(-d) + ln r``, ``T[k, 0] = (-1)^k / d^k``, ``T[0, l] = -1 / (l d^l)``,
+    ``T[k, l] = (-1)^k C(l + k - 1, k - 1) / d^(l + k)``."""
+    t = np.zeros((order + 1, order + 1), complex)
+    t[0, 0] = np.log(-offset) + log_size
+    for k in range(1, order + 1):
+        t[k, 0] = (-1.0) ** k / offset**k
+        t[0, k] = -1.0 / (k * offset**k)
+        for l in range(1, order + 1):
+            t[k, l] = (-1.0) ** k * math.comb(l + k - 1, k - 1) / offset ** (l + k)
+    return t
+
+
+@pytest.mark.parametrize("log_size", [0.0, 2.3, -1.1])
+def test_m2l_matrix_equals_its_terms_at_every_offset_of_the_passes(log_size):
+    for dx, dy in offset_parities()[0]:
+        offset = complex(int(dx), int(dy))
+        expected = m2l_matrix_reference(offset, 24, log_size)
+        np.testing.assert_allclose(m2l_matrix(offset, 24, log_size), expected, rtol=1e-13, atol=0)

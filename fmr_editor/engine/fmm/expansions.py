@@ -93,15 +93,22 @@ def m2l_matrix(offset: complex, order: int, log_size: float) -> np.ndarray:
     ``log_size`` is ln r: the one level-dependent term (``L_0`` gains ``A_0 ln r``).
     Returns ``T`` with ``local = multipole @ T``.
     """
+    t = _m2l_at_unit_size(complex(offset), order).copy()
+    t[0, 0] += log_size
+    t.flags.writeable = False
+    return t
+
+
+@lru_cache(maxsize=None)
+def _m2l_at_unit_size(offset: complex, order: int) -> np.ndarray:
+    """``m2l_matrix(offset, order, 0.0)``, shared by every level (a build asks for 40 offsets on each)."""
     t = np.zeros((order + 1, order + 1), complex)
-    offset = complex(offset)
-    t[0, 0] = np.log(-offset) + log_size
+    t[0, 0] = np.log(-offset)
     k = np.arange(1, order + 1)
     t[1:, 0] = (-1.0) ** k / offset**k
-    for l in range(1, order + 1):
-        t[0, l] = -1.0 / (l * offset**l)
-        t[1:, l] = offset ** (-l) * (-1.0) ** k / offset**k * comb(l + k - 1, k - 1)
-    t.flags.writeable = False
+    t[0, 1:] = -1.0 / (k * offset**k)
+    rows, columns = k[:, None], k[None, :]  # t[k, l]
+    t[1:, 1:] = offset ** (-columns) * (-1.0) ** rows / offset**rows * comb(columns + rows - 1, rows - 1)
     return t
 
 
