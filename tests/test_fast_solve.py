@@ -108,13 +108,52 @@ def test_build_above_the_crossover_gives_the_dense_image(monkeypatch):
     assert np.abs(fast - dense).max() <= 1e-6
 
 
-def test_a_solve_that_does_not_converge_says_so(system, monkeypatch):
-    segments, _, lattice, _, _ = system
-    weak = compressed(segments, 0.5)
-    monkeypatch.setattr(fast_solve, "SkeletonFactorization", lambda *args, **kwargs: weak)
+def one_iteration_with(factors, monkeypatch):
+    """Every build's compressed solve through ``factors``, GMRES cut to a single iteration."""
+    monkeypatch.setattr(fast_solve, "SkeletonFactorization", lambda *args, **kwargs: factors)
     monkeypatch.setattr(fast_solve, "DENSE_CROSSOVER", 10)
-    real_gmres = fast_solve.scipy.sparse.linalg.gmres
-    monkeypatch.setattr(fast_solve.scipy.sparse.linalg, "gmres",
-                        lambda *args, **kwargs: real_gmres(*args, **{**kwargs, "maxiter": 1, "restart": 1}))
+    monkeypatch.setattr(fast_solve, "GMRES_CYCLES", 1)
+    monkeypatch.setattr(fast_solve, "GMRES_RESTART", 1)
+
+
+def test_a_solve_short_of_its_tolerance_says_so(system, monkeypatch):
+    segments, _, lattice, _, _ = system
+    one_iteration_with(compressed(segments, 1e-4), monkeypatch)  # a relative residual of 1.5e-5 left
     with pytest.warns(RuntimeWarning, match="stopped at relative residual"):
         fast_solve.solve_boundary(segments, lattice)
+
+
+def test_a_solve_far_from_converging_is_refused_not_shown(system, monkeypatch):
+    segments, _, lattice, _, _ = system
+    one_iteration_with(compressed(segments, 0.5), monkeypatch)
+    with pytest.raises(fast_solve.SingularSystemError, match="does not converge"):
+        fast_solve.solve_boundary(segments, lattice)
+
+
+class Blind:
+    """A preconditioner that drops half the unknowns: GMRES cannot get past the part it never sees."""
+
+    def __init__(self, size: int) -> None:
+        self.seen = np.arange(size) % 2 == 0
+
+    def solve(self, rhs: np.ndarray) -> np.ndarray:
+        return np.where(self.seen[:, None], rhs, 0.0)
+
+
+def test_gmres_stops_after_a_cycle_that_barely_cut_the_residual(system):
+    segments, cell_start, lattice, matrix, rhs = system
+    operator = CollocationOperator(segments, cell_start, lattice, 20)
+    products = []
+    counted = fast_solve.CollocationOperator.apply
+
+    class Counting(CollocationOperator):
+        def apply(self, values):
+            products.append(1)
+            return counted(self, values)
+
+    operator.__class__ = Counting
+    _, report = fast_solve.gmres(operator, rhs, Blind(len(segments)))
+    assert report.residual > fast_solve.UNUSABLE
+    # the first cycle cuts the residual of the preconditioner's own answer, the second barely: 2 of 10 cycles
+    assert report.iterations == 2 * fast_solve.GMRES_RESTART
+    assert len(products) == 2 * (fast_solve.GMRES_RESTART + 1) + 1  # a product per iteration, cycle end, start

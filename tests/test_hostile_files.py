@@ -19,6 +19,7 @@ from shapes import circle_points
 from fmr_editor.engine import build, evaluate_points, rasterise
 from fmr_editor.engine.geometry import curve_cache
 from fmr_editor.engine.memory import affordable_levels, check_build_memory, check_image_memory
+from fmr_editor.engine.solve import solver as fast_solve
 from fmr_editor.io import DocumentLoadError, load_document, load_fmr, orzan
 from fmr_editor.io.document_json import SchemaError, dumps_document, loads_document
 from fmr_editor.model import ColorStop, DiffusionCurve, Document, limits
@@ -212,3 +213,32 @@ def test_a_50_megabyte_number_stays_out_of_the_message(tmp_path):
                     '</control_points_set></curve></curve_set>')
     message = refused(path)
     assert "111..." in message
+
+
+# --- a solve that cannot converge -----------------------------------------------------------------------
+
+
+@pytest.mark.slow
+def test_curves_crowding_the_canvas_edge_are_refused_after_two_cycles_not_drawn_wrong(shared_data, monkeypatch):
+    """poivron's curves with every control point on one of 8 points 1.28 px inside the corners and edge midpoints
+    of a 128 px canvas (the fuzzing finding of issue 26, scaled down): the preconditioned GMRES diverged (relative
+    residual 3e3 after its 300 iterations) and the build showed that wrong picture with a warning."""
+    poivron = load_document(shared_data / "orzan_xml" / "berkbavas" / "poivron.xml")
+    inset, side = 1.28, 128.0
+    targets = inset + (side - 2 * inset) * np.array([(0, 0), (1, 0), (1, 1), (0, 1), (0.5, 0), (1, 0.5), (0.5, 1),
+                                                    (0, 0.5)])
+    rng = np.random.default_rng(0)
+    curves = [DiffusionCurve(targets[rng.integers(0, 8, len(curve.control_points))], curve.left, curve.right)
+              for curve in poivron.curves]
+    iterations = []
+    real_gmres = fast_solve.gmres
+
+    def counted(*args, **kwargs):
+        unknown, report = real_gmres(*args, **kwargs)
+        iterations.append(report.iterations)
+        return unknown, report
+
+    monkeypatch.setattr(fast_solve, "gmres", counted)
+    with pytest.raises(fast_solve.SingularSystemError, match="does not converge"):
+        build(Document(128, 128, curves))
+    assert iterations and iterations[-1] <= 2 * fast_solve.GMRES_RESTART

@@ -42,8 +42,20 @@ DENSE_CROSSOVER = 1500
 DENSE_FALLBACK = 8000
 #: Relative residual above which ``solve_boundary`` warns that GMRES did not converge.
 UNCONVERGED = 1e-6
+#: Relative residual above which the solve's answer is refused (``SingularSystemError``): its colours would be
+#: visibly wrong, and a wrong picture is worse than a clear message.
+UNUSABLE = 1e-3
 #: Relative residual the iterative solve aims at.
 GMRES_RTOL = 1e-9
+#: GMRES restarts after this many iterations (a cycle) ...
+GMRES_RESTART = 30
+#: ... and runs at most this many cycles,
+GMRES_CYCLES = 10
+#: stopping early when a cycle cut the (preconditioned) residual by less than this factor: where curves
+#: nearly coincide the compressed factorisation can be too poor a preconditioner for GMRES to converge at
+#: all (a poivron.xml with its control points on the canvas corners and edge midpoints crept for 300
+#: iterations, 0.6 s each, and ended 3,000 times its right-hand side off).
+STALLED_CYCLE = 4.0
 #: Curve segments shorter than this fraction of the geometry's extent count as points (``solved_segments``).
 POINT_LENGTH = 1e-12
 #: Source-target pairs up to which a product with few sources (an eighth of the segments or fewer: a colour
@@ -203,7 +215,9 @@ def gmres(
     """Unknowns ``(n, 3)`` with ``operator.apply(x) = rhs`` to ``rtol``, by preconditioned GMRES.
 
     ``initial`` defaults to the preconditioner's own solution; ``progress``
-    gets the fraction of the residual reduction reached.
+    gets the fraction of the residual reduction reached.  Restarts every
+    ``GMRES_RESTART`` iterations, at most ``GMRES_CYCLES`` times, and stops
+    after a cycle that cut the residual by less than ``STALLED_CYCLE``.
     """
     report = progress or (lambda fraction: None)
     n = len(rhs)
@@ -212,6 +226,8 @@ def gmres(
     last = {}
 
     def product(vector: np.ndarray) -> np.ndarray:
+        if "x" in last and np.array_equal(vector, last["x"]):  # a cycle starts where the last one ended
+            return last["ax"].copy()
         last["x"], last["ax"] = vector.copy(), operator.apply(vector.reshape(n, 3)).ravel()
         return last["ax"]
 
@@ -227,11 +243,20 @@ def gmres(
         iterations += 1
         report(min(1.0, np.log(max(residual_norm, 1e-300)) / np.log(rtol)))
 
-    start = preconditioner.solve(rhs) if initial is None else initial
-    unknown, _ = scipy.sparse.linalg.gmres(
-        matrix, rhs.ravel(), x0=start.ravel(), rtol=rtol, atol=0.0, restart=30, maxiter=10,
-        M=inverse, callback=step, callback_type="pr_norm",
-    )
+    unknown = (preconditioner.solve(rhs) if initial is None else initial).ravel()
+    before = np.linalg.norm(rhs.ravel() - product(unknown))  # GMRES's first product, kept for it
+    for _ in range(GMRES_CYCLES):
+        cycle_start = iterations
+        unknown, converged = scipy.sparse.linalg.gmres(
+            matrix, rhs.ravel(), x0=unknown, rtol=rtol, atol=0.0, restart=GMRES_RESTART, maxiter=1,
+            M=inverse, callback=step, callback_type="pr_norm",
+        )
+        if converged == 0 or iterations == cycle_start:
+            break
+        after = np.linalg.norm(rhs.ravel() - last["ax"])  # every cycle ends on the product of its answer
+        if before < STALLED_CYCLE * after:
+            break  # this cycle barely cut the true residual: more would not either
+        before = after
     # GMRES ends on a true residual; reuse that product unless it stopped elsewhere
     applied = last["ax"] if np.array_equal(last.get("x"), unknown) else product(unknown)
     residual = float(np.linalg.norm(applied - rhs.ravel()) / max(np.linalg.norm(rhs), 1e-300))
@@ -326,6 +351,11 @@ class BoundarySolver:
         if not iterate:
             return self._unsorted(self._finite(self.factors.solve(ordered)))
         unknown, report = gmres(self.operator, ordered, self.factors, progress=progress)
+        if report.residual > UNUSABLE:
+            raise SingularSystemError(
+                f"{len(self.order):,} boundary segments: the solve does not converge (relative residual "
+                f"{report.residual:.1e} after {report.iterations} iterations), as where curves nearly coincide or "
+                "run close beside each other or the canvas edge")
         if report.residual > UNCONVERGED:
             warnings.warn(f"the boundary solve stopped at relative residual {report.residual:.1e} after "
                           f"{report.iterations} iterations; colours may be off", RuntimeWarning, stacklevel=2)
