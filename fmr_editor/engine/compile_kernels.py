@@ -95,7 +95,7 @@ def points() -> None:
     warm_up_points(lattice, 8)
 
 
-#: Parts that touch disjoint kernels, largest first, so that parallel processes share the work out evenly.
+#: Parts that touch disjoint kernels, so that parallel processes never compile the same one twice.
 PARTS: dict[str, Callable[[], None]] = {"near_grid": near_grid, "sub_cells": sub_cells, "solver": solver,
                                         "points": points}
 
