@@ -51,7 +51,7 @@ GMRES_RTOL = 1e-9
 GMRES_RESTART = 30
 #: ... and runs at most this many cycles,
 GMRES_CYCLES = 10
-#: stopping early when a cycle cut the (preconditioned) residual by less than this factor: where curves
+#: stopping early when a cycle cut the true residual by less than this factor: where curves
 #: nearly coincide the compressed factorisation can be too poor a preconditioner for GMRES to converge at
 #: all (a poivron.xml with its control points on the canvas corners and edge midpoints crept for 300
 #: iterations, 0.6 s each, and ended 3,000 times its right-hand side off).
