@@ -53,11 +53,16 @@ def test_edits_give_the_segments_of_a_fresh_discretisation():
     assert_same(cache, overlapping_document())  # back to the start: new objects, everything searched
 
 
-def test_a_real_file_with_retraced_curves(shared_data):
-    path = shared_data / "orzan_xml" / "berkbavas" / "flower.xml"
+def real_file(shared_data, name: str) -> Document:
+    """The shared real file ``berkbavas/NAME.xml``, opened; skips when it is absent."""
+    path = shared_data / "orzan_xml" / "berkbavas" / f"{name}.xml"
     if not path.exists():
         pytest.skip(f"{path} is absent")
-    document = load_document(path)
+    return load_document(path)
+
+
+def test_a_real_file_with_retraced_curves(shared_data):
+    document = real_file(shared_data, "flower")
     cache = CurveSegments(0.05, 2.0)
     assert_same(cache, document)
     rng = np.random.default_rng(4)
@@ -283,10 +288,7 @@ def test_random_edits_give_the_segments_of_a_fresh_discretisation(monkeypatch, r
 
 
 def test_fruits_with_twins(shared_data):
-    path = shared_data / "orzan_xml" / "berkbavas" / "fruits.xml"
-    if not path.exists():
-        pytest.skip(f"{path} is absent")
-    document = load_document(path)
+    document = real_file(shared_data, "fruits")
     cache = CurveSegments(0.05, 2.0)
     cache.segments(document)
     rng = np.random.default_rng(5)

@@ -260,11 +260,10 @@ def _patched(cells: Cells, moved: np.ndarray, values: np.ndarray) -> Cells:
         fine = np.empty((len(rows),) + values.shape[1:], values.dtype)
         fine[np.searchsorted(rows, cells.patched_cells)] = cells.patched_fine
         fine[np.searchsorted(rows, moved)] = values
+    patched = replace(cells, patched_cells=rows, patched_fine=fine)
     if len(rows) <= PATCH_SHARE * cells.fine_base.shape[0] * cells.fine_base.shape[1]:
-        return replace(cells, patched_cells=rows, patched_fine=fine)
-    whole = cells.fine_base.copy()
-    whole.reshape(-1, *whole.shape[2:])[rows] = fine
-    return replace(cells, fine_base=whole, patched_cells=None, patched_fine=None)
+        return patched
+    return replace(cells, fine_base=patched.fine, patched_cells=None, patched_fine=None)
 
 
 def propagated_reference(cells: Cells, solved: Segments, lattice: Lattice, order: int, accuracy: float,

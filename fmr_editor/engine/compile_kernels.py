@@ -29,7 +29,8 @@ from collections.abc import Callable
 import numpy as np
 
 from ..model import ColorStop, DiffusionCurve, DiffusionPoint, Document, edits
-from .fmm.lattice import Lattice
+from .fmm.lattice import Lattice, sort_into_cells
+from .geometry.segments import Segments
 from .kernels.segment_sums import near_tables
 from .kernels.subcells import subcell_field_grid
 from .points.field import PointField, warm_up_points
@@ -37,27 +38,21 @@ from .raster import rasterise
 from .stack import LiveStack
 
 
-def _segments(count: int, size: float, seed: int) -> tuple[np.ndarray, ...]:
-    """Random short segments on a ``size`` square with random colours: ``p, q, flux, jump``."""
-    rng = np.random.default_rng(seed)
-    p = rng.uniform(0.1 * size, 0.9 * size, (count, 2))
-    q = p + rng.uniform(-2.0, 2.0, (count, 2))
-    return p, q, rng.uniform(-1, 1, (count, 3)), rng.uniform(-1, 1, (count, 3))
-
-
 def _grid(cells: int, cell_size: float, split: int, samples_per_cell: int) -> None:
-    """``subcell_field_grid`` of random segments sorted into ``cells x cells``, both precisions."""
-    p, q, flux, jump = _segments(40, cells * cell_size, seed=split)
-    midpoints = (p + q) / 2
-    flat = np.clip((midpoints // cell_size).astype(np.int64), 0, cells - 1) @ np.array([1, cells])
-    order = np.argsort(flat, kind="stable")
-    p, q, flux, jump = p[order], q[order], flux[order], jump[order]
-    cell_start = np.searchsorted(flat[order], np.arange(cells * cells + 1)).astype(np.int64)
+    """``subcell_field_grid`` of 40 random short segments on ``cells x cells``, both precisions."""
+    rng = np.random.default_rng(split)
+    side = cells * cell_size
+    p = rng.uniform(0.1 * side, 0.9 * side, (40, 2))
+    q = p + rng.uniform(-2.0, 2.0, (40, 2))
+    colours = rng.uniform(-1, 1, (40, 3))
+    unsorted = Segments(p, q, colours, np.zeros((40, 3)), np.zeros(40, bool), colours[::-1].copy())
+    seg, cell_start = sort_into_cells(unsorted, Lattice(int(np.log2(cells)), side))
     local = np.zeros((cells, cells, 3, 9), complex)
     coordinates = (np.arange(cells * samples_per_cell) + 0.5) * cell_size / samples_per_cell
+    tables = near_tables(seg.p, seg.q, seg.flux, seg.jump)
     for precision in ("double", "single"):
-        subcell_field_grid(local, 8, coordinates, coordinates, cell_size, cell_start, p, q, flux, jump, split=split,
-                           tables=near_tables(p, q, flux, jump), precision=precision)
+        subcell_field_grid(local, 8, coordinates, coordinates, cell_size, cell_start, seg.p, seg.q, seg.flux,
+                           seg.jump, split=split, tables=tables, precision=precision)
 
 
 def near_grid() -> None:
