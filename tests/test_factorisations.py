@@ -18,10 +18,11 @@ SIZE = 128
 
 @pytest.fixture
 def with_a_point_segment() -> Document:
-    """Scattered circles and a chain that starts 5e-11 px above a cell line: cut there, its first piece is
-    about 1e-10 px long, below ``solver.POINT_LENGTH`` of the canvas."""
+    """Scattered circles and a chain that comes in over the canvas edge: clipped there, its first piece is 1e-10 px
+    long, below ``solver.POINT_LENGTH`` of the canvas (roses had one where a curve started a hair from a cell
+    line, before ``cut_at_cells`` kept to ``MIN_PIECE``)."""
     document = scattered_document(SIZE, circles=3, seed=5)
-    chain = DiffusionCurve(straight_chain([(40.3, 64 - 5e-11), (60.7, 80.0), (90.0, 75.0)]),
+    chain = DiffusionCurve(straight_chain([(-1.5, 64.5), (1e-10, 64.5), (60.7, 80.0), (90.0, 75.0)]),
                            left=(ColorStop(0.0, (0.9, 0.2, 0.1)),), right=(ColorStop(0.0, (0.1, 0.3, 0.8)),))
     return Document(SIZE, SIZE, document.curves + (chain,))
 
@@ -49,8 +50,8 @@ def test_a_point_segment_leaves_geometry_edits_to_the_kept_factorisation(with_a_
     live.update(deleted)
     assert live.factorisations == 1
     same_picture(live, deleted)
-    chain = deleted.curves[-1]  # the chain itself, its point segment moved along with it
-    live.update(edits.move_control_point(deleted, chain.id, 3, tuple(chain.control_points[3] + (0.0, 3.0))))
+    chain = deleted.curves[-1]  # the chain itself, beyond its point segment
+    live.update(edits.move_control_point(deleted, chain.id, 6, tuple(chain.control_points[6] + (0.0, 3.0))))
     assert live.factorisations == 1
     same_picture(live, live.document)
 

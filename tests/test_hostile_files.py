@@ -13,11 +13,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import shapely
 from cli_runs import run
 from shapes import circle_points
 
 from fmr_editor.engine import build, evaluate_points, rasterise
 from fmr_editor.engine.geometry import curve_cache
+from fmr_editor.engine.geometry.discretise import curve_segments
+from fmr_editor.engine.geometry.overlaps import COINCIDENT_DISTANCE
 from fmr_editor.engine.memory import affordable_levels, check_build_memory, check_image_memory
 from fmr_editor.engine.solve import solver as fast_solve
 from fmr_editor.io import DocumentLoadError, load_document, load_fmr, orzan
@@ -130,6 +133,22 @@ def test_a_curve_repeated_300_times_renders_as_one_copy():
     probes = np.random.default_rng(5).uniform(0, 512, (200, 2))
     np.testing.assert_allclose(evaluate_points(build(document), probes),
                                evaluate_points(build(single), probes), atol=1e-9)
+
+
+def test_curves_leaving_a_point_along_one_tangent_keep_no_stretch_a_hair_apart():
+    """tangent-fan.xml (issue 26): cubics leaving one point along one tangent ran 1e-5 px apart for a pixel or two;
+    with different colours such pairs made systems no preconditioner could solve.  The later curve now keeps each
+    stretch within ``COINCIDENT_DISTANCE`` of an earlier one."""
+    document = load_document(HOSTILE / "tangent-fan.xml")
+    segments = curve_segments(document)
+    lines = shapely.linestrings(np.stack([segments.p, segments.q], axis=1))
+    hair = COINCIDENT_DISTANCE / 10
+    first, second = shapely.STRtree(lines).query(lines, predicate="dwithin", distance=hair)
+    apart = segments.origin[first, 0] != segments.origin[second, 0]
+    first, second = first[apart], second[apart]
+    beside = shapely.length(shapely.intersection(lines[second], shapely.buffer(lines[first], hair)))
+    assert len(first) > 0 and beside.max() < 20 * hair  # they meet or cross; none runs beside another
+    finite_image(document)
 
 
 def test_curves_on_the_canvas_border_render_within_their_colours():

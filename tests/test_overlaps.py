@@ -166,3 +166,48 @@ def test_dropping_covered_parts_of_real_files_equals_the_plain_sweep(shared_data
                               doc.width, doc.height)
     pairs = overlapping_pairs(segments)
     assert_same_segments(drop_covered_parts(segments, pairs=pairs), drop_covered_parts_reference(segments, pairs=pairs))
+
+
+def test_covered_stretches_equal_a_sampled_reference():
+    """Nearly parallel pairs, crossing, touching, a hair apart or further: the stretch ``shared_stretches`` gives is
+    the set of the earlier's sample points within the distance of the later's line, between the later's ends'
+    projections."""
+    from fmr_editor.engine.geometry.overlaps import COINCIDENT_DISTANCE, MAX_SINE, shared_stretches
+    from fmr_editor.engine.geometry.segments import Segments
+
+    rng = np.random.default_rng(21)
+    count = 400
+    angle = rng.uniform(0, np.pi, count)
+    turn = rng.choice([0.0, 1e-4, 0.01, 0.05, 0.2], count) * rng.choice([-1, 1], count) + rng.choice([0, np.pi], count)
+    along = np.column_stack([np.cos(angle), np.sin(angle)])
+    p = rng.uniform(0, 100, (count, 2))
+    q = p + rng.uniform(0.5, 3, count)[:, None] * along
+    shift = rng.choice([0.0, 0.003, 0.02], count)[:, None] * along[:, ::-1] * [1, -1]
+    later_p = p + rng.uniform(-1, 2, count)[:, None] * along + shift
+    later_along = np.column_stack([np.cos(angle + turn), np.sin(angle + turn)])
+    later_q = later_p + rng.uniform(0.5, 3, count)[:, None] * later_along
+    n = 2 * count
+    segments = Segments(np.concatenate([p, later_p]), np.concatenate([q, later_q]), np.zeros((n, 3)),
+                        np.zeros((n, 3)), np.zeros(n, bool), np.zeros((n, 3)))
+    earlier, _, start, end = shared_stretches(segments, np.arange(count), np.arange(count, n),
+                                              COINCIDENT_DISTANCE)
+    got = dict(zip(earlier.tolist(), zip(start.tolist(), end.tolist())))
+    assert 50 < len(got) < count - 50
+    s = np.linspace(0, 1, 20_001)
+    for i in range(count):
+        points = p[i] + s[:, None] * (q[i] - p[i])
+        direction = later_q[i] - later_p[i]
+        unit = direction / np.hypot(*direction)
+        rel = points - later_p[i]
+        off = np.abs(rel[:, 0] * unit[1] - rel[:, 1] * unit[0])
+        length = np.hypot(*(q[i] - p[i]))
+        d = (q[i] - p[i]) / length
+        ends = np.array([(later_p[i] - p[i]) @ d, (later_q[i] - p[i]) @ d]) / length
+        beside = (s >= ends.min()) & (s <= ends.max())
+        inside = s[(off <= COINCIDENT_DISTANCE) & beside]
+        parallel = abs(d[0] * unit[1] - d[1] * unit[0]) <= MAX_SINE
+        expected = parallel and len(inside) and (inside[-1] - inside[0]) * length > COINCIDENT_DISTANCE + 1e-3
+        if expected:
+            np.testing.assert_allclose(got[i], (inside[0], inside[-1]), atol=1e-4)
+        elif i in got:  # only at the edge of the rule: a stretch just the distance long
+            assert (got[i][1] - got[i][0]) * length < COINCIDENT_DISTANCE + 1e-3

@@ -343,6 +343,22 @@ def test_cutting_segments_on_lattice_lines():
     np.testing.assert_allclose(np.sort(cut.lengths[owner == 1]), [4.0, 8.0, 8.0], rtol=1e-12)
 
 
+def test_a_segment_passing_a_hair_beside_a_lattice_corner_leaves_no_sliver():
+    """It crosses x = 8 and y = 8 2e-10 px apart: the sliver between would carry an unknown whose column of the
+    system is nearly zero (issue 26: such a piece where a curve crossed the canvas centre).  A segment that short
+    of its own stays whole."""
+    from fmr_editor.engine.geometry.discretise import MIN_PIECE
+
+    p = [[6.0, 6.0 + 2e-10], [0.5, 3.0], [8.0 - 1e-9, 5.0], [2.0, 8.0 - 5e-7]]
+    q = [[10.0, 10.0 + 2e-10], [7.5, 3.0 + 1e-7], [8.0 + 1e-9, 5.0], [2.0 + 3.0, 8.0 + 3e-7]]
+    original = labelled_segments(p, q)
+    cut = cut_at_cells(original, 8.0)
+    owner = np.rint(cut.jump[:, 0]).astype(int)
+    np.testing.assert_array_equal(np.bincount(owner, minlength=4), [2, 1, 1, 2])  # the last crosses at a slant
+    assert cut.lengths[owner != 2].min() > MIN_PIECE
+    np.testing.assert_allclose(np.bincount(owner, weights=cut.lengths), original.lengths, rtol=1e-12)
+
+
 # --- boundary_segments ------------------------------------------------------------------------
 
 

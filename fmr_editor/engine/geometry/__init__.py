@@ -2,7 +2,7 @@
 
 ``segments`` holds the ``Segments`` container, ``discretise`` turns a
 document into segments (flatten, clip, border, cut at cells), ``overlaps``
-resolves collinear overlaps and ``curve_cache`` keeps each curve's segments
+resolves overlaps and ``curve_cache`` keeps each curve's segments
 from one edit to the next, with the overlapping pairs (``overlap_index``);
 ``splice`` takes the pieces of the rows an edit left alone over from the last
 result.  Nothing here knows about solving or expansions.

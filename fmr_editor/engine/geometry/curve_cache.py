@@ -1,7 +1,7 @@
 """A document's curves as clipped segments, kept from one edit to the next.
 
 ``discretise.curve_segments`` flattens every curve, clips them to the canvas
-and lets later segments keep collinear overlaps (``overlaps``); the last step
+and lets later segments keep overlaps (``overlaps``); the last step
 searches the whole set.  An edit changes a few curves, so ``CurveSegments``
 keeps each curve's flattened and clipped segments, the overlapping pairs and
 an index to find the pairs of new segments (``overlap_index``), and the

@@ -20,6 +20,12 @@ from .overlaps import drop_covered_parts
 from .segments import Segments, concatenate, empty_segments
 from .splice import RowCache
 
+#: Shortest piece ``cut_at_cells`` makes of a longer segment, in pixels.  A segment passing a hair beside a
+#: lattice corner crosses both lattice lines at nearly one place; cut at both, the sliver between (6e-10 px where
+#: poivron's curves, moved onto the canvas corners, crossed its centre) would carry an unknown whose nearly zero
+#: column makes the system singular (issue 26).  The cut is not made: the piece reaches as far past the lattice
+#: line.
+MIN_PIECE = 1e-6
 
 def clip_to_canvas(segments: Segments, width: float, height: float) -> Segments:
     """Parts of ``segments`` inside the canvas (Liang-Barsky), border lines excluded.
@@ -79,7 +85,8 @@ def canvas_border(width: float, height: float, spacing: float) -> Segments:
 def cut_at_cells(segments: Segments, cell_size: float) -> Segments:
     """Split segments where they cross the lattice lines ``k * cell_size``.
 
-    Afterwards every segment lies in one cell (up to its end points).
+    Afterwards every segment lies in one cell (up to its end points, and
+    ``MIN_PIECE`` beyond where two cuts were that near).
     """
     return segments.split(*cell_cuts(segments, cell_size))
 
@@ -104,6 +111,12 @@ def cell_cuts(segments: Segments, cell_size: float) -> tuple[np.ndarray, np.ndar
     t = np.clip(np.concatenate(params), 0.0, 1.0)
     order = np.lexsort((t, owner))
     owner, t = owner[order], t[order]
+    first, last = np.ones(len(owner), bool), np.ones(len(owner), bool)
+    first[1:] = last[:-1] = owner[1:] != owner[:-1]
+    length = segments.lengths[owner]
+    gap = np.diff(t, prepend=0.0) * length
+    kept = first | last | ((gap >= MIN_PIECE) & ((1.0 - t) * length >= MIN_PIECE))
+    owner, t = owner[kept], t[kept]
     pair = np.flatnonzero((owner[:-1] == owner[1:]) & (t[1:] - t[:-1] > 1e-12))
     return owner[pair], t[pair], t[pair + 1]
 

@@ -5,8 +5,8 @@ fixed by the segments alone: each repeated segment (one with a later twin,
 ``overlaps.last_twins``) paired with its last twin, and every pair of other
 ("searched") segments that GEOS's prepared ``dwithin`` (as its STRtree query
 runs it) and ``shared_stretches`` accept.  Its bucket filter (``_candidates``)
-only narrows the search: two segments that share a stretch of line lie in
-neighbouring buckets or one is short.  So when an edit replaces a few curves,
+only narrows the search: two segments where one covers the other lie in
+neighbouring buckets.  So when an edit replaces a few curves,
 the pairs among untouched segments stay, except those of segments whose twins
 changed (a new last twin, or the last one gone), and only the new segments and
 those are searched for: ``OverlapIndex.updated``.
@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 import shapely
 
-from .overlaps import COLLINEAR_TOLERANCE, last_twins, shared_stretches
+from .overlaps import COINCIDENT_DISTANCE, last_twins, shared_stretches
 from .segments import Segments
 from .splice import Blocks
 
@@ -87,7 +87,7 @@ class OverlapIndex:
         Segments whose neighbours the update that made this index looked up (0 for a new index).
     """
 
-    def __init__(self, segments: Segments, ids: RowIds, tolerance: float = COLLINEAR_TOLERANCE) -> None:
+    def __init__(self, segments: Segments, ids: RowIds, tolerance: float = COINCIDENT_DISTANCE) -> None:
         self.tolerance = tolerance
         self.repeated = np.flatnonzero(last_twins(segments) != np.arange(len(segments)))
         self.searched = 0

@@ -1,20 +1,21 @@
-"""Collinear overlaps between curve segments: the later segment wins.
+"""Curve segments lying on top of each other: the later segment wins.
 
 Real files contain curves that retrace themselves (control points going back
-and forth along a line) or lie on top of other curves.  Two segments covering
-the same stretch of line prescribe two sets of colours there and make the
-boundary-element system singular (identical collocation rows and columns).
-As when curves are painted in order into a raster, the segment that comes
-later in the document (a later curve, or later along the same curve) keeps
-the overlap; earlier ones lose the covered part.
+and forth along a line) or lie on top of other curves, and curves that leave
+one point along one tangent run side by side, a hair apart, for a while.  Two
+segments within ``COINCIDENT_DISTANCE`` of each other along a stretch
+prescribe two sets of colours there and make the boundary-element system
+singular or nearly so (identical or nearly identical collocation rows and
+columns).  As when curves are painted in order into a raster, the segment that
+comes later in the document (a later curve, or later along the same curve)
+keeps the stretch; earlier ones lose it.  Segments that merely cross (their
+directions more than ``MAX_SINE`` apart) keep their crossings.
 
 The search costs about linear time whatever the geometry: identical segments
 (a control-point set repeated 300 times) are grouped first and only the last
-of each group looks for other overlaps; the others pair with segments on
-nearby lines only (buckets of direction and offset), and a search that would
-still compare more than ``CANDIDATES_PER_SEGMENT`` pairs a segment is refused.
-``reference_pairs`` is the plain search (shapely over every segment) the
-tests compare with.
+of each group looks for other overlaps; the others pair with segments of
+nearby directions only (``_candidates``).  ``reference_pairs`` is the plain
+search (shapely over every segment) the tests compare with.
 """
 
 from __future__ import annotations
@@ -24,16 +25,20 @@ import shapely
 
 from .segments import Segments
 
-#: Distance in pixels under which end points count as on another segment's line.
-COLLINEAR_TOLERANCE = 1e-6
-#: Buckets of line direction (radians) and offset from the canvas centre (pixels) for ``_candidates``: two
-#: collinear segments at least ``SHORT`` long differ by at most 2 tolerance / SHORT = 1e-3 radians in
-#: direction and so, within ``reach`` pixels of the centre, by at most 1e-3 reach in offset (the bucket grows).
-ANGLE_BUCKET, OFFSET_BUCKET, SHORT = 1e-3, 4.0, 2e-3
+#: Distance in pixels within which two segments of nearly the same direction coincide: a stretch of the earlier
+#: one this near the later one's line (and beside it) is covered.  A hundredth of a pixel changes no picture;
+#: nearer curves with different colours (1e-5 px, as two curves leaving a point along one tangent) made systems
+#: with condition numbers of 1e13 that no preconditioner could solve.
+COINCIDENT_DISTANCE = 1e-2
+#: Largest sine of the angle between two segments that can cover one another.
+MAX_SINE = 0.1
+#: Buckets of line direction (radians; wider than the angle ``MAX_SINE`` allows) and of offset from the canvas
+#: centre (pixels) for ``_candidates``: two segments that may cover one another lie in neighbouring buckets.
+ANGLE_BUCKET, OFFSET_BUCKET = 0.11, 4.0
 
 
-def overlapping_pairs(segments: Segments, tolerance: float = COLLINEAR_TOLERANCE, among: np.ndarray | None = None):
-    """Pairs ``(earlier, later)`` of collinear segments that share a stretch of line.
+def overlapping_pairs(segments: Segments, tolerance: float = COINCIDENT_DISTANCE, among: np.ndarray | None = None):
+    """Pairs ``(earlier, later)`` of segments where the later covers a stretch of the earlier.
 
     With ``among`` (a boolean mask), only the pairs with at least one of those.
 
@@ -46,7 +51,7 @@ def overlapping_pairs(segments: Segments, tolerance: float = COLLINEAR_TOLERANCE
     """
     twin_of = last_twins(segments)
     searched = twin_of == np.arange(len(segments))
-    if tolerance <= COLLINEAR_TOLERANCE:
+    if tolerance <= COINCIDENT_DISTANCE:
         chosen = np.intersect1d(_candidates(segments, among), np.flatnonzero(searched))
     else:
         chosen = np.flatnonzero(searched)
@@ -73,12 +78,11 @@ def last_twins(segments: Segments) -> np.ndarray:
 
 
 def _candidates(segments: Segments, among: np.ndarray | None = None) -> np.ndarray:
-    """Indices of the segments that may overlap another collinearly (one of ``among``): a filter before shapely.
+    """Indices of the segments that may cover or be covered by another (one of ``among``): a filter before shapely.
 
     Each segment's line is put in a bucket of direction and offset; a
     segment whose bucket or a neighbouring one holds another segment (of
-    ``among``, a boolean mask, when given; those are kept too), or that is
-    shorter than ``SHORT`` (its direction says little), is kept.
+    ``among``, a boolean mask, when given; those are kept too) is kept.
     """
     d = segments.q - segments.p
     theta = np.mod(np.arctan2(d[:, 1], d[:, 0]), np.pi)
@@ -103,12 +107,11 @@ def _candidates(segments: Segments, among: np.ndarray | None = None) -> np.ndarr
             at = np.clip(np.searchsorted(occupied, neighbour), 0, max(len(occupied) - 1, 0))
             found = np.where(occupied[at] == neighbour, counts[at], 0) if len(occupied) else np.zeros(len(flat), int)
             crowded |= found - (source & (da == 0) & (dc == 0)) > 0
-    short = np.hypot(d[:, 0], d[:, 1]) < SHORT
-    chosen = np.union1d(np.unique(index[crowded]), np.flatnonzero(short))
+    chosen = np.unique(index[crowded])
     return chosen if among is None else np.union1d(chosen, np.flatnonzero(among))
 
 
-def reference_pairs(segments: Segments, tolerance: float = COLLINEAR_TOLERANCE):
+def reference_pairs(segments: Segments, tolerance: float = COINCIDENT_DISTANCE):
     """``overlapping_pairs`` by the plain search: every segment against every other near it (shapely)."""
     lines = shapely.linestrings(np.stack([segments.p, segments.q], axis=1))
     earlier, later = shapely.STRtree(lines).query(lines, predicate="dwithin", distance=tolerance)
@@ -117,26 +120,43 @@ def reference_pairs(segments: Segments, tolerance: float = COLLINEAR_TOLERANCE):
 
 
 def shared_stretches(segments: Segments, earlier: np.ndarray, later: np.ndarray, tolerance: float):
-    """The pairs of candidates ``earlier < later`` that share a stretch of line, with the stretch along ``earlier``."""
+    """The pairs of candidates ``earlier < later`` where the later covers a stretch of the earlier, with the stretch
+    along ``earlier``: its points within ``tolerance`` of the later's line and beside the later, the two at most
+    ``MAX_SINE`` apart in direction, the stretch longer than ``tolerance``."""
+    tiny = np.finfo(float).tiny
     origin = segments.p[earlier]
     d = segments.q[earlier] - origin  # of these rows only: the search after an edit looks at a few
     length = np.hypot(d[:, 0], d[:, 1])
-    t = d / np.maximum(length[:, None], np.finfo(float).tiny)
+    t = d / np.maximum(length[:, None], tiny)
+    base = segments.p[later]
+    d_later = segments.q[later] - base
+    t_later = d_later / np.maximum(np.hypot(d_later[:, 0], d_later[:, 1])[:, None], tiny)
 
-    def along_and_off(points):
-        rel = points[later] - origin
-        return (rel * t).sum(axis=1) / np.maximum(length, np.finfo(float).tiny), \
-            np.abs(rel[:, 0] * t[:, 1] - rel[:, 1] * t[:, 0])
+    def across_later(points):  # signed distances from the later's line
+        return (points[:, 0] - base[:, 0]) * t_later[:, 1] - (points[:, 1] - base[:, 1]) * t_later[:, 0]
 
-    (a, off_a), (b, off_b) = along_and_off(segments.p), along_and_off(segments.q)
-    start = np.clip(np.minimum(a, b), 0.0, 1.0)
-    end = np.clip(np.maximum(a, b), 0.0, 1.0)
-    shared = (off_a <= tolerance) & (off_b <= tolerance) & ((end - start) * length > tolerance)
+    def along(points):  # parameters along the earlier
+        return ((points - origin) * t).sum(axis=1) / np.maximum(length, tiny)
+
+    # where along the earlier its distance to the later's line (linear in the parameter) is within tolerance
+    near_start, near_end = across_later(origin), across_later(segments.q[earlier])
+    slope = near_end - near_start
+    parallel = np.abs(slope) <= tiny
+    with np.errstate(divide="ignore", invalid="ignore"):
+        low, high = (-tolerance - near_start) / slope, (tolerance - near_start) / slope
+    within = np.abs(near_start) <= tolerance
+    low, high = (np.where(parallel, np.where(within, 0.0, np.inf), np.minimum(low, high)),
+                 np.where(parallel, np.where(within, 1.0, -np.inf), np.maximum(low, high)))
+    a, b = along(segments.p[later]), along(segments.q[later])
+    start = np.clip(np.maximum(np.minimum(a, b), low), 0.0, 1.0)
+    end = np.clip(np.minimum(np.maximum(a, b), high), 0.0, 1.0)
+    sine = np.abs(t[:, 0] * t_later[:, 1] - t[:, 1] * t_later[:, 0])
+    shared = (sine <= MAX_SINE) & ((end - start) * length > tolerance)
     return earlier[shared], later[shared], start[shared], end[shared]
 
 
-def drop_covered_parts(segments: Segments, tolerance: float = COLLINEAR_TOLERANCE, pairs=None) -> Segments:
-    """``segments`` without the stretches that a later segment covers collinearly.
+def drop_covered_parts(segments: Segments, tolerance: float = COINCIDENT_DISTANCE, pairs=None) -> Segments:
+    """``segments`` without the stretches that a later segment covers.
 
     ``pairs``: ``overlapping_pairs(segments, tolerance)`` when known already.
     ``drop_covered_parts_reference`` is the plain loop it equals bit for bit.
@@ -150,7 +170,7 @@ def drop_covered_parts(segments: Segments, tolerance: float = COLLINEAR_TOLERANC
 
 
 def uncovered_parts(segments: Segments, earlier: np.ndarray, start: np.ndarray, end: np.ndarray, rows: np.ndarray,
-                    tolerance: float = COLLINEAR_TOLERANCE) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                    tolerance: float = COINCIDENT_DISTANCE) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The parts ``(owner, t0, t1)`` of the segments ``rows`` (sorted) that no stretch ``[start, end]`` of a pair
     with them as ``earlier`` covers, longer than ``tolerance``, in order (``drop_covered_parts``).
 
@@ -187,7 +207,7 @@ def uncovered_parts(segments: Segments, earlier: np.ndarray, start: np.ndarray, 
     return owner[long_enough], t0[long_enough], t1[long_enough]
 
 
-def drop_covered_parts_reference(segments: Segments, tolerance: float = COLLINEAR_TOLERANCE, pairs=None) -> Segments:
+def drop_covered_parts_reference(segments: Segments, tolerance: float = COINCIDENT_DISTANCE, pairs=None) -> Segments:
     """``drop_covered_parts`` by the plain sweep, one segment at a time."""
     if len(segments) < 2:
         return segments

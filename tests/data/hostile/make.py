@@ -38,6 +38,13 @@ def orzan(width: int, height: int, curves: list[np.ndarray]) -> bytes:
     return ("".join(parts) + "</curve_set>").encode()
 
 
+def tangent_fan() -> list[np.ndarray]:
+    """Six cubics leaving one point along one tangent, then apart (issue 26): a hair apart for a pixel or two."""
+    ends = [((110, 20), (90, 10)), ((30, 110), (118, 118)), ((64, 30), (10, 10)), ((100, 100), (40, 120)),
+            ((70, 90), (120, 60)), ((20, 20), (60, 118))]
+    return [np.array([(20.0, 64.0), (100.0, 64.0), inner, end]) for inner, end in ends]
+
+
 def rewritten(source: Path, target: Path, change) -> None:
     """``source``'s archive with ``change(name, data) -> data`` applied to every entry, in order."""
     with zipfile.ZipFile(source) as archive:
@@ -111,6 +118,7 @@ def main() -> None:
     sides = [((0, 0), (512, 0)), ((512, 0), (512, 512)), ((512, 512), (0, 512)), ((0, 512), (0, 0))]
     border = [np.linspace(sides[i % 4][0], sides[i % 4][1], 4) * (1 - 0.01 * (i // 4)) for i in range(71)]
     (HERE / "border-curves.xml").write_bytes(orzan(512, 512, border))  # curves lying on the canvas edge
+    (HERE / "tangent-fan.xml").write_bytes(orzan(128, 128, tangent_fan()))
     good.unlink()
     for path in sorted(HERE.iterdir()):
         print(f"{path.name}: {path.stat().st_size:,} bytes")
