@@ -27,6 +27,7 @@ from .splice import RowCache
 #: line.
 MIN_PIECE = 1e-6
 
+
 def clip_to_canvas(segments: Segments, width: float, height: float) -> Segments:
     """Parts of ``segments`` inside the canvas (Liang-Barsky), border lines excluded.
 
