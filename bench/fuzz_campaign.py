@@ -1,14 +1,19 @@
 """A long fuzzing campaign against the loaders, the engine and the renderer (issue 16).
 
-    .venv/bin/python bench/fuzz_campaign.py --inputs 10000 [--workers 2] [--memory-gb 3] [--seconds 20]
+    .venv/bin/python bench/fuzz_campaign.py --inputs 10000 [--first-seed 0] [--memory-gb 3] [--seconds 20]
+                                            [--inputs-per-worker 100]
 
 Mutates sample files (``tests/mutations.py``: byte flips, truncation, hostile attribute values,
-repeated and dropped elements, ``.fmr`` members and JSON values) and hands each input to a worker
-process limited to ``--memory-gb`` of address space; an input that takes longer than ``--seconds`` is
-a hang (its worker is killed and replaced).  Each input ends as ``accepted`` (built, rendered, finite),
-``refused`` (the documented error) or a failure: ``unclean`` (any other exception), ``non-finite``,
-``memory`` (MemoryError), ``hang`` or ``crash`` (the worker died).  Prints a summary by failure
-signature, and writes the failing inputs to ``--keep`` for a look.
+repeated and dropped elements, control points snapped onto a few points, ``.fmr`` members and JSON
+values) and hands each input to a worker process limited to ``--memory-gb`` of address space; an input
+that takes longer than ``--seconds`` is a hang (its worker is killed and replaced).  A worker is replaced
+by a new process after ``--inputs-per-worker`` inputs too, so that many inputs meet a process whose
+kernels are not loaded yet (as a user's first render does: the time limit includes loading them).  The
+engine uses every core: run one campaign at a time, or a slow input near the limit becomes a hang.  Each
+input ends as ``accepted`` (built, rendered, finite), ``refused`` (the documented error) or a failure:
+``unclean`` (any other exception), ``non-finite``, ``memory`` (MemoryError), ``hang`` or ``crash`` (the
+worker died).  Prints each failure as it comes and a summary by failure signature, and writes the failing
+inputs to ``--keep`` for a look.
 
 The seeds are the Orzan files of ``../shared/data`` that build in about a second (and ``.fmr`` files
 saved from them), plus the repository's sample.
@@ -72,7 +77,7 @@ class Worker:
         self.process.stdin.flush()
         ready, _, _ = select.select([self.process.stdout], [], [], seconds)
         if not ready:
-            self.process.kill()
+            self.close()
             return "hang"
         line = self.process.stdout.readline()
         if not line:
@@ -106,9 +111,10 @@ def seeds(folder: Path) -> list[Path]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--inputs", type=int, default=10_000)
-    parser.add_argument("--workers", type=int, default=1, help="worker processes at once (default 1)")
     parser.add_argument("--memory-gb", type=float, default=3.0)
     parser.add_argument("--seconds", type=float, default=20.0)
+    parser.add_argument("--inputs-per-worker", type=int, default=100,
+                        help="inputs a worker process takes before a new one replaces it (default 100)")
     parser.add_argument("--first-seed", type=int, default=0)
     parser.add_argument("--keep", type=Path, default=Path(tempfile.gettempdir()) / "fmr-fuzz-failures")
     args = parser.parse_args()
@@ -121,31 +127,31 @@ def main() -> None:
         scratch = Path(scratch)
         files = seeds(scratch)
         contents = [(path.suffix, path.read_bytes()) for path in files]
-        workers = [Worker(memory) for _ in range(args.workers)]
+        worker = Worker(memory)
         try:
             for number in range(args.inputs):
                 seed = args.first_seed + number
                 suffix, data = contents[seed % len(contents)]
-                kind, mutant = mutated(data, suffix, seed)
+                kind, mutant = mutated(data, suffix, seed, slow=True)
                 path = scratch / f"input-{seed}-{kind}{suffix}"
                 path.write_bytes(mutant)
-                slot = number % len(workers)
-                result = workers[slot].check(path, args.seconds)
-                if not workers[slot].alive:
-                    workers[slot] = Worker(memory)
+                result = worker.check(path, args.seconds)
+                if not worker.alive or (number + 1) % args.inputs_per_worker == 0:
+                    worker.close()
+                    worker = Worker(memory)
                 counts[result.split(":")[0]] += 1
                 if result not in ("accepted", "refused"):
                     signatures[f"{kind}{suffix}: {result}"] += 1
+                    print(f"input {seed} ({kind} of {files[seed % len(files)].name}): {result}", flush=True)
                     path.replace(args.keep / path.name)
                 else:
                     path.unlink()
                 if (number + 1) % 500 == 0:
                     print(f"{number + 1:,} inputs, {time.perf_counter() - started:.0f} s: {dict(counts)}", flush=True)
         finally:
-            for worker in workers:
-                worker.close()
+            worker.close()
     print(f"\n{args.inputs:,} inputs from {len(files)} seeds in {time.perf_counter() - started:.0f} s "
-          f"(workers limited to {args.memory_gb:g} GB and {args.seconds:g} s each)")
+          f"(the worker limited to {args.memory_gb:g} GB and {args.seconds:g} s each)")
     for outcome in ("accepted", "refused", "unclean", "non-finite", "memory", "hang", "crash"):
         print(f"  {outcome:>10}: {counts[outcome]:,}")
     for signature, count in signatures.most_common():

@@ -1,7 +1,7 @@
 """Mutations of diffusion-curve files, for the fuzz test (``test_fuzz_files.py``) and the long campaign
 (``bench/fuzz_campaign.py``): byte flips, truncation, hostile attribute values, repeated or dropped XML
-elements, ``.fmr`` members and JSON values replaced.  Each takes the file's bytes and a
-``numpy.random.Generator`` and returns the mutated bytes (the kind is in its name).
+elements, control points snapped onto a few points, ``.fmr`` members and JSON values replaced.  Each takes
+the file's bytes and a ``numpy.random.Generator`` and returns the mutated bytes (the kind is in its name).
 """
 
 from __future__ import annotations
@@ -18,6 +18,8 @@ HOSTILE_VALUES = ["1e308", "-1e308", "nan", "inf", "-inf", "1e-300", "0", "-1", 
                   "", " ", "0x10", "1,5", "\u0661\u0662", "2147483648", "-0", "1e5", "3.5", "abc"]
 _ATTRIBUTE = re.compile(rb'="([^"]*)"')
 _ELEMENT = re.compile(rb"<(control_point|left_color|right_color|best_scale|curve)\b[^>]*?(/>|>.*?</\1>)", re.S)
+_CONTROL_POINT = re.compile(rb"<control_point\b[^>]*?/>")
+_CANVAS = re.compile(rb'image_(width|height)="([0-9.]+)"')
 
 
 def flip_bytes(data: bytes, rng: np.random.Generator) -> bytes:
@@ -55,6 +57,23 @@ def drop_element(data: bytes, rng: np.random.Generator) -> bytes:
         return truncate(data, rng)
     match = found[int(rng.integers(0, len(found)))]
     return data[: match.start()] + data[match.end():]
+
+
+def snap_points(data: bytes, rng: np.random.Generator) -> bytes:
+    """Every control point moved onto one of a few points: the canvas's corners, edge midpoints and centre, a
+    hair inside them, or anywhere; curves then overlap, share tangents and run along the border."""
+    size = {name.decode(): float(value) for name, value in _CANVAS.findall(data)}
+    width, height = size.get("width", 512.0), size.get("height", 512.0)
+    inset = float(rng.choice([0.0, 1e-6, 0.5, 0.1 * min(width, height)]))
+    spots = [(x, y) for x in (inset, width / 2, width - inset) for y in (inset, height / 2, height - inset)]
+    spots += [tuple(xy) for xy in rng.uniform((0, 0), (width, height), (int(rng.integers(0, 4)), 2))]
+    spots = [spots[i] for i in rng.choice(len(spots), int(rng.integers(2, len(spots) + 1)), replace=False)]
+
+    def snapped(_: re.Match) -> bytes:
+        x, y = spots[int(rng.integers(0, len(spots)))]
+        return f'<control_point x="{float(x)!r}" y="{float(y)!r}" />'.encode()
+
+    return _CONTROL_POINT.sub(snapped, data)
 
 
 def _rewritten(data: bytes, change) -> bytes:
@@ -135,13 +154,16 @@ def _leaves(node, parent=None, key=None):
 
 
 XML_MUTATIONS = [flip_bytes, truncate, attribute_value, repeat_element, drop_element]
+#: Mutations whose inputs take seconds to build (the long campaign's, not the test suite's).
+SLOW_XML_MUTATIONS = [snap_points]
 FMR_MUTATIONS = [flip_bytes, truncate, member_bytes, member_array, json_value]
 
 
-def mutated(data: bytes, suffix: str, seed: int) -> tuple[str, bytes]:
-    """The mutation ``seed`` chooses for a file of ``suffix`` (``.xml`` or ``.fmr``): its name and its bytes."""
+def mutated(data: bytes, suffix: str, seed: int, slow: bool = False) -> tuple[str, bytes]:
+    """The mutation ``seed`` chooses for a file of ``suffix`` (``.xml`` or ``.fmr``), from the slow ones too if
+    ``slow``: its name and its bytes."""
     rng = np.random.default_rng(seed)
-    kinds = FMR_MUTATIONS if suffix == ".fmr" else XML_MUTATIONS
+    kinds = FMR_MUTATIONS if suffix == ".fmr" else XML_MUTATIONS + (SLOW_XML_MUTATIONS if slow else [])
     kind = kinds[int(rng.integers(0, len(kinds)))]
     return kind.__name__, kind(data, rng)
 

@@ -110,3 +110,21 @@ def test_threads_give_the_serial_factorisation(system, monkeypatch):
     assert threaded.stored_bytes == serial.stored_bytes
     x = serial.solve(rhs)
     np.testing.assert_allclose(threaded.solve(rhs), x, rtol=0, atol=1e-13 * np.abs(x).max())
+
+
+def test_the_top_block_is_factorised_on_the_factorisation_threads_and_blas_is_limited_again_after(system, monkeypatch):
+    """The top block is one large LU that no kernel runs beside (6,570 unknowns: 6.8 s on one BLAS thread, 4.0
+    on two); everything else keeps the engine's one BLAS thread."""
+    from fmr_editor.engine.threads import BLAS_THREADS, FACTORISATION_THREADS, blas_threads
+
+    seen = []
+    top_factors = skeleton._top_factors
+
+    def spy(block, size):
+        seen.append(blas_threads())
+        return top_factors(block, size)
+
+    monkeypatch.setattr(skeleton, "_top_factors", spy)
+    SkeletonFactorization(system[0], 1e-6, leaf_size=24, top_size=100)
+    assert seen and set(seen[0]) == {FACTORISATION_THREADS}
+    assert set(blas_threads()) == {BLAS_THREADS}

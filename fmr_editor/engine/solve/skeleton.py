@@ -46,6 +46,7 @@ from threadpoolctl import threadpool_limits
 
 from ..geometry.segments import Segments
 from ..kernels.fastmath import FAST_MATH
+from ..threads import factorisation_threads
 from . import dense
 from .boxes import group, leaf_levels
 from .entries import CollocationEntries
@@ -253,7 +254,8 @@ class SkeletonFactorization:
         self.top = np.concatenate([b.indices for b in boxes.values()]) if boxes else np.zeros(0, np.int64)
         self._account(8 * len(self.top) ** 2)
         top_block = self._merged_block(list(boxes.values()))
-        self.top_lu = _top_factors(top_block, self.size) if len(self.top) else None
+        with factorisation_threads():
+            self.top_lu = _top_factors(top_block, self.size) if len(self.top) else None
 
     def _account(self, size: int) -> None:
         """Count ``size`` more bytes kept; fail early, before the machine runs out."""
