@@ -148,6 +148,9 @@ def points_rows(args, canvas, document, view, fbo) -> None:
 
 
 def main() -> None:
+    from fmr_editor.engine import setup_process
+
+    setup_process()  # the engine's thread and memory policy, as the editor's
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("file", nargs="?", default=str(DEFAULT_FILE))
     parser.add_argument("--size", type=int, default=1024)
@@ -259,7 +262,8 @@ def main() -> None:
         timings, reported, evaluated = [], 0, 0
         for _ in range(args.repeat):
             old = live.document.curves[curve].left[0].color
-            changed = edits.set_stop_color(live.document, live.document.curves[curve].id, "left", 0, tuple(1 - np.asarray(old)))
+            changed = edits.set_stop_color(live.document, live.document.curves[curve].id, "left", 0,
+                                           tuple(1 - np.asarray(old)))
             start = time.perf_counter()
             update = live.update(changed)
             engine = time.perf_counter()

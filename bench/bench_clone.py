@@ -114,6 +114,9 @@ def frames_of(result: tuple[float, float]) -> tuple[float, str]:
 
 
 def main() -> None:
+    from fmr_editor.engine import setup_process
+
+    setup_process()  # the engine's thread and memory policy, as the editor's
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=5, help="pastes per case (best is shown)")
     parser.add_argument("--frames", type=int, default=30, help="drag frames per kind (best is shown)")

@@ -43,8 +43,10 @@ def editor_window(name: str):
     from PySide6.QtCore import QSettings
     from PySide6.QtWidgets import QApplication
 
+    from fmr_editor.engine import setup_process
     from fmr_editor.ui.main_window import MainWindow
 
+    setup_process()  # the engine's thread and memory policy, as the editor's
     app = QApplication([])
     window = MainWindow(QSettings(str(Path("/tmp") / f"{name}.ini"), QSettings.Format.IniFormat))
     window.resize(1200, 800)

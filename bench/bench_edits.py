@@ -49,7 +49,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_engine import best_of, machine  # noqa: E402
 
-from fmr_editor.engine import LiveRepresentation, build, rasterise  # noqa: E402
+from fmr_editor.engine import LiveRepresentation, build, rasterise, setup_process  # noqa: E402
 from fmr_editor.engine.fmm.lattice import Lattice  # noqa: E402
 from fmr_editor.engine.geometry import discretise  # noqa: E402
 from fmr_editor.engine.geometry.curve_cache import CurveSegments  # noqa: E402
@@ -80,7 +80,8 @@ def timed_updates(live: LiveRepresentation, documents: list[Document]) -> tuple[
 
 def pixel_error(live: LiveRepresentation, rebuilt) -> float:
     width, height = live.document.width, live.document.height
-    return 255 * float(np.abs(rasterise(live.representation, width, height, 1) - rasterise(rebuilt, width, height, 1)).max())
+    return 255 * float(np.abs(rasterise(live.representation, width, height, 1)
+                              - rasterise(rebuilt, width, height, 1)).max())
 
 
 def row(name: str, live: LiveRepresentation, documents: list[Document], rebuilds: int, target: str) -> None:
@@ -94,12 +95,14 @@ def curve_edits(path: Path, repeat: int, rebuilds: int, move: bool) -> None:
     document = load_document(path)
     live = LiveRepresentation(document)
     k = edited_curve(document)
-    colours = [edits.set_stop_color(document, document.curves[k].id, "left", 0, COLOURS[i % len(COLOURS)]) for i in range(repeat)]
+    colours = [edits.set_stop_color(document, document.curves[k].id, "left", 0, COLOURS[i % len(COLOURS)])
+               for i in range(repeat)]
     target = "<= 30 ms, >= 10x" if path.stem == "lady_bug" else ">= 10x"
     row(f"{path.stem}: stop colour (curve {k})", live, colours, rebuilds, target)
     if move:
         point = document.curves[k].control_points[1]
-        moves = [edits.move_control_point(live.document, live.document.curves[k].id, 1, tuple(point + (i % 2))) for i in range(1, repeat + 1)]
+        moves = [edits.move_control_point(live.document, live.document.curves[k].id, 1, tuple(point + (i % 2)))
+                 for i in range(1, repeat + 1)]
         row(f"{path.stem}: control point (curve {k})", live, moves, rebuilds, "<= 60 ms")
 
 
@@ -183,7 +186,8 @@ def session(path: Path, repeat: int) -> dict:
 
     for run in range(repeat):
         base = live.document
-        moved = [edits.move_control_point(base, base.curves[k].id, 3, tuple(anchor + 0.5 * (i + 1) * np.array([1.0, run % 3 - 1])))
+        moved = [edits.move_control_point(base, base.curves[k].id, 3,
+                                          tuple(anchor + 0.5 * (i + 1) * np.array([1.0, run % 3 - 1])))
                  for i in range(10)]
         for preview in moved:  # a drag: 10 previews, then the exact result of the last
             stale += timed("drag preview (frame)", preview, exact=False).stale
@@ -193,14 +197,16 @@ def session(path: Path, repeat: int) -> dict:
         if not live.stale:
             difference = 255 * np.abs(np.clip(shown, 0, 1) - np.clip(rasterise(live.composite, samples=1), 0, 1))
             errors.append((float(difference.max(axis=2).mean()), float(np.percentile(difference.max(axis=2), 99))))
-        timed("anchor move, exact", edits.move_control_point(live.document, live.document.curves[k].id, 3, tuple(anchor + (run + 1.5, 0.5))))
+        timed("anchor move, exact",
+              edits.move_control_point(live.document, live.document.curves[k].id, 3, tuple(anchor + (run + 1.5, 0.5))))
         moved[-1] = live.document
         timed("delete a curve", edits.remove_curves(live.document, [live.document.curves[k].id]))
         deleted, before = live.document, moved[-1]
         timed("undo (kept state)", before)
         timed("redo (kept state)", deleted)
         timed("history jump to the start", document)
-        timed("stop colour", edits.set_stop_color(live.document, live.document.curves[k].id, "left", 0, COLOURS[run % len(COLOURS)]))
+        timed("stop colour",
+              edits.set_stop_color(live.document, live.document.curves[k].id, "left", 0, COLOURS[run % len(COLOURS)]))
     rows["factorisations"] = field.factorisations - factorised
     final = live.document
     rows["final"] = 255 * float(np.abs(rasterise(live.composite, samples=1) - rasterise(build(final), samples=1)).max())
@@ -273,12 +279,14 @@ def geometry_step(path: Path, repeat: int) -> None:
 
 
 def main() -> None:
+    setup_process()  # the engine's thread and memory policy, as the editor's
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=5, help="updates per edit (best of)")
     parser.add_argument("--rebuilds", type=int, default=3, help="rebuilds of lady_bug (best of); fruits: 2")
     parser.add_argument("--data", type=Path, default=DATA)
     parser.add_argument("--session", nargs="*", metavar="FILE",
-                        help="the editing session (issues 11, 25) on these files (default: lady_bug fruits roses) instead")
+                        help="the editing session (issues 11, 25) on these files (default: lady_bug fruits roses) "
+                             "instead")
     parser.add_argument("--geometry", nargs="*", metavar="FILE",
                         help="the geometry step of an anchor move on these files (default: lady_bug fruits roses) "
                              "instead")
@@ -295,7 +303,8 @@ def main() -> None:
         session_table({name: session(args.data / f"{name}.xml", args.repeat) for name in args.session or SESSION_FILES})
         return
     warm = LiveRepresentation(load_document(args.data / "lady_bug.xml"))  # numba cache loads
-    warm.update(edits.set_stop_color(warm.document, warm.document.curves[edited_curve(warm.document)].id, "left", 0, (1, 1, 1)))
+    warm.update(edits.set_stop_color(warm.document, warm.document.curves[edited_curve(warm.document)].id, "left", 0,
+                                     (1, 1, 1)))
     print(f"# Edits\n\n{machine()}\n\nBest of {args.repeat} updates and of {args.rebuilds} rebuilds (fruits: 2, "
           "points: 1).\n")
     print("| edit | update | time | rebuild | speed-up | pixels (1/255) | target |")

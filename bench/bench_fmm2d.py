@@ -184,6 +184,9 @@ def make_problem(n: int, seed: int, check_targets: int, folder: Path) -> dict:
 
 
 def main(argv: list[str] | None = None) -> None:
+    from fmr_editor.engine import setup_process
+
+    setup_process()  # the engine's thread and memory policy, as the editor's
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--sizes", nargs="+", type=float, default=[1e4, 1e5, 1e6])
     parser.add_argument("--eps", nargs="+", type=float, default=[1e-3, 1e-6, 1e-9],

@@ -120,6 +120,9 @@ def edit_to_frame(stack, document, renderer, view, fbo) -> tuple[float, float]:
 
 
 def main() -> None:
+    from fmr_editor.engine import setup_process
+
+    setup_process()  # the engine's thread and memory policy, as the editor's
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("file", nargs="?", default=str(DEFAULT_FILE))
     parser.add_argument("--size", type=int, default=1024)

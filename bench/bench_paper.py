@@ -194,6 +194,9 @@ def _table(rows: dict, title: str, value, paper: dict, levels) -> None:
 
 
 def main(argv: list[str] | None = None) -> None:
+    from fmr_editor.engine import setup_process
+
+    setup_process()  # the engine's thread and memory policy, as the editor's
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=5, help="runs per measurement; the best is reported")
     parser.add_argument("--cells", nargs="*", help="ITERATION:LEVEL pairs to measure (default: every paper cell)")

@@ -25,6 +25,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_engine import best_of, machine  # noqa: E402
 
+from fmr_editor.engine import setup_process  # noqa: E402
 from fmr_editor.engine.fmm.lattice import Lattice  # noqa: E402
 from fmr_editor.engine.points.gauss import GaussPoints, PointSettings, expansion_ratios  # noqa: E402
 from fmr_editor.engine.points.increments import add_to_tensor  # noqa: E402
@@ -42,6 +43,7 @@ def points(rng: np.random.Generator, count: int, r_min: float, r_max: float) -> 
 
 
 def main() -> None:
+    setup_process()  # the engine's thread and memory policy, as the editor's
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--order", type=int, default=PointSettings.order)

@@ -33,7 +33,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_engine import log, machine, warm_up  # noqa: E402
 
 import fmr_editor  # noqa: E402
-from fmr_editor.engine import build, rasterise  # noqa: E402
+from fmr_editor.engine import build, rasterise, setup_process  # noqa: E402
 from fmr_editor.engine.fmm.lattice import Lattice, sort_into_cells  # noqa: E402
 from fmr_editor.engine.geometry.discretise import boundary_segments, curve_segments  # noqa: E402
 from fmr_editor.engine.representation import SOLVE_SEGMENTS_PER_CELL, choose_levels  # noqa: E402
@@ -123,14 +123,16 @@ def one_file(path: Path, repeat: int, dense_max: int, samples: int = 1) -> dict:
 
 def file_table(files: list[Path], repeat: int, dense_max: int, samples: int = 1) -> tuple[list[str], list[str]]:
     """One row per file, each measured in a subprocess; and the fast solves' factor/GMRES split."""
-    split = ["| file | solve | factorisation | GMRES (and right-hand side) | GMRES iterations |", "|---|---:|---:|---:|---:|"]
+    split = ["| file | solve | factorisation | GMRES (and right-hand side) | GMRES iterations |",
+             "|---|---:|---:|---:|---:|"]
     rows = ["| file | canvas | segments | solver | load | discretise | solve | upward | downward | build total "
             f"| peak memory | {samples}x{samples} render | build and render | E vs dense |",
             "|---|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for path in files:
         log(f"{path.name} ...")
         done = subprocess.run([sys.executable, __file__, "--one", str(path), "--repeat", str(repeat),
-                               "--dense-max", str(dense_max), "--samples", str(samples)], capture_output=True, text=True)
+                               "--dense-max", str(dense_max), "--samples", str(samples)],
+                              capture_output=True, text=True)
         if done.returncode:
             message = (done.stderr.strip().splitlines() or ["failed"])[-1]
             rows.append(f"| {path.name} | | | failed: {message} |" + " |" * 10)
@@ -174,6 +176,7 @@ def crossover_table(repeat: int) -> list[str]:
 
 def main(argv: list[str] | None = None) -> None:
     """Parse arguments and print the tables."""
+    setup_process()  # the engine's thread and memory policy, as the editor's
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("files", nargs="*", type=Path, help="XML files (default: every file under orzan_xml/)")
     parser.add_argument("--repeat", type=int, default=3, help="runs per measurement; the best is reported")

@@ -77,7 +77,8 @@ def main() -> None:
             "fmr-editor --version": ([str(EDITOR), "--version"], "0.3 s"),
             "import fmr_editor.engine": ([sys.executable, "-c", "import fmr_editor.engine"], "-"),
             "render lady_bug.xml --samples 1": (
-                [str(EDITOR), "render", str(DATA / "berkbavas" / "lady_bug.xml"), "-o", out, "--samples", "1"], "1.5 s"),
+                [str(EDITOR), "render", str(DATA / "berkbavas" / "lady_bug.xml"), "-o", out, "--samples", "1"],
+                "1.5 s"),
             "render test5.xml (3 curves) --samples 1": (
                 [str(EDITOR), "render", str(DATA / "handmade" / "test5.xml"), "-o", out, "--samples", "1"], "1.0 s"),
         }

@@ -47,6 +47,8 @@ WORKER = """
 import json, sys, traceback
 sys.path[:0] = [{tests!r}, {repo!r}]
 from mutations import outcome
+from fmr_editor.engine import setup_process
+setup_process()
 for line in sys.stdin:
     try:
         result = outcome(line.strip())

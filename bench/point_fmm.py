@@ -37,10 +37,10 @@ import numpy as np
 from numba import types
 from numba.extending import intrinsic
 
+from fmr_editor.engine.fmm.far_field import far_field_at
 from fmr_editor.engine.fmm.lattice import Lattice, coarser_multipoles, downward_pass
 from fmr_editor.engine.kernels.fastmath import FAST_MATH
 from fmr_editor.engine.kernels.segment_sums import cells_of, counting_sort
-from fmr_editor.engine.fmm.far_field import far_field_at
 
 #: Time of one term-pair of the lattice passes (one cell, (order + 1)^2) against one near-field
 #: source-target pair; measured here (2 cores, order 16: 0.38 s for the passes of 65,536 cells,

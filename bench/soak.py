@@ -19,12 +19,14 @@ sys.path[:0] = [str(REPO / "tests"), str(REPO)]
 
 from soak import PIXEL, soak  # noqa: E402
 
+from fmr_editor.engine import setup_process  # noqa: E402
 from fmr_editor.io import load_document  # noqa: E402
 
 LADY_BUG = REPO.parent / "shared" / "data" / "orzan_xml" / "berkbavas" / "lady_bug.xml"
 
 
 def main() -> None:
+    setup_process()  # the engine's thread and memory policy, as the editor's
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--steps", type=int, default=10_000)
     parser.add_argument("--check-every", type=int, default=500)

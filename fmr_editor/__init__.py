@@ -45,7 +45,8 @@ def render_image(document, width=None, height=None, samples=3, *, order=None, me
     from .engine import LiveStack, Settings, check_image_memory, output_size, rasterise
 
     check_image_memory(*output_size(document.width, document.height, width, height))
-    settings = Settings() if order is None else Settings(order=order, propagation_order=max(order, Settings().propagation_order))
+    settings = (Settings() if order is None
+                else Settings(order=order, propagation_order=max(order, Settings().propagation_order)))
     picture = LiveStack(document, settings, progress).composite
     image = rasterise(picture, width, height, samples=samples, method=method, progress=progress)
     return np.clip(image, 0.0, 1.0).astype(np.float32)

@@ -43,28 +43,32 @@ def _editor_parser() -> argparse.ArgumentParser:
 
 
 def run_editor(args: argparse.Namespace) -> int:
-    """Open the editor (needs a display); 2 with one line on stderr when it cannot start."""
-    for path in args.files:
-        if not Path(path).is_file():
-            print(f"fmr-editor: cannot open {path}: no such file", file=sys.stderr)
-            return 2
+    """Open the editor (needs a display) on the files; 2 with one line on stderr when it cannot start.
+
+    A file that cannot be opened is named in the window, and the others open (as when a file manager opens
+    several at once).
+    """
     from .ui.app import main as editor_main
 
     return editor_main(args.files)
 
 
 def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="fmr-editor", description="Diffusion-curve images on the fast multipole representation.")
+    parser = argparse.ArgumentParser(prog="fmr-editor",
+                                     description="Diffusion-curve images on the fast multipole representation.")
     commands = parser.add_subparsers(dest="command", required=True)
     render = commands.add_parser("render", help="render documents to PNG")
-    render.add_argument("inputs", nargs="+", metavar="INPUT", help="documents to render (.fmr, or Orzan CurveSetXML .xml)")
+    render.add_argument("inputs", nargs="+", metavar="INPUT",
+                        help="documents to render (.fmr, or Orzan CurveSetXML .xml)")
     render.add_argument("-o", "--output", required=True,
                         help="PNG file to write, or with several inputs a folder (made if missing) for NAME.png each")
     render.add_argument("--width", type=_positive, help="output width (default: canvas width)")
     render.add_argument("--height", type=_positive, help="output height (default: canvas height)")
-    render.add_argument("--samples", type=_positive, default=3, help="N x N samples per pixel (default 3; 1 = pixel centre)")
+    render.add_argument("--samples", type=_positive, default=3,
+                        help="N x N samples per pixel (default 3; 1 = pixel centre)")
     render.add_argument("--order", type=int, help="degree of the cell polynomials (default 8)")
-    render.add_argument("--method", choices=("fmr", "direct"), default="fmr", help="fmr (default) or direct summation (slow, for checking)")
+    render.add_argument("--method", choices=("fmr", "direct"), default="fmr",
+                        help="fmr (default) or direct summation (slow, for checking)")
     compose = commands.add_parser("compose", help="layer TOP over BOTTOM into a two-layer .fmr document")
     compose.add_argument("bottom", metavar="BOTTOM", help="the lower layer's document (.fmr or .xml)")
     compose.add_argument("top", metavar="TOP", help="the upper layer's document, on the same canvas size")
@@ -132,7 +136,8 @@ class StderrProgress:
         step = (stage, int(fraction * 10))
         if step != self.last:
             self.last = step
-            print(f"[{time.perf_counter() - self.start:6.1f}s] {stage} {fraction:4.0%}", file=self.stream or sys.stderr, flush=True)
+            print(f"[{time.perf_counter() - self.start:6.1f}s] {stage} {fraction:4.0%}",
+                  file=self.stream or sys.stderr, flush=True)
 
 
 def render_one(source: str, output: str, args: argparse.Namespace) -> int:
@@ -192,7 +197,8 @@ def run_render(args: argparse.Namespace) -> int:
     except OSError as error:
         print(f"fmr-editor: cannot make the folder {folder}: {error.strerror or error}", file=sys.stderr)
         return 2
-    failed = [source for source, stem in zip(args.inputs, stems) if render_one(source, str(folder / f"{stem}.png"), args)]
+    failed = [source for source, stem in zip(args.inputs, stems)
+              if render_one(source, str(folder / f"{stem}.png"), args)]
     if failed:
         print(f"fmr-editor: {len(failed)} of {len(args.inputs)} documents failed", file=sys.stderr)
     return 2 if failed else 0
@@ -278,7 +284,8 @@ def run_clone(args: argparse.Namespace) -> int:
         print(f"fmr-editor: clone writes an .fmr document, not {args.output}", file=sys.stderr)
         return 2
     try:
-        opened = [load_fmr(path) if Path(path).suffix.lower() == ".fmr" else None for path in (args.target, args.source)]
+        opened = [load_fmr(path) if Path(path).suffix.lower() == ".fmr" else None
+                  for path in (args.target, args.source)]
         from . import load
 
         target, source = (file.document if file is not None else load(path)
@@ -310,6 +317,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not argv or argv[0] not in ("render", "compose", "clone"):
         return run_editor(_editor_parser().parse_args(argv))
     args = _parser().parse_args(argv)
+    from .engine import setup_process
+
+    setup_process()
     return {"render": run_render, "compose": run_compose, "clone": run_clone}[args.command](args)
 
 

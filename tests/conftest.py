@@ -231,6 +231,14 @@ class EditorDriver:
         self.qtbot.keyClick(widget or self.canvas, key, modifiers or Qt.KeyboardModifier.NoModifier)
 
 
+@pytest.fixture(scope="session", autouse=True)
+def engine_process() -> None:
+    """The engine's thread and memory policy for the whole run, as the editor and the command line set it."""
+    from fmr_editor.engine import setup_process
+
+    setup_process()
+
+
 @pytest.fixture(scope="session")
 def compiled_kernels() -> None:
     """The engine's compiled kernels, made once before any window waits on them: a fresh clone compiles them
@@ -269,8 +277,10 @@ def editor(gl_display, qtbot, tmp_path, monkeypatch, compiled_kernels):
     monkeypatch.setattr(QMessageBox, "critical", staticmethod(critical))
     monkeypatch.setattr(QMessageBox, "question", staticmethod(question))
     monkeypatch.setattr(QMessageBox, "about", staticmethod(lambda *args, **kwargs: None))
-    monkeypatch.setattr(QFileDialog, "getOpenFileName", staticmethod(lambda *a, **k: (str(answers.get("open", "")), "")))
-    monkeypatch.setattr(QFileDialog, "getSaveFileName", staticmethod(lambda *a, **k: (str(answers.get("save", "")), "")))
+    monkeypatch.setattr(QFileDialog, "getOpenFileName",
+                        staticmethod(lambda *a, **k: (str(answers.get("open", "")), "")))
+    monkeypatch.setattr(QFileDialog, "getSaveFileName",
+                        staticmethod(lambda *a, **k: (str(answers.get("save", "")), "")))
     monkeypatch.setattr(QColorDialog, "getColor", staticmethod(lambda *a, **k: answers.get("color", QColor())))
     monkeypatch.setattr(NewDocumentDialog, "get_size", staticmethod(lambda *a, **k: answers.get("size")))
     monkeypatch.setattr(ExportDialog, "get_options", staticmethod(lambda *a, **k: answers.get("export")))

@@ -53,7 +53,8 @@ def scattered_document(size: int = 128, circles: int = 5, seed: int = 2) -> Docu
     for _ in range(circles):
         stops = tuple(ColorStop(s, tuple(rng.random(3))) for s in (0.0, 2.0, 4.0))
         centre = rng.uniform(0.2 * size, 0.8 * size, 2)
-        curves.append(DiffusionCurve(circle_points(*centre, rng.uniform(0.05, 0.15) * size), left=stops, right=stops[::-1]))
+        curves.append(DiffusionCurve(circle_points(*centre, rng.uniform(0.05, 0.15) * size), left=stops,
+                                     right=stops[::-1]))
     chain = [(0.04 * size, 0.94 * size), (0.47 * size, 0.7 * size), (0.96 * size, 0.86 * size)]
     curves.append(DiffusionCurve(straight_chain(chain), left=stops, right=stops))
     return Document(size, size, curves)

@@ -175,7 +175,8 @@ def test_a_stop_colour_change_updates_only_what_changed(canvas, qtbot, shared_da
     before = show(canvas, qtbot, live.representation, view)
     for curve in (30, 0):  # a small curve (few cells move visibly), then the background one (all cells)
         old = live.document.curves[curve].left[0].color
-        update = live.update(edits.set_stop_color(live.document, live.document.curves[curve].id, "left", 0, tuple(1 - np.asarray(old))))
+        update = live.update(edits.set_stop_color(live.document, live.document.curves[curve].id, "left", 0,
+                                                  tuple(1 - np.asarray(old))))
         assert update.kind == "colours"
         canvas.update_representation(live.representation, update.changed)
         shown, evaluated = grab_counting(canvas)

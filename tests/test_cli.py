@@ -157,7 +157,8 @@ def test_render_command_reads_a_saved_fmr_file(tmp_path, split_canvas, monkeypat
     document = fmr_editor.load(split_canvas)
     saved = save_fmr(tmp_path / "split.fmr", document, build(document))
     out = tmp_path / "split.png"
-    monkeypatch.setattr(fmr_editor, "render_image", lambda *args, **kwargs: pytest.fail("the saved representation was not used"))
+    monkeypatch.setattr(fmr_editor, "render_image",
+                        lambda *args, **kwargs: pytest.fail("the saved representation was not used"))
     assert main(["render", str(saved), "-o", str(out), "--width", "30", "--samples", "1"]) == 0
     expected = to_rgb8(rasterise(build(document), 30, 20, samples=1))
     np.testing.assert_array_equal(read_png(out), expected)

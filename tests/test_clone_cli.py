@@ -6,8 +6,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from cli_runs import run
 import shapely
+from cli_runs import run
 from PIL import Image
 from shapes import scattered_document
 

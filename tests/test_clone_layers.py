@@ -172,7 +172,7 @@ def test_a_clone_layer_saved_and_reopened_is_the_same_without_a_solve(tmp_path, 
     assert opened.document == pasted and opened.composite is not None and opened.notes == ()
     assert dumps_document(pasted).startswith(b'{"format":"fmr-editor document","version":3')
     reopened = Session.open(path)
-    assert all(live.timings.keys() == {"resume"} for live in reopened.live.fields.values())  # the two solved images
+    assert all(live.origin == "resumed" for live in reopened.live.fields.values())  # the two solved images
     bottom, clone = reopened.document.layers
     assert set(reopened.live.fields) == {(bottom.id, "image"), (clone.id, "source")}
     assert reopened.live.clones[clone.id]._seamless is None  # taken as saved: no boundary solve either

@@ -6,7 +6,13 @@ import numpy as np
 import pytest
 
 from fmr_editor.model.color_transform import (
-    IDENTITY, LUMA, ColorTransform, brightness_contrast, hue_rotation, inversion, saturation,
+    IDENTITY,
+    LUMA,
+    ColorTransform,
+    brightness_contrast,
+    hue_rotation,
+    inversion,
+    saturation,
 )
 
 rng = np.random.default_rng(12)

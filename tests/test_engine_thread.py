@@ -36,8 +36,8 @@ def test_every_frame_stays_a_snapshot_of_its_document(qtbot):
         assert len(frames) <= len(documents) - 1
         settings = Settings(levels=frames[-1].representation.lattice.levels)
         for frame in [first, *frames]:  # later updates changed none of the arrays an earlier frame holds
-            np.testing.assert_allclose(frame.representation.polynomials(), build(frame.document, settings).polynomials(),
-                                       atol=1e-9)
+            np.testing.assert_allclose(frame.representation.polynomials(),
+                                       build(frame.document, settings).polynomials(), atol=1e-9)
         touched = np.zeros_like(frames[-1].changed)
         for frame in frames:
             touched |= frame.changed
@@ -62,7 +62,8 @@ def test_a_result_in_flight_is_delivered_while_newer_requests_wait(qtbot, monkey
 
     monkeypatch.setattr(live, "update", held)
     try:
-        documents = [edits.add_points(document, [DiffusionPoint((float(x), 20.0), 4.0, (1, 0, 0))]) for x in (5, 25, 45)]
+        documents = [edits.add_points(document, [DiffusionPoint((float(x), 20.0), 4.0, (1, 0, 0))])
+                     for x in (5, 25, 45)]
         engine.request(documents[0])
         assert started.wait(60)  # the worker is inside the first update
         engine.request(documents[1])

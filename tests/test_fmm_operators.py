@@ -149,7 +149,8 @@ def test_cell_polynomials_hold_the_far_field_of_the_lattice():
     curves = []
     for _ in range(6):
         stops = tuple(ColorStop(s, tuple(rng.random(3))) for s in (0.0, 1.5, 3.0))
-        curves.append(DiffusionCurve(circle_points(*rng.uniform(20, 108, 2), rng.uniform(5, 30)), left=stops, right=stops[::-1]))
+        curves.append(DiffusionCurve(circle_points(*rng.uniform(20, 108, 2), rng.uniform(5, 30)), left=stops,
+                                     right=stops[::-1]))
     rep = build(Document(128, 128, curves), Settings(levels=4, order=16))
     poly = rep.polynomials()
     seg, lattice = rep.segments, rep.lattice
@@ -174,13 +175,15 @@ def test_compiled_cell_moments_equal_the_summed_reference():
     lattice = Lattice(3, 40.0)
     p = rng.uniform(0, 40, (300, 2))
     q = np.clip(p + rng.normal(0, 0.8, (300, 2)), 0, 40)
-    seg = Segments(p, q, rng.normal(size=(300, 3)), rng.normal(size=(300, 3)), np.zeros(300, bool), rng.normal(size=(300, 3)))
+    seg = Segments(p, q, rng.normal(size=(300, 3)), rng.normal(size=(300, 3)), np.zeros(300, bool),
+                   rng.normal(size=(300, 3)))
     seg, start = sort_into_cells(seg, lattice)
     rows, columns = np.divmod(np.arange(64), 8)
     centres = lattice.cell_centres(np.stack([rows, columns], axis=1))
     got = cell_moments(start, centres, lattice.cell_size, seg.p, seg.q, seg.flux, seg.jump, ORDER)
     cells = lattice.cell_of(seg.midpoints)
-    per_segment = multipole_moments_reference(seg.p, seg.q, seg.flux, seg.jump, lattice.cell_centres(cells), lattice.cell_size, ORDER)
+    per_segment = multipole_moments_reference(seg.p, seg.q, seg.flux, seg.jump, lattice.cell_centres(cells),
+                                              lattice.cell_size, ORDER)
     expected = np.zeros_like(got)
     np.add.at(expected, cells[:, 0] * 8 + cells[:, 1], per_segment)
     np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-12)

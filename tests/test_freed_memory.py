@@ -21,7 +21,9 @@ REPO = Path(__file__).resolve().parents[1]
 # arrays with 100 KB blocks between them, as kept undo states leave theirs; the arrays freed, the blocks kept.
 HOLES = """
 import numpy as np
-import fmr_editor.engine  # noqa: F401
+import fmr_editor.engine
+
+fmr_editor.engine.setup_process()
 
 
 def resident():

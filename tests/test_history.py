@@ -180,7 +180,8 @@ def test_edits_change_only_what_they_name():
     assert recoloured.curves[0].left == doc.curves[0].left
     with pytest.raises(ValueError):
         edits.set_stop_color(doc, doc.curves[0].id, "up", 0, (0, 0, 0))
-    fewer = edits.remove_stop(edits.add_stop(doc, doc.curves[0].id, "left", ColorStop(0.5, (0, 0, 0))), doc.curves[0].id, "left", 0)
+    fewer = edits.remove_stop(edits.add_stop(doc, doc.curves[0].id, "left", ColorStop(0.5, (0, 0, 0))),
+                              doc.curves[0].id, "left", 0)
     assert len(fewer.curves[0].left) == len(doc.curves[0].left)
 
 
@@ -220,8 +221,8 @@ def _same_stops_on(old, new, mapping):
 
 def test_insert_anchor_keeps_the_shape_and_the_stops_places():
     doc = scattered_document(64, circles=1, seed=4)  # a 4-piece circle, stops at 0, 2, 4
-    doc = edits.add_stop(edits.add_stop(doc, doc.curves[0].id, "left", ColorStop(1.1, (1, 0, 0))), doc.curves[0].id, "right",
-                         ColorStop(1.5, (0, 1, 0)))
+    doc = edits.add_stop(edits.add_stop(doc, doc.curves[0].id, "left", ColorStop(1.1, (1, 0, 0))), doc.curves[0].id,
+                         "right", ColorStop(1.5, (0, 1, 0)))
     old = doc.curves[0]
     new = edits.insert_anchor(doc, doc.curves[0].id, 1.25).curves[0]
     assert new.piece_count == 5
@@ -233,7 +234,8 @@ def test_insert_anchor_keeps_the_shape_and_the_stops_places():
     s = np.linspace(0, 4, 33)
     np.testing.assert_allclose(new.point_at(split(s)), old.point_at(s), atol=1e-12)
     _same_stops_on(old, new, lambda x: float(split(np.array(x))))
-    assert edits.insert_anchor(doc, doc.curves[0].id, 2.0) is doc and edits.insert_anchor(doc, doc.curves[0].id, 4.0) is doc
+    assert (edits.insert_anchor(doc, doc.curves[0].id, 2.0) is doc
+            and edits.insert_anchor(doc, doc.curves[0].id, 4.0) is doc)
 
 
 def test_remove_anchors_joins_inner_pieces_and_cuts_end_pieces():

@@ -125,8 +125,9 @@ def _layers_loop_with(flags, error_model):
     def loop(targets, p, q, tangent, length, single, double):
         for i in range(targets.shape[0]):
             for j in range(p.shape[0]):
-                single[i, j], double[i, j] = segment_potentials(targets[i, 0], targets[i, 1], p[j, 0], p[j, 1], q[j, 0], q[j, 1],
-                                                     tangent[j, 0], tangent[j, 1], length[j])
+                single[i, j], double[i, j] = segment_potentials(targets[i, 0], targets[i, 1], p[j, 0], p[j, 1],
+                                                                q[j, 0], q[j, 1], tangent[j, 0], tangent[j, 1],
+                                                                length[j])
     return loop
 
 

@@ -44,7 +44,7 @@ def test_a_version_1_file_opens_as_one_layer_without_a_solve():
     assert len(document.curves) == 2 and len(document.points) == 2
     assert opened.representation is not None and opened.notes == ()
     live = open_live(VERSION_1)
-    assert [field.timings.keys() for field in live.fields.values()] == [{"resume"}]
+    assert [field.origin for field in live.fields.values()] == ["resumed"]
     settings = opened.settings or Settings()
     fresh = build(document, settings)
     # The file's expansions carry every term through every translation, as builds then did; builds now carry
@@ -63,7 +63,7 @@ def test_a_layered_document_saved_and_reopened_is_the_same_without_a_solve(tmp_p
     assert opened.document == session.document
     assert opened.composite is not None  # every representation it needs is in the file
     reopened = Session.open(path)
-    assert all(live.timings.keys() == {"resume"} for live in reopened.live.fields.values())
+    assert all(live.origin == "resumed" for live in reopened.live.fields.values())
     assert len(reopened.live.fields) == 5  # three images, two masks
     np.testing.assert_array_equal(reopened.image(PIXELS, PIXELS, samples=1), session.image(PIXELS, PIXELS, samples=1))
 
@@ -143,7 +143,7 @@ def test_a_composed_file_opens_ready_for_a_session(tmp_path, inputs):
     out = tmp_path / "out.fmr"
     assert run("compose", str(inputs["bottom"]), str(inputs["top"]), "-o", str(out), "--hue", "90")[0] == 0
     session = Session.open(out)
-    assert all(live.timings.keys() == {"resume"} for live in session.live.fields.values())
+    assert all(live.origin == "resumed" for live in session.live.fields.values())
     stack = LiveStack(session.document)
     np.testing.assert_allclose(session.image(PIXELS, samples=1), rasterise(stack.composite, PIXELS, samples=1),
                                atol=1e-9)

@@ -309,3 +309,28 @@ def test_ids_must_be_positive_whole_numbers():
         DiffusionCurve(_line(1).control_points, id=0)
     with pytest.raises(ValueError, match="id"):
         DiffusionCurve(_line(1).control_points, id=1.5)
+
+
+def test_edits_the_document_cannot_take_are_refused_and_misuse_is_a_plain_error():
+    """``EditRefused`` carries what a user asked for and cannot have; a wrong call stays a plain error."""
+    from fmr_editor.model import EditRefused, edits, layer_edits
+    from fmr_editor.model.clone import region_on_canvas
+
+    line = DiffusionCurve(straight_chain([(10.0, 10.0), (50.0, 10.0)]), left=(ColorStop(0.0, (1, 0, 0)),))
+    document = Document(64, 64, [line])
+    refusals = [
+        lambda: layer_edits.remove_layer(document),
+        lambda: layer_edits.merge_down(document),
+        lambda: layer_edits.invert_mask(document),
+        lambda: edits.remove_anchors(document, line.id, [0]),
+        lambda: region_on_canvas([(0, 0), (10, 10), (10, 0), (0, 10)], 64, 64),  # crosses itself
+        lambda: region_on_canvas([(100, 100), (110, 100), (110, 110)], 64, 64),  # off the canvas
+    ]
+    for refuse in refusals:
+        with pytest.raises(EditRefused):
+            refuse()
+    for misuse in (lambda: edits.set_stop_color(document, line.id, "up", 0, (0, 0, 0)),
+                   lambda: edits.remove_anchors(document, line.id, [1])):
+        with pytest.raises(ValueError) as raised:
+            misuse()
+        assert not isinstance(raised.value, EditRefused)

@@ -256,7 +256,8 @@ def test_scene_has_no_swaps_and_its_left_is_the_viewers_right() -> None:
     curve = parse_orzan(_scene(_curve(points, left=left, right=right)), NAME).curves[0]
     np.testing.assert_array_equal(curve.control_points, np.array(points, dtype=float))
     file_left = _rotate_plus_90(curve.control_points[1] - curve.control_points[0])  # x=column, y=row
-    np.testing.assert_allclose(_unit(file_left), -_unit(_viewer_left(curve.control_points[1] - curve.control_points[0])))
+    np.testing.assert_allclose(_unit(file_left),
+                               -_unit(_viewer_left(curve.control_points[1] - curve.control_points[0])))
     assert curve.right[0].color == (1.0, 0.0, 0.0)
     assert curve.left[0].color == (0.0, 0.0, 1.0)
 

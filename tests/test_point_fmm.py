@@ -116,7 +116,8 @@ def test_point_multipole_is_the_limit_of_a_short_segment():
     q = points + 0.5 * h * np.stack([tangent.real, tangent.imag], axis=1)
     flux = np.repeat((charges / h)[:, None], 3, axis=1)
     jump = np.repeat((np.abs(d) / h)[:, None], 3, axis=1)
-    expected = multipole_moments_reference(p, q, flux, jump, np.broadcast_to(centre, p.shape), size, order).sum(axis=0)[0]
+    expected = multipole_moments_reference(p, q, flux, jump, np.broadcast_to(centre, p.shape), size,
+                                           order).sum(axis=0)[0]
     got = np.zeros((1, order + 1), complex)
     _p2m(points[:, 0].copy(), points[:, 1].copy(), charges, dipoles[:, 0].copy(), dipoles[:, 1].copy(),
          np.array([0, count]), 1, size, order, got)

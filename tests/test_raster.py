@@ -13,8 +13,8 @@ from shapes import circle_points, straight_chain
 from fmr_editor.engine import Settings, build, raster, rasterise
 from fmr_editor.engine.fmm.lattice import Lattice, sort_into_cells
 from fmr_editor.engine.geometry.segments import Segments
-from fmr_editor.engine.kernels.fastmath import atan2_poly, log_poly
 from fmr_editor.engine.kernels import grid
+from fmr_editor.engine.kernels.fastmath import atan2_poly, log_poly
 from fmr_editor.engine.kernels.grid import far_field_grid, near_field_grid
 from fmr_editor.engine.kernels.potentials import direct_sum_reference
 from fmr_editor.engine.kernels.segment_sums import near_sum

@@ -5,20 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from shapes import circle_points, straight_chain
-from test_raster import chains_and_strays
 
 from fmr_editor.engine import Settings, build, raster, rasterise
-from fmr_editor.engine.fmm.lattice import Lattice, sort_into_cells
 from fmr_editor.engine.kernels.grid import far_field_grid, near_field_grid
 from fmr_editor.engine.kernels.local_grid import local_field_grid, local_field_reference
 from fmr_editor.engine.kernels.potentials import direct_sum_reference
 from fmr_editor.engine.kernels.segment_sums import direct_sum
-from fmr_editor.engine.kernels.subcells import (
-    _p2l_state,
-    _p2l_sums,
-    p2l_reference,
-    subcell_field_grid,
-)
+from fmr_editor.engine.kernels.subcells import _p2l_state, _p2l_sums, p2l_reference, subcell_field_grid
 from fmr_editor.engine.raster import far_field_reference, sample_coordinates
 from fmr_editor.model import ColorStop, DiffusionCurve, Document
 

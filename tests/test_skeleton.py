@@ -10,11 +10,11 @@ from shapes import scattered_document
 
 from fmr_editor.engine.fmm.lattice import Lattice
 from fmr_editor.engine.geometry.discretise import boundary_segments, curve_segments
+from fmr_editor.engine.geometry.segments import Segments
+from fmr_editor.engine.kernels.potentials import pair_integrals
 from fmr_editor.engine.solve import dense as bem
 from fmr_editor.engine.solve import skeleton
 from fmr_editor.engine.solve.dense import SolveTooLargeError, assemble
-from fmr_editor.engine.geometry.segments import Segments
-from fmr_editor.engine.kernels.potentials import pair_integrals
 from fmr_editor.engine.solve.entries import FAR, CollocationEntries
 from fmr_editor.engine.solve.linalg import interpolative
 from fmr_editor.engine.solve.skeleton import SkeletonFactorization

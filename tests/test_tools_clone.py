@@ -130,8 +130,8 @@ def test_copy_carries_the_layers_colour_adjustment_and_paste_curves_adds_to_the_
     baked = layer_edits.baked(turned.layer)
     assert copied.source.curves == baked.curves and copied.source.layer.transform.is_identity
     with pytest.raises(ValueError, match="Paint layer"):  # an offset no curve carries
-        copy_region(layer_edits.set_transform(Document(SIZE, SIZE), 0, ColorTransform(np.zeros((3, 3)), (1.0, 0.5, 0.0))),
-                    SQUARE)
+        copy_region(layer_edits.set_transform(Document(SIZE, SIZE), 0,
+                                              ColorTransform(np.zeros((3, 3)), (1.0, 0.5, 0.0))), SQUARE)
 
     target = scattered_document(SIZE, seed=8)
     pasted = paste_curves(target, copied, (5.0, -5.0))

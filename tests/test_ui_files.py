@@ -41,7 +41,8 @@ def ribbon(editor):
 
 def recolour(editor) -> None:
     """One edit of the open document: the first stop of curve 0's left side turns green."""
-    editor.history.apply(edits.set_stop_color(editor.document, editor.document.curves[0].id, "left", 0, (0.1, 0.8, 0.2)), "Change Stop Colour")
+    editor.history.apply(edits.set_stop_color(editor.document, editor.document.curves[0].id, "left", 0,
+                                              (0.1, 0.8, 0.2)), "Change Stop Colour")
 
 
 def test_title_names_the_file_and_marks_changes(ribbon, tmp_path):

@@ -102,10 +102,10 @@ def test_painting_a_stroke_is_one_step_of_evenly_spaced_dabs(line):
     editor.key(Qt.Key.Key_B)
     options = editor.window.options
     options.brush_radius, options.brush_spacing, options.brush_amplitude = 6.0, 10.0, 0.75
-    options.brush_color = (0.2, 0.9, 0.3)
+    options.brush_color, options.brush_mode = (0.2, 0.9, 0.3), "glow"
     start = editor.history.index
     editor.drag([(30, 100), (90, 100)])
-    one_step(editor, start, "Paint")
+    one_step(editor, start, "Glow Stroke")
     (x0, y0), (x1, y1) = editor.doc(30, 100), editor.doc(90, 100)
     points = editor.document.points
     length = np.hypot(x1 - x0, y1 - y0)
@@ -124,7 +124,8 @@ def test_moving_a_control_point_is_one_step_and_undo_redo_restore_it(line):
     editor.key(Qt.Key.Key_V)
     start, before = editor.history.index, editor.document
     editor.click(64, 64)  # selects the curve: no step
-    assert editor.context.selection.curves == by_index(editor.document, curves=[0]).curves and editor.history.index == start
+    assert (editor.context.selection.curves == by_index(editor.document, curves=[0]).curves
+            and editor.history.index == start)
     editor.drag([(16, 64), (24, 90)])  # its first anchor, shown now
     one_step(editor, start, "Move Anchor")
     (x0, y0), (x1, y1) = editor.doc(16, 64), editor.doc(24, 90)
@@ -184,7 +185,7 @@ def test_an_edit_redraws_only_the_cells_it_changed(line):
     editor.wait_idle()
     editor.canvas.grab_image()
     editor.key(Qt.Key.Key_B)
-    editor.window.options.brush_radius = 3.0
+    editor.window.options.brush_radius, editor.window.options.brush_mode = 3.0, "glow"
     editor.window.options.brush_color = (0.9, 0.5, 0.1)
     editor.click(20, 20)  # the first points may change the lattice (a rebuild)
     editor.wait_idle()
@@ -219,3 +220,36 @@ def test_arrow_keys_nudge_the_selection(line):
     assert editor.context.selection.empty
     editor.key(Qt.Key.Key_Left)  # nothing selected: nothing moves, no step
     assert editor.history.index == start + 2
+
+
+def test_a_refused_edit_says_why_and_a_bug_is_not_swallowed(line, monkeypatch):
+    """The model's ``EditRefused`` is shown and changes nothing; any other error is a bug, reported as one (to
+    ``sys.excepthook``, with its traceback), not as a refusal."""
+    from fmr_editor.model import EditRefused, edits
+
+    editor, window = line, line.window
+    start, before = editor.history.index, editor.document
+    editor.key(Qt.Key.Key_P)
+
+    def refused(document, curve):
+        raise EditRefused("the canvas is full")
+
+    monkeypatch.setattr(edits, "add_curve", refused)
+    editor.click(30, 20)
+    editor.click(90, 36)
+    editor.key(Qt.Key.Key_Return)
+    assert window.status_label.text() == "Not done: the canvas is full"
+    assert editor.history.index == start and editor.document is before
+
+    def broken(document, curve):
+        raise ValueError("operands could not be broadcast together")
+
+    monkeypatch.setattr(edits, "add_curve", broken)
+    editor.click(30, 20)
+    editor.click(90, 36)
+    with editor.qtbot.capture_exceptions() as caught:  # what sys.excepthook is given
+        editor.key(Qt.Key.Key_Return)
+    reported = [(kind, str(error)) for kind, error, _ in caught]
+    assert reported == [(ValueError, "operands could not be broadcast together")]
+    assert window.status_label.text().startswith("Internal error (ValueError)")
+    assert editor.history.index == start and editor.document is before

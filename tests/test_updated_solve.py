@@ -39,7 +39,8 @@ def solver_for(segments, dense: bool, monkeypatch) -> BoundarySolver:
 def geometries():
     """A document and three edits of its geometry: an anchor moved, a curve deleted, a curve added."""
     document = scattered_document(SIDE, circles=3, seed=11)
-    moved = edits.move_control_point(document, document.curves[1].id, 3, tuple(document.curves[1].control_points[3] + (3.0, -2.0)))
+    moved = edits.move_control_point(document, document.curves[1].id, 3,
+                                     tuple(document.curves[1].control_points[3] + (3.0, -2.0)))
     deleted = edits.remove_curves(moved, [moved.curves[0].id])
     added = edits.add_curve(document, scattered_document(SIDE, circles=1, seed=12).curves[0])
     return [boundary(d) for d in (document, moved, deleted, added)]

@@ -6,8 +6,10 @@
 from pathlib import Path
 
 from fmr_editor import load, render_image
+from fmr_editor.engine import setup_process
 from fmr_editor.model import DiffusionPoint
 
+setup_process()  # the engine's thread and memory policy for this process, as the editor sets it
 SAMPLES = Path(__file__).resolve().parents[2] / "resources" / "samples"
 
 doc = load(SAMPLES / "ribbon.xml")  # an Orzan .xml curve set, or a .fmr document

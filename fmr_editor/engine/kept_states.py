@@ -21,6 +21,9 @@ from .geometry.segments import Segments
 from .memory import give_back_free_pages
 from .points.field import LivePoints
 
+#: Bytes the states of recent steps may take by default (a document's undo memory).
+DEFAULT_MEMORY = 500 * 2**20
+
 
 @dataclass(frozen=True, eq=False)
 class State:

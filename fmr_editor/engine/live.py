@@ -37,7 +37,7 @@ from .fmm.lattice import Lattice, dilated
 from .geometry.curve_cache import CurveSegments
 from .geometry.discretise import BoundaryCuts, with_curve_colors
 from .geometry.segments import Segments
-from .kept_states import KeptStates, State
+from .kept_states import DEFAULT_MEMORY, KeptStates, State
 from .memory import affordable_levels, check_build_memory
 from .points.field import (
     LivePoints,
@@ -119,13 +119,19 @@ class LiveRepresentation:
     factorisations : int
         Boundary systems factorised so far (the work a geometry edit should not repeat: it is solved
         through the kept factorisation, ``solve.updated``).
+    origin : str
+        Where its first state came from: ``"built"`` (solved), ``"resumed"`` (``saved`` taken as it is)
+        or ``"twin"`` (another representation's, ``twin``).
+    timings : dict
+        Seconds each stage of the first state took (a diagnostic).
     """
 
     def __init__(self, document: Document, settings: Settings = Settings(), progress: Progress | None = None,
-                 saved: Representation | None = None, memory: int = 500 * 2**20) -> None:
+                 saved: Representation | None = None, memory: int = DEFAULT_MEMORY) -> None:
         self.settings = settings
         self.approximate = False
         self.factorisations = 0
+        self.origin = "built"
         self.document = document
         self.lattice: Lattice | None = None
         self.timings: dict[str, float] = {}
@@ -241,6 +247,7 @@ class LiveRepresentation:
         self._unreported = np.zeros(self._cells.local.shape[:2])
         self._points = LivePoints(document.points, self.lattice, self.settings.order) if document.points else None
         self.timings = {"resume": time.perf_counter() - start}
+        self.origin = "resumed"
         self._forget_curves(document.curves)
         return True
 
@@ -253,7 +260,7 @@ class LiveRepresentation:
         """
         twin = object.__new__(LiveRepresentation)
         twin.__dict__.update(self.__dict__)
-        twin.document, twin.timings, twin.factorisations = document, {"twin": 0.0}, 0
+        twin.document, twin.timings, twin.factorisations, twin.origin = document, {"twin": 0.0}, 0, "twin"
         twin._curve_cache, twin._cuts = self._curve_cache.copy(), BoundaryCuts()
         twin._solvers = SystemSolvers(twin._new_solver)
         twin._solvers.move_to(self._boundary)

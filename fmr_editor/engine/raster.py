@@ -28,8 +28,8 @@ from collections.abc import Callable
 import numpy as np
 
 from .composite import Composite, compose
-from .kernels.subcells import SEPARATION, subcell_field_grid
 from .kernels.segment_sums import direct_sum, near_sum
+from .kernels.subcells import SEPARATION, subcell_field_grid
 from .points.gauss import gaussian_sum_reference
 from .points.near import near_at
 from .representation import Representation

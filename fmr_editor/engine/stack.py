@@ -23,6 +23,7 @@ from ..model.layer import Layer
 from ..model.limits import check_document
 from .cloning import LiveClone
 from .composite import Composite, LayerFields
+from .kept_states import DEFAULT_MEMORY
 from .live import LiveRepresentation, Progress, Update
 from .representation import Representation, Settings
 
@@ -115,7 +116,7 @@ class LiveStack:
 
     def __init__(self, document: Document, settings: Settings = Settings(), progress: Progress | None = None,
                  saved: Sequence[tuple[Representation | None, Representation | None]] | None = None,
-                 memory: int = 500 * 2**20) -> None:
+                 memory: int = DEFAULT_MEMORY) -> None:
         check_document(document)
         self.settings = settings
         self._memory = memory

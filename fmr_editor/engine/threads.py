@@ -10,10 +10,10 @@ evaluation, sparse passes) keep both cores.  Measured on lady_bug: a build
 0.92 -> 0.61 s, a stop-colour edit 61-75 -> 35 ms, a control-point move
 0.73 -> 0.47 s.
 
-The limit is set for the whole process when the engine is imported (BLAS
+The limit is set for the whole process by ``process.setup_process`` (BLAS
 keeps one setting per process), on numpy's BLAS and on scipy's own copy, both
-loaded first (a library loaded later would start with a thread per core);
-``blas_threads`` says what is in force.
+loaded by this module first (a library loaded later would start with a thread
+per core); ``blas_threads`` says what is in force.
 """
 
 from __future__ import annotations

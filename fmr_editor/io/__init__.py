@@ -70,7 +70,7 @@ def open_live(path: str | os.PathLike, settings: Settings | None = None, progres
     for layer, reps in zip(saved.document.layers, saved.fields):
         for kind, rep in zip(("image", "mask", "source"), reps):
             field = live.fields.get((layer.id, kind))
-            if rep is not None and field is not None and "resume" not in field.timings:
+            if rep is not None and field is not None and field.origin != "resumed":
                 found.append(f"the saved {kind} of {layer.name} does not match the document; it was rebuilt")
     if notes is not None:
         notes.extend(found)

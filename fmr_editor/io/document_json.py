@@ -29,12 +29,11 @@ from __future__ import annotations
 
 import json
 
-from ..model import BlurStop, ColorStop, DiffusionCurve, DiffusionPoint, Document, Layer, Mask
-from ..model import limits
+from ..model import BlurStop, ColorStop, DiffusionCurve, DiffusionPoint, Document, Layer, Mask, limits
 from ..model.clone import MAX_REGION, Clone, Similarity, region_on_canvas
-from ..model.limits import shortened
-from ..model.layer import MAX_LAYERS, MAX_NAME
 from ..model.color_transform import ColorTransform
+from ..model.layer import MAX_LAYERS, MAX_NAME
+from ..model.limits import shortened
 from .json_checks import (
     SchemaError,
     as_list,

@@ -4,7 +4,9 @@ from .curve import BlurStop, ColorStop, DiffusionCurve, interpolate_stops
 from .document import Document
 from .layer import Layer, Mask
 from .point import DiffusionPoint
+from .refusals import EditRefused
 
 __all__ = [
-    "BlurStop", "ColorStop", "DiffusionCurve", "DiffusionPoint", "Document", "Layer", "Mask", "interpolate_stops",
+    "BlurStop", "ColorStop", "DiffusionCurve", "DiffusionPoint", "Document", "EditRefused", "Layer", "Mask",
+    "interpolate_stops",
 ]

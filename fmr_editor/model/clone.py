@@ -16,6 +16,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 import shapely
 
+from .refusals import EditRefused
+
 if TYPE_CHECKING:
     from .document import Document
 
@@ -29,17 +31,17 @@ def region_on_canvas(region, width: float | None = None, height: float | None = 
 
     Raises
     ------
-    ValueError
+    EditRefused
         For fewer than three finite vertices, a polygon that crosses itself
         or has no area, one wholly outside the canvas, or one the canvas edge
         splits in two.
     """
     points = np.asarray(region, dtype=np.float64)
     if points.ndim != 2 or points.shape[1] != 2 or len(points) < 3 or not np.isfinite(points).all():
-        raise ValueError("a region needs at least three finite (x, y) corners")
+        raise EditRefused("a region needs at least three finite (x, y) corners")
     polygon = shapely.Polygon(points)
     if not polygon.is_valid or polygon.area <= 0:
-        raise ValueError("a region must be a simple polygon of positive area: it crosses itself or has no area")
+        raise EditRefused("a region must be a simple polygon of positive area: it crosses itself or has no area")
     if width is None or height is None:
         return points
     frame = shapely.box(0.0, 0.0, width, height)
@@ -47,9 +49,9 @@ def region_on_canvas(region, width: float | None = None, height: float | None = 
         return points
     part = shapely.intersection(polygon, frame)
     if part.is_empty or part.area <= 0:
-        raise ValueError("the region lies wholly outside the canvas")
+        raise EditRefused("the region lies wholly outside the canvas")
     if part.geom_type != "Polygon":
-        raise ValueError("the canvas edge splits the region in two; move it further in or out")
+        raise EditRefused("the canvas edge splits the region in two; move it further in or out")
     return np.asarray(part.exterior.coords)[:-1]
 
 
@@ -66,7 +68,7 @@ class Similarity:
         offset = tuple(float(v) for v in self.offset)
         if not (math.isfinite(self.scale) and self.scale > 0 and math.isfinite(self.degrees) and len(offset) == 2
                 and all(map(math.isfinite, offset))):
-            raise ValueError("a similarity needs a positive scale and finite angle and offset")
+            raise EditRefused("a similarity needs a positive scale and finite angle and offset")
         object.__setattr__(self, "scale", float(self.scale))
         object.__setattr__(self, "degrees", float(self.degrees))
         object.__setattr__(self, "offset", offset)

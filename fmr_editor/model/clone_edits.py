@@ -19,6 +19,7 @@ from .clone import Clone, Similarity, region_on_canvas
 from .document import Document
 from .layer import Layer
 from .layer_edits import baked
+from .refusals import EditRefused
 
 #: Samples per curve piece by which ``copied_items`` tells which curves the region holds.
 SAMPLES_PER_PIECE = 8
@@ -53,17 +54,17 @@ def copy_region(document: Document, region) -> Copied:
 
     Raises
     ------
-    ValueError
+    EditRefused
         For a bad region (``clone.region_on_canvas``), a clone layer active
         (copy from its source instead), or a colour adjustment no item can
         carry (a Paint layer's colour).
     """
     layer = document.layer
     if layer.clone is not None:
-        raise ValueError("a clone layer has no curves to copy; copy from the layer it was cloned from")
+        raise EditRefused("a clone layer has no curves to copy; copy from the layer it was cloned from")
     target = document.target if document.editing_mask else baked(layer)
     if not document.editing_mask and not target.transform.is_identity:
-        raise ValueError(f"{layer.name}'s colour is a transform that no curve of it carries (a Paint layer): "
+        raise EditRefused(f"{layer.name}'s colour is a transform that no curve of it carries (a Paint layer): "
                          "copy the layers it covers instead")
     source = Document(document.width, document.height, target.curves, target.points)
     return Copied(source, region_on_canvas(region, document.width, document.height), layer.name)
@@ -96,7 +97,7 @@ def paste_seamless(document: Document, copied: Copied, similarity: Similarity = 
 
     Raises
     ------
-    ValueError
+    EditRefused
         When the placed region misses the canvas or its edge splits the region.
     """
     clone = _landing(document, Clone(copied.source, tuple(map(tuple, copied.region)), similarity))
@@ -113,11 +114,11 @@ def place_clone(document: Document, index: int, similarity: Similarity) -> Docum
 
 
 def _landing(document: Document, clone: Clone) -> Clone:
-    """``clone``, checked to land on ``document``'s canvas in one piece (``ValueError`` if not)."""
+    """``clone``, checked to land on ``document``'s canvas in one piece (``EditRefused`` if not)."""
     try:
         region_on_canvas(clone.placed_region, document.width, document.height)
-    except ValueError as error:
-        raise ValueError(f"where the clone goes, {error}") from None
+    except EditRefused as error:
+        raise EditRefused(f"where the clone goes, {error}") from None
     return clone
 
 
@@ -140,15 +141,15 @@ def paste_curves(document: Document, copied: Copied, offset: tuple[float, float]
 
     Raises
     ------
-    ValueError
+    EditRefused
         When nothing was copied (no curve meets the region, no point lies in it) or the active layer is a
         clone layer (which holds no curves).
     """
     curves, points = copied_items(copied)
     if not (curves or points):
-        raise ValueError(f"no curve of {copied.name} meets the selection, and no point lies in it: nothing to paste")
+        raise EditRefused(f"no curve of {copied.name} meets the selection, and no point lies in it: nothing to paste")
     if document.layer.clone is not None and not document.editing_mask:
-        raise ValueError(f"{document.layer.name} is a clone layer, which holds no curves: choose a layer to paste "
+        raise EditRefused(f"{document.layer.name} is a clone layer, which holds no curves: choose a layer to paste "
                          "into")
     shift = np.asarray(offset, dtype=np.float64)
     moved_curves = tuple(replace(curve, control_points=curve.control_points + shift, id=None) for curve in curves)

@@ -11,6 +11,7 @@ from .curve import DiffusionCurve
 from .identity import new_id
 from .layer import MAX_LAYERS, Layer, Mask
 from .point import DiffusionPoint
+from .refusals import EditRefused
 
 
 @dataclass(frozen=True, init=False)
@@ -61,7 +62,7 @@ class Document:
         if not layers or not all(isinstance(layer, Layer) for layer in layers):
             raise TypeError("a document's layers must be one or more Layer instances")
         if len(layers) > MAX_LAYERS:
-            raise ValueError(f"a document holds at most {MAX_LAYERS} layers, not {len(layers)}")
+            raise EditRefused(f"a document holds at most {MAX_LAYERS} layers, not {len(layers)}")
         if isinstance(active, bool) or not isinstance(active, numbers.Integral) or not 0 <= active < len(layers):
             raise ValueError(f"the active layer must be an index below {len(layers)}, got {active!r}")
         if editing_mask and layers[active].mask is None:

@@ -17,6 +17,7 @@ import numpy as np
 from .curve import Color, ColorStop, DiffusionCurve, interpolate_stops
 from .document import Document
 from .point import DiffusionPoint
+from .refusals import EditRefused
 
 SIDES = ("left", "right")
 
@@ -221,15 +222,16 @@ def remove_anchors(document: Document, curve: int, indices: Iterable[int]) -> Do
     Raises
     ------
     ValueError
-        When an index is not an anchor, or fewer than two anchors would
-        remain (remove the curve instead).
+        When an index is not an anchor.
+    EditRefused
+        When fewer than two anchors would remain (remove the curve instead).
     """
     old = document.curve(curve)
     anchors = sorted({int(i) for i in indices}, reverse=True)
     if any(i % 3 or not 0 <= i < len(old.control_points) for i in anchors):
         raise ValueError(f"anchors are control points 0, 3, ..., {len(old.control_points) - 1}, got {anchors}")
     if old.piece_count + 1 - len(anchors) < 2:
-        raise ValueError("a curve needs two anchors: remove the curve instead")
+        raise EditRefused("a curve needs two anchors: remove the curve instead")
     new = old
     for index in anchors:
         new = _without_anchor(new, index // 3)

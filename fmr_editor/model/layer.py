@@ -24,6 +24,7 @@ from .color_transform import IDENTITY, ColorTransform
 from .curve import DiffusionCurve
 from .identity import checked_id, new_id
 from .point import DiffusionPoint
+from .refusals import EditRefused
 
 #: Luminance weights (Rec. 709) by which a mask's colour field becomes its value.
 MASK_LUMA = np.array([0.2126, 0.7152, 0.0722])
@@ -130,7 +131,7 @@ class Layer:
         if not isinstance(self.name, str):
             raise TypeError(f"a layer's name must be text, got {self.name!r}")
         if len(self.name) > MAX_NAME:
-            raise ValueError(f"a layer's name may have at most {MAX_NAME} characters, not {len(self.name)}")
+            raise EditRefused(f"a layer's name may have at most {MAX_NAME} characters, not {len(self.name)}")
         opacity = _number(self.opacity, "opacity")
         if not 0.0 <= opacity <= 1.0:
             raise ValueError(f"opacity must lie in [0, 1], got {self.opacity!r}")
@@ -144,7 +145,7 @@ class Layer:
             if not isinstance(self.clone, Clone):
                 raise TypeError("a layer's clone must be a Clone")
             if self.curves or self.points or self.mask is not None:
-                raise ValueError("a clone layer holds no curves, points or mask of its own: "
+                raise EditRefused("a clone layer holds no curves, points or mask of its own: "
                                  "draw on another layer, or add a layer above it")
         object.__setattr__(self, "id", checked_id(self.id))
 

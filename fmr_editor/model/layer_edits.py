@@ -15,6 +15,7 @@ from .color_transform import IDENTITY, ColorTransform
 from .curve import ColorStop
 from .document import Document
 from .layer import Layer, Mask
+from .refusals import EditRefused
 
 
 def _index(document: Document, index: int | None) -> int:
@@ -59,7 +60,7 @@ def remove_layer(document: Document, index: int | None = None) -> Document:
     """The document without layer ``index``; the one below (or above, for the bottom layer) becomes active."""
     index = _index(document, index)
     if len(document.layers) == 1:
-        raise ValueError("a document keeps at least one layer")
+        raise EditRefused("a document keeps at least one layer")
     layers = document.layers[:index] + document.layers[index + 1 :]
     active = document.active if document.active < index else max(document.active - 1, 0)
     return replace(document, layers=layers, active=active, editing_mask=False)
@@ -108,7 +109,7 @@ def remove_mask(document: Document, index: int | None = None) -> Document:
 def _mask_changed(document: Document, index: int | None, **fields) -> Document:
     mask = document.layers[_index(document, index)].mask
     if mask is None:
-        raise ValueError("the layer has no mask")
+        raise EditRefused("the layer has no mask")
     return _changed(document, index, mask=replace(mask, **fields))
 
 
@@ -154,7 +155,7 @@ def merge_down(document: Document, index: int | None = None) -> Document:
 
     Raises
     ------
-    ValueError
+    EditRefused
         For the bottom layer (nothing below), a clone layer, a hidden layer, an upper layer
         with a mask or an opacity below 1 (which merged items cannot keep), or
         a layer whose transform cannot be applied to its items (a colour
@@ -162,19 +163,19 @@ def merge_down(document: Document, index: int | None = None) -> Document:
     """
     index = _index(document, index)
     if index == 0:
-        raise ValueError("the bottom layer has no layer below to merge into")
+        raise EditRefused("the bottom layer has no layer below to merge into")
     for layer in document.layers[index - 1 : index + 1]:
         if layer.clone is not None:
-            raise ValueError(f"{layer.name} is a clone layer, made anew from the layers below it: it cannot be merged")
+            raise EditRefused(f"{layer.name} is a clone layer, made anew from the layers below it: it cannot be merged")
     upper, lower = baked(document.layers[index]), baked(document.layers[index - 1])
     if not (upper.visible and lower.visible):
-        raise ValueError("show both layers to merge them (a hidden layer's items would appear or vanish)")
+        raise EditRefused("show both layers to merge them (a hidden layer's items would appear or vanish)")
     if upper.active_mask is not None or upper.opacity < 1.0:
-        raise ValueError(f"{upper.name}'s mask and opacity cannot be kept by merging its items: "
+        raise EditRefused(f"{upper.name}'s mask and opacity cannot be kept by merging its items: "
                          "delete or disable the mask and set the opacity to 100% first")
     for layer in (upper, lower):
         if not layer.transform.is_identity:
-            raise ValueError(f"{layer.name}'s colour transform shifts colours but it has no curve to carry the shift "
+            raise EditRefused(f"{layer.name}'s colour transform shifts colours but it has no curve to carry the shift "
                              "(a Paint layer, say): it cannot be merged")
     merged = replace(lower, curves=lower.curves + upper.curves, points=lower.points + upper.points)
     layers = document.layers[: index - 1] + (merged,) + document.layers[index + 1 :]
@@ -188,12 +189,12 @@ def flatten(document: Document) -> Document:
 
     Raises
     ------
-    ValueError
+    EditRefused
         When no layer is visible, or as ``merge_down``.
     """
     visible = tuple(layer for layer in document.layers if layer.visible)
     if not visible:
-        raise ValueError("no layer is visible: there is nothing to flatten")
+        raise EditRefused("no layer is visible: there is nothing to flatten")
     flat = replace(document, layers=visible, active=len(visible) - 1, editing_mask=False)
     while len(flat.layers) > 1:
         flat = merge_down(flat, len(flat.layers) - 1)
@@ -233,7 +234,7 @@ def add_mask_points(document: Document, index: int, points) -> Document:
     """``points`` added to the mask of layer ``index`` (which must have one)."""
     mask = document.layers[_index(document, index)].mask
     if mask is None:
-        raise ValueError("the layer has no mask")
+        raise EditRefused("the layer has no mask")
     return _changed(document, index, mask=mask.with_points(mask.points + tuple(points)))
 
 
@@ -247,17 +248,18 @@ def stacked(bottom: Document, top: Document, mask: Document | None = None, opaci
 
     Raises
     ------
+    EditRefused
+        When the canvases differ or a document has layers of its own.
     ValueError
-        When the canvases differ, a document has layers of its own, or the
-        opacity lies outside [0, 1].
+        When the opacity lies outside [0, 1].
     """
     sources = {"bottom": bottom, "top": top} | ({"mask": mask} if mask is not None else {})
     for role, document in sources.items():
         if (document.width, document.height) != (bottom.width, bottom.height):
-            raise ValueError(f"the {role} canvas is {document.width}x{document.height}, the bottom's "
+            raise EditRefused(f"the {role} canvas is {document.width}x{document.height}, the bottom's "
                              f"{bottom.width}x{bottom.height}; compose documents of one canvas size")
         if not document.is_flat:
-            raise ValueError(f"the {role} document has layers of its own; compose takes one-layer documents")
+            raise EditRefused(f"the {role} document has layers of its own; compose takes one-layer documents")
     layer_mask = Mask(mask.curves, mask.points, base=0.0) if mask is not None else None
     layers = (replace(bottom.layer, name="Bottom"),
               Layer(top.curves, top.points, "Top", opacity=opacity, mask=layer_mask,

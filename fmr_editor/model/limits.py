@@ -18,6 +18,8 @@ from collections.abc import Iterable
 
 import numpy as np
 
+from .refusals import EditRefused
+
 #: Largest canvas side, pixels.
 MAX_CANVAS_SIDE = 16384
 #: Longest canvas side over the shortest (the lattice is square: a 1 x 16384 strip would cost what a
@@ -44,7 +46,7 @@ COORDINATE_REACH = 4.0
 MAX_COLOR = 1e3
 
 
-class LimitError(ValueError):
+class LimitError(EditRefused):
     """A document exceeds one of the limits; the message names the limit and the value."""
 
 

@@ -13,6 +13,9 @@ from OpenGL import GL
 from .gl import Framebuffer
 from .view import View
 
+#: The window's colour around the canvas, and before the first image.
+BACKGROUND = (0.7, 0.7, 0.7, 1.0)
+
 
 class CachedImage:
     """A window-sized framebuffer of ``cache_format`` with its spare and its 8-bit copy (for float formats).
@@ -92,7 +95,7 @@ def show_scaled(source: Framebuffer, cached: View, view: View, target: int) -> N
     """``source``, an image of the window seen through ``cached``, scaled and moved to ``view``, over a plain
     background, into framebuffer ``target`` (a zoom's quick preview)."""
     GL.glBindFramebuffer(GL.GL_DRAW_FRAMEBUFFER, target)
-    GL.glClearColor(0.7, 0.7, 0.7, 1.0)
+    GL.glClearColor(*BACKGROUND)
     GL.glClear(GL.GL_COLOR_BUFFER_BIT)
     ratio = cached.scale / view.scale  # cached window = target window * ratio + shift
     rect = []

@@ -32,7 +32,7 @@ from OpenGL import GL
 
 from ..engine import Representation
 from . import bounds, packing
-from .cached_image import CachedImage, show_scaled
+from .cached_image import BACKGROUND, CachedImage, show_scaled
 from .canvas_data import UNITS, CanvasData, ShaderLayout
 from .gl import Program, VertexArray, additive, in_plain_state, shader_source
 from .view import View, integer_shift
@@ -269,7 +269,7 @@ class CanvasRenderer:
     def _evaluate(self, view: View) -> None:
         if self._rep is None:
             self._cache.bind(view.width, view.height)
-            GL.glClearColor(0.7, 0.7, 0.7, 1.0)
+            GL.glClearColor(*BACKGROUND)
             GL.glClear(GL.GL_COLOR_BUFFER_BIT)
             self._cached_view, self.last_evaluation = None, "full"
             self._touch(view)

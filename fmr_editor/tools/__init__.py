@@ -39,7 +39,7 @@ def create_tools(context: ToolContext) -> dict[str, Tool]:
 
 
 __all__ = [
-    "TOOLS", "BrushTool", "CloneTool", "Drag", "EditDrag", "EyedropperTool", "LassoTool", "PenTool", "PointerEvent", "SelectTool",
-    "Selection", "StopsTool", "Tool", "ToolContext", "ToolOptions", "create_tools", "delete_selection",
+    "TOOLS", "BrushTool", "CloneTool", "Drag", "EditDrag", "EyedropperTool", "LassoTool", "PenTool", "PointerEvent",
+    "SelectTool", "Selection", "StopsTool", "Tool", "ToolContext", "ToolOptions", "create_tools", "delete_selection",
     "nudge", "recolor_stops",
 ]

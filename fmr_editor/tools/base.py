@@ -10,9 +10,9 @@ and Esc (``cancel``) restores the document from before it.
 
 from __future__ import annotations
 
+from ..model import Document
 from .context import ToolContext
 from .events import ESCAPE, PointerEvent
-from ..model import Document
 
 
 class Drag:

@@ -20,6 +20,7 @@ from __future__ import annotations
 import numpy as np
 import shapely
 
+from ..model import EditRefused
 from .base import Tool
 from .context import ToolContext
 from .events import BACKSPACE, DELETE, ENTER, ESCAPE, RETURN, PointerEvent
@@ -47,17 +48,17 @@ def enclosed_region(outline: np.ndarray, width: float, height: float) -> tuple[n
 
     Raises
     ------
-    ValueError
+    EditRefused
         When it encloses no area on the canvas.
     """
     outline = np.asarray(outline, dtype=np.float64)
     if len(outline) < 3:
-        raise ValueError("a selection needs at least three corners")
+        raise EditRefused("a selection needs at least three corners")
     shape = shapely.make_valid(shapely.Polygon(outline))
     shape = shapely.intersection(shape, shapely.box(0.0, 0.0, width, height))
     parts = [part for part in getattr(shape, "geoms", [shape]) if part.geom_type == "Polygon" and part.area > 0]
     if not parts:
-        raise ValueError("the selection encloses no area on the canvas")
+        raise EditRefused("the selection encloses no area on the canvas")
     largest = shapely.simplify(max(parts, key=lambda part: part.area), SIMPLIFY)
     return np.asarray(largest.exterior.coords)[:-1], len(parts)
 
@@ -153,7 +154,7 @@ class LassoTool(Tool):
         document = context.document
         try:
             region, parts = enclosed_region(np.array(outline), document.width, document.height)
-        except ValueError as error:
+        except EditRefused as error:
             context.say(f"No selection: {error}")
             return
         context.region = region

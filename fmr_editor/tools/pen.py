@@ -60,7 +60,8 @@ class PenTool(Tool):
 
     name = "pen"
     title = "Pen"
-    hint = "Click for a corner, drag for a smooth anchor; Return or double click ends the curve; click the first anchor to close it"
+    hint = ("Click for a corner, drag for a smooth anchor; Return or double click ends the curve; "
+            "click the first anchor to close it")
     shortcut = "P"
     cursor = "pen"
 

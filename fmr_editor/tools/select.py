@@ -92,7 +92,8 @@ class SelectTool(Tool):
 
     name = "select"
     title = "Select"
-    hint = "Click to select (Shift adds), drag to move; drag on empty canvas to select an area; double click a curve to add an anchor"
+    hint = ("Click to select (Shift adds), drag to move; drag on empty canvas to select an area; "
+            "double click a curve to add an anchor")
     shortcut = "V"
     cursor = "arrow"
 

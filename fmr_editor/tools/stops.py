@@ -78,7 +78,8 @@ class StopsTool(Tool):
 
     name = "stops"
     title = "Colour Stops"
-    hint = "Click beside a curve to add a stop on that side; drag stops along the curve; double click a stop for its colour"
+    hint = ("Click beside a curve to add a stop on that side; drag stops along the curve; "
+            "double click a stop for its colour")
     shortcut = "G"
     cursor = "crosshair"
 

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 import shapely
 
-from ..model import Document, layer_edits
+from ..model import Document, EditRefused, layer_edits
 from ..model.clone import Clone, Similarity
 from ..model.clone_edits import place_clone
 from .base import Tool
@@ -196,7 +196,7 @@ class CloneTool(Tool):
         context = self.context
         try:
             placed = place_clone(context.document, context.document.active, similarity)
-        except ValueError as error:
+        except EditRefused as error:
             context.say(f"Cannot place the clone there: {error}")
             return
         if self.label is None:

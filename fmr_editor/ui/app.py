@@ -55,7 +55,10 @@ def main(paths=(), argv: list[str] | None = None, settings=None) -> int:
     from PySide6.QtCore import QSettings
     from PySide6.QtWidgets import QApplication
 
+    from ..engine import setup_process
     from .main_window import APP_NAME, MainWindow
+
+    setup_process()
 
     app = QApplication.instance() or QApplication(argv or [sys.argv[0] if sys.argv else "fmr-editor"])
     app.setApplicationName(APP_NAME)

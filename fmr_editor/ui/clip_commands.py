@@ -12,7 +12,7 @@ when it fits the canvas, else in the middle of the canvas.
 
 from __future__ import annotations
 
-from ..model import Document
+from ..model import Document, EditRefused
 from ..model.clone_edits import Copied, copy_region, paste_curves, paste_position, paste_seamless
 from ..tools import Selection
 
@@ -33,7 +33,7 @@ class ClipCommands:
             return
         try:
             self.clipboard = copy_region(workspace.history.document, region)
-        except ValueError as error:
+        except EditRefused as error:
             self.status_label.setText(f"Cannot copy: {error}")
             return
         self.status_label.setText(f"Copied {self.clipboard.name} inside the selection")
@@ -54,7 +54,7 @@ class ClipCommands:
         document, copied = pasting
         try:
             pasted = paste_seamless(document, copied, paste_position(copied, document))
-        except ValueError as error:
+        except EditRefused as error:
             self.status_label.setText(f"Cannot paste: {error}")
             return
         self.set_tool("clone")
@@ -71,7 +71,7 @@ class ClipCommands:
         document, copied = pasting
         try:
             pasted = paste_curves(document, copied, paste_position(copied, document).offset)
-        except ValueError as error:
+        except EditRefused as error:
             self.status_label.setText(f"Cannot paste: {error}")
             return
         context = self.workspace.context

@@ -14,11 +14,19 @@ from collections.abc import Callable
 from PySide6.QtCore import Qt, QTimer, Signal
 from PySide6.QtGui import QColor, QIcon, QPainter, QPen, QPixmap
 from PySide6.QtWidgets import (
-    QAbstractItemView, QHBoxLayout, QLabel, QListWidget, QListWidgetItem, QMenu, QSlider, QToolButton,
-    QVBoxLayout, QWidget,
+    QAbstractItemView,
+    QHBoxLayout,
+    QLabel,
+    QListWidget,
+    QListWidgetItem,
+    QMenu,
+    QSlider,
+    QToolButton,
+    QVBoxLayout,
+    QWidget,
 )
 
-from ..model import Document, layer_edits
+from ..model import Document, EditRefused, layer_edits
 from ..model.history import History
 
 #: Buttons under the list: (window action, short text); the mask button's menu holds MASK_ACTIONS.
@@ -122,7 +130,7 @@ class LayersPanel(QWidget):
         if history is not None and self._settle() and not history.in_transaction:
             try:
                 history.apply(edit(history.document), label, merge_key)
-            except (ValueError, IndexError) as error:
+            except EditRefused as error:
                 self.failed.emit(str(error))
         self._shown = None  # what the list shows may be the user's change, refused
         self.refresh()

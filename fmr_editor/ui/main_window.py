@@ -11,13 +11,16 @@ reads a representation nothing changes.
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Callable
 
 from PySide6.QtCore import QEvent, QSettings, Qt
 from PySide6.QtGui import QCursor, QKeySequence, QShortcut
 from PySide6.QtWidgets import QDockWidget, QLabel, QMainWindow, QMenu, QMessageBox, QProgressBar, QToolButton
 
+from .. import __version__
 from ..io.autosave import AutosaveFolder
+from ..model import EditRefused
 from ..model.clone_edits import canvas_region
 from ..tools import Selection, ToolOptions, delete_selection
 from ..tools.overlay import region_marks
@@ -28,6 +31,7 @@ from .documents import DocumentTabs
 from .events import modifier_names, pointer_event, tool_key
 from .file_commands import FileCommands
 from .files import RecentFiles
+from .help import USER_GUIDE, ShortcutsDialog, open_user_guide
 from .history_panel import HistoryPanel
 from .jobs import Job
 from .layer_commands import LayerCommands
@@ -35,8 +39,10 @@ from .layers_panel import LayersPanel
 from .menus import build_actions, build_menus
 from .options_panel import OptionsPanel
 from .overlay import Overlay
+from .progress import progress_text
 from .stops_panel import StopsPanel
 from .workspace import Workspace
+from .zoom import ZoomButton
 
 APP_NAME = "FMR Editor"
 CURSORS = {
@@ -148,6 +154,8 @@ class MainWindow(FileCommands, LayerCommands, DocumentTabs, ClipCommands, QMainW
         status.addPermanentWidget(self.progress_bar)
         status.addPermanentWidget(self.cancel_button)
         status.addPermanentWidget(self.position_label)
+        self.zoom_button = ZoomButton(self.canvas, self)
+        status.addPermanentWidget(self.zoom_button)
 
     def _dock(self, title: str, name: str, widget, area) -> QDockWidget:
         dock = QDockWidget(title, self)
@@ -192,12 +200,22 @@ class MainWindow(FileCommands, LayerCommands, DocumentTabs, ClipCommands, QMainW
 
     def _refusing(self, action: Callable, *args):
         """``action(*args)`` of the tool; an edit the document refuses (drawing on a clone layer, say) cancels
-        what the tool was doing and says why in the status bar."""
+        what the tool was doing and says why in the status bar.
+
+        Any other error is a bug: it goes to ``sys.excepthook`` with its traceback (an exception let out of a
+        Qt event handler is lost, and can crash the interpreter later) and the status bar says so.
+        """
         try:
             return action(*args)
-        except ValueError as error:
+        except EditRefused as error:
             self.tool.cancel()
             self.status_label.setText(f"Not done: {error}")
+            return True
+        except Exception as error:
+            self.tool.cancel()
+            sys.excepthook(type(error), error, error.__traceback__)
+            self.status_label.setText(f"Internal error ({type(error).__name__}): please report it, with the "
+                                      "message printed in the terminal")
             return True
 
     def _after_tool(self) -> None:
@@ -288,6 +306,9 @@ class MainWindow(FileCommands, LayerCommands, DocumentTabs, ClipCommands, QMainW
     def fit(self) -> None:
         self.canvas.fit()
 
+    def actual_size(self) -> None:
+        self.canvas.zoom_to(1.0)
+
     def swap_colors(self) -> None:
         self.options_panel.swap_colors()
 
@@ -296,8 +317,16 @@ class MainWindow(FileCommands, LayerCommands, DocumentTabs, ClipCommands, QMainW
 
     def about(self) -> None:
         QMessageBox.about(self, f"About {APP_NAME}",
-                          f"<b>{APP_NAME}</b><p>Diffusion curves and points, rendered through the fast multipole "
-                          "representation.</p>")
+                          f"<b>{APP_NAME}</b> {__version__}<p>Diffusion curves and points, rendered through the fast "
+                          "multipole representation.</p>")
+
+    def show_shortcuts(self) -> None:
+        self.shortcuts_dialog = ShortcutsDialog(self.actions, self)
+        self.shortcuts_dialog.open()
+
+    def user_guide(self) -> None:
+        if not open_user_guide():
+            self.status_label.setText(f"No viewer opened the user guide; it is {USER_GUIDE}")
 
     # -- the document ---------------------------------------------------------------------------------
     def _choose_stop_color(self, current) -> None:
@@ -348,7 +377,7 @@ class MainWindow(FileCommands, LayerCommands, DocumentTabs, ClipCommands, QMainW
 
     def _show_progress(self, stage: str, fraction: float) -> None:
         self.progress_bar.show()
-        self.progress_bar.setFormat(f"{stage} %p%")
+        self.progress_bar.setFormat(progress_text(stage))
         self.progress_bar.setValue(int(round(min(max(fraction, 0.0), 1.0) * 1000)))
 
     # -- state shown --------------------------------------------------------------------------------------
@@ -396,7 +425,7 @@ class MainWindow(FileCommands, LayerCommands, DocumentTabs, ClipCommands, QMainW
             widget.setEnabled(not self._busy)
         self.status_label.setText(message or "")
         if self._busy:
-            self._show_progress(message, 0.0)
+            self._show_progress("Starting", 0.0)  # the job's name is in the status label
         else:
             self.progress_bar.hide()
         self.cancel_button.setVisible(self._busy and self.job is not None)

@@ -29,6 +29,7 @@ import shapely
 from ...model import DiffusionPoint
 from ...model.clone import Clone, Similarity, region_on_canvas
 from ..composite import Composite, LayerFields
+from ..fmm.far_field import far_field_at
 from ..fmm.lattice import Lattice, cut_into_cells, dilated, fine_multipoles, merged
 from ..fmm.sparse_downward import cascade, interactions, pass_levels
 from ..geometry.segments import Segments
@@ -38,7 +39,6 @@ from ..points.gauss import GaussPoints, gaussian_sum_reference
 from ..raster import evaluate_points
 from ..representation import CLONE_SEGMENTS_PER_CELL, Representation, Settings, choose_levels
 from ..solve.clone import SeamlessClone
-from ..fmm.far_field import far_field_at
 
 
 def _reaching(points: tuple[DiffusionPoint, ...], similarity: Similarity,

@@ -38,7 +38,8 @@ def interaction_offsets(px: int, py: int) -> tuple[tuple[int, int], ...]:
 
 @lru_cache(maxsize=None)
 def offset_parities() -> tuple[np.ndarray, np.ndarray]:
-    """Every M2L offset ``(dx, dy)``, ``(k, 2)``, with the ``(k, 2, 2)`` masks of target parities ``[py, px]`` using it."""
+    """Every M2L offset ``(dx, dy)``, ``(k, 2)``, with the ``(k, 2, 2)`` masks of target parities ``[py, px]``
+    using it."""
     masks: dict[tuple[int, int], np.ndarray] = {}
     for py in (0, 1):
         for px in (0, 1):

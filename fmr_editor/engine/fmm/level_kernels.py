@@ -237,8 +237,10 @@ def grid_m2m(child_re, child_im, m2m_re, m2m_im, parent_re, parent_im):
         for column in range(size):
             for l in range(terms):
                 for ch in range(3):
-                    parent_re[row % 2, column % 2, row // 2 + GRID_PAD, l, ch, column // 2 + GRID_PAD] = acc_re[l, ch, column]
-                    parent_im[row % 2, column % 2, row // 2 + GRID_PAD, l, ch, column // 2 + GRID_PAD] = acc_im[l, ch, column]
+                    parent_re[row % 2, column % 2, row // 2 + GRID_PAD, l, ch,
+                              column // 2 + GRID_PAD] = acc_re[l, ch, column]
+                    parent_im[row % 2, column % 2, row // 2 + GRID_PAD, l, ch,
+                              column // 2 + GRID_PAD] = acc_im[l, ch, column]
 
 
 @numba.njit(parallel=True, cache=True, fastmath=FAST_MATH)

@@ -204,7 +204,8 @@ def _padded(count):
 
 @numba.njit(cache=True)
 def counting_sort(cell, cell_count):
-    """Stable counting sort of ``cell`` (values below ``cell_count``): the order and CSR offsets ``(cell_count + 1,)``."""
+    """Stable counting sort of ``cell`` (values below ``cell_count``): the order and CSR offsets
+    ``(cell_count + 1,)``."""
     start = np.zeros(cell_count + 1, np.int64)
     for c in cell:
         start[c + 1] += 1
@@ -256,7 +257,8 @@ def _near_sum(targets, cell, order, own, cells_per_side, cell_start, table, weig
                         seg_weights[c, k] = 0.0
             x, y, own_i = targets[i, 0], targets[i, 1], own[i]
             for k in range(padded):
-                s, d = segment_potentials(x, y, seg[0, k], seg[1, k], seg[2, k], seg[3, k], seg[4, k], seg[5, k], seg[6, k])
+                s, d = segment_potentials(x, y, seg[0, k], seg[1, k], seg[2, k], seg[3, k], seg[4, k], seg[5, k],
+                                          seg[6, k])
                 single[k] = s
                 double[k] = 0.0 if seg_index[k] == own_i else d
             out[i, 0], out[i, 1], out[i, 2] = _weighted_sums(single, double, seg_weights, 0, padded, 0)

@@ -40,7 +40,6 @@ expansions; the image moved by at most 0.0013/255 from the exact split.
 
 from __future__ import annotations
 
-
 import numba
 import numpy as np
 

@@ -99,7 +99,8 @@ class PointField:
 
     def at(self, targets: np.ndarray, order: int) -> np.ndarray:
         """The points' field at ``targets (m, 2)``, ``(m, 3)``."""
-        return polynomials_at(self.polynomials(order), targets, self.near.lattice.cell_size) + near_at(self.near, targets)
+        return (polynomials_at(self.polynomials(order), targets, self.near.lattice.cell_size)
+                + near_at(self.near, targets))
 
 
 def sorted_radii_after(radii: np.ndarray, removed: np.ndarray, added: np.ndarray) -> np.ndarray:

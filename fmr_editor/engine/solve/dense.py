@@ -95,7 +95,8 @@ def trivial(segments: Segments) -> bool:
     return not np.any(~segments.on_border)
 
 
-def dense_factors(matrix: np.ndarray, again: Callable[[], np.ndarray]) -> tuple[Callable[[np.ndarray], np.ndarray], bool]:
+def dense_factors(matrix: np.ndarray,
+                  again: Callable[[], np.ndarray]) -> tuple[Callable[[np.ndarray], np.ndarray], bool]:
     """A solver for ``matrix``: its LU factors, or least squares where it is nearly singular (then True).
 
     Where curves nearly coincide the system is nearly singular; the

@@ -22,7 +22,6 @@ from ..geometry.segments import Segments
 from ..kernels.fastmath import INV_TWO_PI, POLY_MATH, log_poly
 from ..kernels.segment_sums import segment_potentials, segment_table
 
-
 #: Distance from a segment's midpoint, in segment lengths, beyond which its single layer comes from
 #: ``_single_far`` (truncation below 1e-14 of ``h / 2 pi`` there).
 FAR = 8.0

@@ -23,7 +23,6 @@ from shapes import circle_points, scattered_document  # noqa: E402
 
 from fmr_editor.engine import build  # noqa: E402
 from fmr_editor.io import save_fmr  # noqa: E402
-from fmr_editor.model import ColorStop, DiffusionCurve, Document  # noqa: E402
 
 
 def orzan(width: int, height: int, curves: list[np.ndarray]) -> bytes:

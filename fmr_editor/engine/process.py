@@ -1,0 +1,21 @@
+"""The engine's settings for the whole process, made by one explicit call.
+
+``setup_process`` limits BLAS to one thread (``threads``: on two cores, numba's
+kernels ran 20-50x slower right after a threaded BLAS call) and gives large
+arrays pages of their own (``memory.return_freed_arrays``: freed arrays
+otherwise stayed resident).  Importing the engine changes neither, so that a
+script that only reads a file keeps its process as it was; the command line,
+the editor, the benchmarks and the test suite call it before any work, and a
+script that builds or edits documents should too.
+"""
+
+from __future__ import annotations
+
+from .memory import return_freed_arrays
+from .threads import limit_blas
+
+
+def setup_process() -> None:
+    """Set the engine's thread and memory policy for this process (idempotent)."""
+    limit_blas()
+    return_freed_arrays()
