@@ -431,6 +431,7 @@ def test_hit_tolerance_is_in_screen_pixels(line_doc):
 
 def test_selection_drops_indices_an_undo_takes_away():
     context = make_context(points_doc())
+    context.options.brush_mode = "glow"
     click(BrushTool(context), 50, 50)  # a sixth point
     context.selection = by_index(context.document, points=[5, 0])
     context.history.undo()
@@ -442,9 +443,10 @@ def test_a_brush_stroke_paints_evenly_spaced_dabs_as_one_step():
     context = make_context(Document(100, 100))
     options = context.options
     options.brush_color, options.brush_radius, options.brush_amplitude, options.brush_spacing = BLUE, 7.0, 0.25, 10.0
+    options.brush_mode = "glow"
     brush = BrushTool(context)
     drag(brush, [(10, 10), (13, 10), (27, 10), (27, 10), (50, 10), (50, 25)])
-    assert context.history.labels == ("", "Paint")
+    assert context.history.labels == ("", "Glow Stroke")
     points = context.document.points
     expected = [(10, 10), (20, 10), (30, 10), (40, 10), (50, 10), (50, 20)]
     np.testing.assert_allclose([p.position for p in points], expected, atol=1e-9)
@@ -456,9 +458,36 @@ def test_a_brush_stroke_paints_evenly_spaced_dabs_as_one_step():
 
 def test_a_brush_click_paints_one_dab():
     context = make_context(Document(100, 100))
+    context.options.brush_mode = "glow"
     click(BrushTool(context), 40, 60)
     assert [p.position for p in context.document.points] == [(40.0, 60.0)]
-    assert context.history.labels == ("", "Paint")
+    assert context.history.labels == ("", "Glow Stroke")
+
+
+def test_paint_is_the_brush_s_default_mode():
+    context = make_context(Document(100, 100))
+    click(BrushTool(context), 40, 60)
+    assert len(context.document.layers) == 2 and context.document.layers[1].mask.points
+    assert context.history.labels == ("", "Paint Stroke")
+
+
+def test_a_stroke_that_reaches_no_canvas_pixel_or_erases_nothing_makes_no_step():
+    from fmr_editor.model import layer_edits
+
+    for mode in ("paint", "glow"):
+        context = make_context(Document(100, 100))
+        context.options.brush_mode, context.options.brush_radius = mode, 5.0
+        brush, blank = BrushTool(context), context.document
+        click(brush, -16, 50)  # 3.2 radii left of the canvas: its Gaussian is below exp(-9) there
+        drag(brush, [(120, -20), (130, 120)])  # every dab 4 radii or more to the right
+        assert context.history.labels == ("",) and context.document is blank
+        click(brush, -14, 50)  # 2.8 radii: it reaches the canvas
+        assert len(context.history.labels) == 2
+    document = layer_edits.select_layer(layer_edits.add_mask(Document(100, 100)), 0, mask=True)
+    context = make_context(document)
+    brush = BrushTool(context)
+    drag(brush, [(10, 10), (20, 10)], "alt")  # erasing a mask with no dabs
+    assert context.history.labels == ("",)
 
 
 def test_on_a_mask_light_dabs_add_dark_dabs_subtract_and_alt_erases():
@@ -503,7 +532,7 @@ def test_paint_mode_dabs_go_into_one_fill_layer_above_the_active_layer():
     click(brush, 60, 50)
     assert [layer_edits.fill_color(layer) for layer in context.document.layers[1:]] == [BLUE, RED, BLUE]
     assert context.document.active == 0 and len(context.document.layers[2].mask.points) == 2
-    assert context.history.labels == ("",) + ("Paint Over",) * 5
+    assert context.history.labels == ("",) + ("Paint Stroke",) * 5
 
 
 # -- escape during any drag ----------------------------------------------------------------------
@@ -583,7 +612,8 @@ def test_eyedropper_sets_the_colour_from_the_sampler_and_never_the_document(line
 def test_every_tool_has_a_unique_name_and_shortcut():
     context = make_context(Document(10, 10))
     tools = create_tools(context)
-    assert list(tools) == [cls.name for cls in TOOLS] == ["select", "pen", "stops", "brush", "eyedropper", "lasso", "clone"]
+    assert list(tools) == [cls.name for cls in TOOLS] == ["select", "pen", "stops", "brush", "eyedropper", "lasso",
+                                                          "clone"]
     assert len({cls.shortcut for cls in TOOLS}) == len(TOOLS)
     assert all(tool.context is context and tool.overlay() == [] for tool in tools.values())
 

@@ -30,9 +30,12 @@ def test_without_a_display_the_editor_says_so_in_one_line(monkeypatch, capsys):
     assert err.startswith("fmr-editor: no display") and "\n" not in err
 
 
-def test_a_missing_file_is_reported_before_any_window(tmp_path, capsys):
-    assert main([str(tmp_path / "absent.fmr")]) == 2
-    assert capsys.readouterr().err.strip() == f"fmr-editor: cannot open {tmp_path / 'absent.fmr'}: no such file"
+def test_the_command_line_leaves_missing_files_to_the_window(tmp_path, monkeypatch):
+    """``fmr-editor A missing B`` starts the editor on all three (it names the missing one and opens the others)."""
+    started = []
+    monkeypatch.setattr("fmr_editor.ui.app.main", lambda paths: started.append(paths) or 0)
+    files = [str(RIBBON), str(tmp_path / "missing.fmr"), str(RIBBON)]
+    assert main(files) == 0 and started == [files]
 
 
 def test_help_names_the_editor_and_the_render_command(capsys):
@@ -44,9 +47,11 @@ def test_help_names_the_editor_and_the_render_command(capsys):
 
 
 @pytest.mark.gui
-def test_the_editor_opens_its_files_in_tabs_and_returns_when_closed(gl_display, qapp, tmp_path, monkeypatch):
+def test_the_editor_opens_its_files_in_tabs_names_a_missing_one_and_returns_when_closed(gl_display, qapp, tmp_path,
+                                                                                      monkeypatch):
     pytest.importorskip("pytestqt", reason="pytest-qt is in the [test] extra")
     from PySide6.QtCore import QSettings, QTimer
+    from PySide6.QtWidgets import QMessageBox
     from shapes import scattered_document
 
     from fmr_editor.io import save_fmr
@@ -69,7 +74,11 @@ def test_the_editor_opens_its_files_in_tabs_and_returns_when_closed(gl_display, 
 
     QTimer.singleShot(50, close_when_open)
     monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path / "data"))  # its own autosave folder
+    errors = []
+    monkeypatch.setattr(QMessageBox, "critical", staticmethod(lambda parent, title, text, *args: errors.append(text)))
     settings = QSettings(str(tmp_path / "settings.ini"), QSettings.Format.IniFormat)
-    assert app.main([RIBBON, other], settings=settings) == 0
+    missing = tmp_path / "missing.fmr"
+    assert app.main([RIBBON, missing, other], settings=settings) == 0  # as a file manager opens several
     assert seen == [("other.fmr \u2014 FMR Editor", ["ribbon.xml", "other.fmr"])]
+    assert len(errors) == 1 and "missing.fmr" in errors[0]  # said in the window, the others opened
     assert RecentFiles(settings).paths() == [other, RIBBON]

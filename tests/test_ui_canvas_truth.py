@@ -120,7 +120,8 @@ class CanvasTruth(RuleBasedStateMachine):
         curve = data.draw(st.integers(0, len(document.curves) - 1))
         side = data.draw(st.sampled_from(["left", "right"]))
         if getattr(document.curves[curve], side):
-            self.editor.history.apply(edits.set_stop_color(document, document.curves[curve].id, side, 0, color), "Change Stop Colour")
+            self.editor.history.apply(edits.set_stop_color(document, document.curves[curve].id, side, 0, color),
+                                      "Change Stop Colour")
 
     @free(lambda self: self.document.curves)
     @rule(data=st.data(), moves=st.lists(st.tuples(st.floats(-12, 12), st.floats(-12, 12)), min_size=1, max_size=4))
@@ -132,7 +133,8 @@ class CanvasTruth(RuleBasedStateMachine):
         start = document.curves[curve].control_points[anchor]
         history.begin("Move Anchor")
         for dx, dy in moves:
-            history.preview(edits.move_control_point(document, document.curves[curve].id, anchor, tuple(start + (dx, dy))))
+            history.preview(edits.move_control_point(document, document.curves[curve].id, anchor,
+                                                     tuple(start + (dx, dy))))
             self.editor.qtbot.wait(1)  # let the window show what the engine sends meanwhile
         history.commit()
 
@@ -141,6 +143,7 @@ class CanvasTruth(RuleBasedStateMachine):
     def paint_a_dab(self, x, y):
         editor = self.editor
         editor.key(Qt.Key.Key_B)
+        editor.window.options.brush_mode = "glow"  # a dab into the layer (Paint would add a fill layer)
         editor.click(x * self.document.width, y * self.document.height)
 
     @free()

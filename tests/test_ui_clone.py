@@ -227,7 +227,8 @@ def test_a_paste_session_gives_way_to_undo_the_layers_panel_and_other_tabs(two_d
     window.layers_panel.list.setCurrentRow(0)
     assert editor.document.active == 1
 
-    editor.key(Qt.Key.Key_B)  # a dab on a clone layer: refused with a message, no step
+    editor.key(Qt.Key.Key_B)  # a glow dab on a clone layer: refused with a message, no step
+    window.options.brush_mode = "glow"
     editor.click(60, 60)
     assert editor.history.index == 1 and "clone layer" in window.status_label.text()
     assert not window.actions["add_mask"].isEnabled()  # a clone layer's mask is its region

@@ -47,8 +47,9 @@ def test_layers_panel_mask_hue_undo_redo_save_and_reopen(line, tmp_path, qtbot):
 
     editor.key(Qt.Key.Key_B)  # Glow dabs on the new layer
     window.options.brush_color, window.options.brush_radius, window.options.brush_amplitude = (0.2, 0.9, 0.3), 14, 0.8
+    window.options.brush_mode = "glow"
     editor.drag([(30, 30), (90, 40)])
-    step("Paint")
+    step("Glow Stroke")
     assert editor.document.layers[0].points == () and len(editor.document.layers[1].points) > 3
 
     window.actions["add_mask"].trigger()
@@ -135,7 +136,7 @@ def test_paint_mode_covers_with_a_fill_layer_instead_of_adding_up(line, qtbot):
         editor.drag([(30, y), (100, y)])
     editor.wait_idle()
     document = editor.document
-    assert [label for label in editor.history.labels[1:]] == ["Paint Over", "Paint Over"]
+    assert [label for label in editor.history.labels[1:]] == ["Paint Stroke", "Paint Stroke"]
     assert len(document.layers) == 2 and document.active == 0 and document.layers[1].name == "Paint #1a33e6"
     colour = editor.workspace.sample(60.0, 52.0)
     np.testing.assert_allclose(colour, (0.1, 0.2, 0.9), atol=1e-3)  # covered: the brush colour, not more

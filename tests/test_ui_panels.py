@@ -198,3 +198,27 @@ def test_double_click_on_a_stop_in_the_canvas_opens_its_live_colour_dialog(two_s
     assert editor.history.index == start + 1
     assert editor.document.curves[0].left[0].color == (0.0, 1.0, 1.0)
     editor.wait_idle()
+
+
+def test_with_no_curve_the_bars_are_empty_and_with_no_stop_chosen_the_colour_button_takes_the_middle_one(
+        two_stops, qtbot):
+    editor = two_stops
+    panel = editor.window.stops_panel
+    assert panel.title.text() == "Curve 1: 2 pieces"
+    assert panel.color_buttons["left"].isEnabled()  # no stop chosen, yet the button works
+    panel.color_buttons["right"].click()  # one stop on the right, at 0: the nearest the middle
+    assert editor.context.selection.stops == by_index(editor.document, stops=[(0, "right", 0)]).stops
+    dialog = panel.dialog
+    dialog.setCurrentColor(QColor(0, 255, 0))
+    dialog.accept()
+    assert editor.document.curves[0].right == (ColorStop(0.0, GREEN),)
+    assert editor.history.labels[-1] == "Change Stop Colour"
+
+    editor.context.selection = Selection()
+    panel.refresh()
+    assert panel.title.text() == "Select a curve to edit its colour stops."
+    assert not panel.color_buttons["left"].isEnabled()
+    bar = panel.bars["left"]
+    image = bar.grab().toImage()
+    middle = image.pixelColor(bar.width() // 2, BAR // 2 + 1)
+    assert middle == bar.palette().window().color()  # an empty bar, not a black side

@@ -6,16 +6,20 @@ pointer moves, so dabs stay evenly spaced however the events arrive).  Each
 dab is a ``DiffusionPoint`` of the options' radius and amplitude, fixed at
 the press.  What a dab does depends on the mode:
 
-- **Glow** (``brush_mode = "glow"``): the dab adds ``amplitude x colour`` to
-  the active layer, so overlapping dabs add up towards white;
-- **Paint** (``"paint"``): the dab goes, white, into the mask of a fill layer
-  of the brush colour just above the active layer (``layer_edits.with_fill_layer``,
-  made on demand), so the colour covers what lies below;
+- **Paint** (``brush_mode = "paint"``, the default): the dab goes, white, into
+  the mask of a fill layer of the brush colour just above the active layer
+  (``layer_edits.with_fill_layer``, made on demand), so the colour covers what
+  lies below, as paint does;
+- **Glow** (``"glow"``): the dab adds ``amplitude x colour`` to the active
+  layer, so overlapping dabs add up towards white;
 - while the active layer's **mask** is edited, a dab adds to the mask (a light
   brush colour) or subtracts from it (a dark one), and with Alt the stroke
   erases the mask's dabs under it.
 
-The whole stroke is one undo step; Esc during it removes the stroke.
+The whole stroke is one undo step ("Paint Stroke", "Glow Stroke"); Esc during
+it removes the stroke, and a stroke that changes nothing (every dab farther
+than ``REACH`` radii outside the canvas, or an erasing one that meets no dab)
+makes no step.
 """
 
 from __future__ import annotations
@@ -28,6 +32,10 @@ from .base import EditDrag, Tool
 from .context import ToolContext
 from .events import PointerEvent
 from .overlay import Circle
+
+#: A dab reaches the canvas when its centre lies within this many radii of it (beyond, its Gaussian is below
+#: exp(-9) = 1.2e-4 of its amplitude: under 1/255 for any amplitude up to 30).
+REACH = 3.0
 
 
 class Stroke(EditDrag):
@@ -44,16 +52,17 @@ class Stroke(EditDrag):
             sign = 1.0 if float(MASK_LUMA @ color) >= 0.5 else -1.0
             color, amplitude = (1.0, 1.0, 1.0), sign * abs(amplitude)
         elif options.brush_mode == "paint":
-            label = "Paint Over"
+            label = "Paint Stroke"
             self.base_document, self.fill = layer_edits.with_fill_layer(document, color)
             color, amplitude = (1.0, 1.0, 1.0), abs(amplitude)
         else:
-            label = "Paint"
+            label = "Glow Stroke"
         self.dab = lambda x, y: DiffusionPoint((x, y), radius, color, amplitude)
         self.dabs = [self.dab(*event.position)]
         self.last = event.position  # the pointer's previous position
         self.travelled = 0.0  # distance along the path since the last dab
         self.reach = radius  # how near a mask dab's centre an erasing stroke passes to remove it
+        self.canvas = (document.width, document.height)
         super().__init__(context, event, label, pressed=self._painted(document))
 
     def _painted(self, start: Document) -> Document:
@@ -86,14 +95,27 @@ class Stroke(EditDrag):
     def edited(self, event: PointerEvent) -> Document:
         return self._painted(self.start)
 
+    def release(self, event: PointerEvent) -> None:
+        if self._changes_nothing():
+            self.cancel()
+        else:
+            super().release(event)
+
+    def _changes_nothing(self) -> bool:
+        if self.erasing:
+            return self._painted(self.start).points == self.start.points
+        width, height = self.canvas
+        return all(math.hypot(max(-x, 0.0, x - width), max(-y, 0.0, y - height)) > REACH * dab.radius
+                   for dab in self.dabs for x, y in [dab.position])
+
 
 class BrushTool(Tool):
     """Paint diffusion points."""
 
     name = "brush"
     title = "Point Brush"
-    hint = ("Drag to paint dabs. Glow: each adds amplitude x brush colour, so overlapping dabs add up (towards "
-            "white). Paint: the colour covers what is below. On a mask: light adds, dark subtracts, Alt erases")
+    hint = ("Drag to paint dabs. Paint: the colour covers what is below. Glow: each adds amplitude x brush colour, "
+            "so overlapping dabs add up (towards white). On a mask: light adds, dark subtracts, Alt erases")
     shortcut = "B"
     cursor = "crosshair"
 

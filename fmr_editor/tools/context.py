@@ -42,8 +42,8 @@ class ToolOptions:
     brush_spacing : float
         Distance between dabs along a stroke, document pixels.
     brush_mode : str
-        ``"glow"`` (dabs add colour) or ``"paint"`` (dabs cover, through a
-        fill layer's mask; see ``brush``).
+        ``"paint"`` (dabs cover, through a fill layer's mask; see ``brush``)
+        or ``"glow"`` (dabs add colour).
     """
 
     color: Color = (0.0, 0.0, 0.0)
@@ -52,7 +52,7 @@ class ToolOptions:
     brush_radius: float = 20.0
     brush_amplitude: float = 0.3
     brush_spacing: float = 10.0
-    brush_mode: str = "glow"
+    brush_mode: str = "paint"
 
 
 def _set(items) -> frozenset:

@@ -8,7 +8,8 @@ representation, or the changed cells by field of a composite).  Both only
 record the request; the renderer uploads and draws in ``paintGL``.
 
 Navigation: the wheel zooms about the cursor, Ctrl+plus / Ctrl+minus about
-the centre, Ctrl+0 fits the canvas; the middle button, or the left one while
+the centre, Ctrl+0 (or 5) fits the canvas and 1 shows it at its actual size
+(``zoom_to``: one document pixel per screen pixel); the middle button, or the left one while
 Space is held, pans.  A zoom evaluates every window pixel again (a few
 hundred milliseconds at 1024x1024 under llvmpipe), so while zoom steps follow
 each other the canvas shows the last sharp image scaled and evaluates once
@@ -158,6 +159,23 @@ class Canvas(QOpenGLWidget):
         y = self.height() / 2 if y is None else y
         self.set_view(self._view.zoomed(factor, x, y))
         self._settle.start()
+
+    def zoom_to(self, scale: float) -> None:
+        """Show ``scale`` screen (device) pixels per document pixel, about the window's centre.
+
+        The document's origin lands on a whole device pixel, so that at 1 each
+        document pixel is exactly one screen pixel (its centre sampled).
+        """
+        ratio = self.devicePixelRatioF()
+        view = self._view.zoomed(scale / ratio / self._view.scale, self.width() / 2, self.height() / 2)
+        self.set_view(View(view.scale, round(view.offset_x * ratio) / ratio, round(view.offset_y * ratio) / ratio,
+                           view.width, view.height))
+        self._settle.start()
+
+    @property
+    def zoom_factor(self) -> float:
+        """Screen (device) pixels per document pixel: 1 at the actual size."""
+        return self._view.scale * self.devicePixelRatioF()
 
     def zoom_in(self) -> None:
         self.zoom(ZOOM_STEP)

@@ -94,7 +94,9 @@ class GradientBar(QWidget):
         painter = QPainter(self)
         painter.setRenderHint(QPainter.RenderHint.Antialiasing)
         bar = QRectF(MARGIN, 1, self.width() - 2 * MARGIN, BAR)
-        if self.stops:
+        if not self.isEnabled():
+            painter.fillRect(bar, self.palette().window())  # no curve shown: an empty bar, not a black side
+        elif self.stops:
             gradient = QLinearGradient(bar.left(), 0, bar.right(), 0)
             for stop in self.stops:
                 gradient.setColorAt(min(max(stop.position / self.length, 0.0), 1.0), qcolor(stop.color))

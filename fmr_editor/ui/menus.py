@@ -33,7 +33,8 @@ ACTIONS = {
     "deselect": ("D&eselect", ["Ctrl+Shift+A"], "deselect", "Clear the selection"),
     "zoom_in": ("Zoom &In", ["Ctrl++", "Ctrl+="], "zoom_in", "Zoom in about the centre"),
     "zoom_out": ("Zoom &Out", ["Ctrl+-"], "zoom_out", "Zoom out about the centre"),
-    "fit": ("&Fit Canvas", ["Ctrl+0"], "fit", "Show the whole canvas"),
+    "actual_size": ("&Actual Size", ["1"], "actual_size", "One document pixel per screen pixel (100%)"),
+    "fit": ("&Fit Canvas", ["Ctrl+0", "5"], "fit", "Show the whole canvas"),
     "next_document": ("Ne&xt Document", ["Ctrl+Tab"], "next_document", "Show the next open document"),
     "previous_document": ("Pre&vious Document", ["Ctrl+Shift+Tab"], "previous_document",
                           "Show the previous open document"),
@@ -58,7 +59,9 @@ ACTIONS = {
                   "the pen draws its sharp edges"),
     "adjust_colors": ("&Colour Adjust\u2026", ["Ctrl+U"], "adjust_colors",
                       "Hue, saturation, brightness, contrast and invert of the active layer"),
-    "about": ("&About", [], "about", "About the editor"),
+    "shortcuts": ("&Keyboard Shortcuts", ["Ctrl+F1"], "show_shortcuts", "Every command's keys"),
+    "user_guide": ("&User Guide", ["F1"], "user_guide", "Open the user guide (docs/user-guide.md)"),
+    "about": ("&About", [], "about", "About the editor and its version"),
 }
 
 #: Actions that only make sense with a document open.
@@ -69,11 +72,12 @@ MENUS = (
     ("&File", ("new", "open", "recent", None, "save", "save_as", "export", None, "close", "quit")),
     ("&Edit", ("undo", "redo", None, "copy", "paste", "paste_seamless", None, "delete", None, "select_all",
                "deselect")),
-    ("&View", ("zoom_in", "zoom_out", "fit", None, "next_document", "previous_document", None, "panels")),
+    ("&View", ("zoom_in", "zoom_out", "actual_size", "fit", None, "next_document", "previous_document", None,
+               "panels")),
     ("&Layer", ("new_layer", "duplicate_layer", "delete_layer", None, "merge_down", "flatten", None, "add_mask",
                 "add_hiding_mask", "delete_mask", "invert_mask", "disable_mask", "edit_mask", None, "adjust_colors")),
     ("&Tools", ("tools", None, "swap_colors", "default_colors")),
-    ("&Help", ("about",)),
+    ("&Help", ("user_guide", "shortcuts", None, "about")),
 )
 
 

@@ -7,7 +7,15 @@ from collections.abc import Iterable
 from PySide6.QtCore import QSize, Qt, Signal
 from PySide6.QtGui import QAction
 from PySide6.QtWidgets import (
-    QComboBox, QDoubleSpinBox, QFormLayout, QGridLayout, QGroupBox, QHBoxLayout, QToolButton, QVBoxLayout, QWidget,
+    QComboBox,
+    QDoubleSpinBox,
+    QFormLayout,
+    QGridLayout,
+    QGroupBox,
+    QHBoxLayout,
+    QToolButton,
+    QVBoxLayout,
+    QWidget,
 )
 
 from ..tools import ToolOptions
@@ -70,13 +78,14 @@ class OptionsPanel(QWidget):
 
         brush = QGroupBox("Point brush")
         form = QFormLayout(brush)
-        self.brush_swatch = self._swatch_button("Brush colour: each dab adds amplitude x this colour", "brush_color")
+        self.brush_swatch = self._swatch_button("Brush colour: what the dabs paint (or, in Glow mode, add)",
+                                                "brush_color")
         form.addRow("Colour", self.brush_swatch)
         self.brush_mode = QComboBox(self)
-        self.brush_mode.addItem("Glow", "glow")
         self.brush_mode.addItem("Paint", "paint")
-        self.brush_mode.setToolTip("Glow: dabs add colour and overlapping dabs brighten towards white. "
-                                   "Paint: dabs cover what is below with the brush colour (a fill layer's mask)")
+        self.brush_mode.addItem("Glow", "glow")
+        self.brush_mode.setToolTip("Paint: dabs cover what is below with the brush colour (a fill layer's mask). "
+                                   "Glow: dabs add colour and overlapping dabs brighten towards white")
         self.brush_mode.currentIndexChanged.connect(self._set_mode)
         form.addRow("Mode", self.brush_mode)
         self.spins: dict[str, QDoubleSpinBox] = {}

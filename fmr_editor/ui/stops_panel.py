@@ -70,7 +70,8 @@ class StopsPanel(QWidget):
             bar.add_requested.connect(lambda s, side=side: self.add_stop(side, s))
             bar.installEventFilter(self)
             color = QToolButton(self)
-            color.setToolTip(f"Colour of the selected {side} stops")
+            color.setToolTip(f"Colour of the selected {side} stops (with none selected: of the stop nearest "
+                             "the middle of the curve)")
             color.clicked.connect(lambda _=False, side=side: self.edit_color(side))
             remove = QToolButton(self)
             remove.setText("\u2212")
@@ -120,8 +121,9 @@ class StopsPanel(QWidget):
         if state == self._shown:
             return
         self._shown = state
+        pieces = "" if curve is None else f"{curve.piece_count} piece{'s' if curve.piece_count != 1 else ''}"
         self.title.setText("Select a curve to edit its colour stops." if curve is None
-                           else f"Curve {context.document.curve_index(curve_id) + 1}: {curve.piece_count} pieces")
+                           else f"Curve {context.document.curve_index(curve_id) + 1}: {pieces}")
         for side in SIDES:
             bar = self.bars[side]
             stops = getattr(curve, side) if curve is not None else ()
@@ -130,7 +132,7 @@ class StopsPanel(QWidget):
             bar.setEnabled(curve is not None)
             color = qcolor(stops[chosen[0]].color) if chosen else None
             self.color_buttons[side].setIcon(swatch(color))
-            self.color_buttons[side].setEnabled(bool(chosen))
+            self.color_buttons[side].setEnabled(bool(stops))
             self.remove_buttons[side].setEnabled(bool(chosen))
 
     def _done(self) -> None:
@@ -192,10 +194,20 @@ class StopsPanel(QWidget):
         self.edit_color(side)
 
     def edit_color(self, side: str) -> None:
-        """Open a colour dialog for the selected stops of ``side`` (live; one undo step)."""
+        """Open a colour dialog for the selected stops of ``side`` (live; one undo step); with none selected, for
+        the stop nearest the middle of the curve, which is selected."""
         context, chosen = self.context, self.selected(side)
-        if context is None or not chosen:
+        if context is None or self.curve is None:
             return
+        if not chosen:
+            curve = context.document.curve(self.curve)
+            stops = getattr(curve, side)
+            if not stops:
+                return
+            middle = min(range(len(stops)), key=lambda i: abs(stops[i].position - curve.piece_count / 2))
+            context.selection = Selection.of(stops=[(self.curve, side, middle)])
+            self._done()
+            chosen = [middle]
         curve = self.curve
         stops = [(curve, side, i) for i in chosen]
         current = getattr(context.document.curve(curve), side)[chosen[0]].color
