@@ -13,12 +13,25 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from enum import StrEnum
 
 import numpy as np
 
 from ..model.color_transform import IDENTITY, ColorTransform
 from ..model.layer import MASK_LUMA
 from .representation import Representation
+
+
+class Role(StrEnum):
+    """What a layer's field is: its ``IMAGE``, its ``MASK``, or a clone layer's ``SOURCE`` (kept, not drawn)."""
+
+    IMAGE = "image"
+    MASK = "mask"
+    SOURCE = "source"
+
+
+#: A layer's field: ``(layer id, role)``.
+FieldKey = tuple[int, Role]
 
 
 @dataclass(frozen=True)
@@ -71,9 +84,9 @@ class LayerFields:
         return self.mask_enabled and self.mask is not None
 
     @property
-    def read(self) -> tuple[tuple[str, Representation], ...]:
-        """What drawing the layer reads: ``("image", image)``, and ``("mask", mask)`` when ``masked``."""
-        return (("image", self.image),) + ((("mask", self.mask),) if self.masked else ())
+    def read(self) -> tuple[tuple[Role, Representation], ...]:
+        """What drawing the layer reads: ``(Role.IMAGE, image)``, and ``(Role.MASK, mask)`` when ``masked``."""
+        return ((Role.IMAGE, self.image),) + (((Role.MASK, self.mask),) if self.masked else ())
 
     def weight(self, mask_values: np.ndarray | None) -> np.ndarray | float:
         """``m = opacity * clamp(M, 0, 1)`` from the mask's colour values ``(..., 3)`` (None: constant)."""

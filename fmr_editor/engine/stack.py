@@ -22,7 +22,7 @@ from ..model import Document
 from ..model.layer import Layer
 from ..model.limits import check_document
 from .cloning import LiveClone
-from .composite import Composite, LayerFields
+from .composite import Composite, FieldKey, LayerFields, Role
 from .kept_states import DEFAULT_MEMORY
 from .live import LiveRepresentation, Progress, Update
 from .representation import Representation, Settings
@@ -30,8 +30,6 @@ from .representation import Representation, Settings
 #: Fields of removed layers kept for an undo.
 RETIRED = 4
 
-#: A field: ``(layer id, "image" or "mask")``.
-FieldKey = tuple[int, str]
 
 
 @dataclass(frozen=True)
@@ -67,11 +65,11 @@ def _wanted(document: Document) -> dict[FieldKey, Document]:
     fields = {}
     for layer in document.layers:
         if layer.clone is not None:
-            fields[layer.id, "source"] = layer.clone.source
+            fields[layer.id, Role.SOURCE] = layer.clone.source
             continue
-        fields[layer.id, "image"] = document.flat(layer)
+        fields[layer.id, Role.IMAGE] = document.flat(layer)
         if layer.mask is not None and not layer.mask.is_constant:
-            fields[layer.id, "mask"] = document.flat(layer.mask)
+            fields[layer.id, Role.MASK] = document.flat(layer.mask)
     return fields
 
 
@@ -109,7 +107,7 @@ class LiveStack:
     document : Document
     fields : dict
         ``LiveRepresentation`` by ``FieldKey``: layers' images, masks and
-        clone layers' sources (``"source"``).
+        clone layers' sources (``Role.SOURCE``).
     clones : dict
         ``cloning.LiveClone`` by clone layer id.
     """
@@ -127,9 +125,9 @@ class LiveStack:
         self._below: dict[int, tuple] = {}  # per clone layer id, what lay below it when it was blended
         kept = {}
         for layer, fields in zip(document.layers, saved or ()):
-            fields = dict(zip(("image", "mask", "source"), fields))
-            if layer.clone is not None and fields.get("image") is not None and fields.get("mask") is not None:
-                self.clones[layer.id] = LiveClone(layer.clone, fields.pop("image"), fields.pop("mask"))
+            fields = dict(zip(Role, fields))
+            if layer.clone is not None and fields.get(Role.IMAGE) is not None and fields.get(Role.MASK) is not None:
+                self.clones[layer.id] = LiveClone(layer.clone, fields.pop(Role.IMAGE), fields.pop(Role.MASK))
                 self._below[layer.id] = self._below_of(document, layer)
             kept.update({(layer.id, kind): rep for kind, rep in fields.items() if rep is not None})
         self._follow(document, progress, kept, exact=True)
@@ -220,11 +218,11 @@ class LiveStack:
             live = live or LiveClone(layer.clone)
             picture = Composite(document.width, document.height,
                                 tuple(layer_fields(each, *self._drawn(each)) for each in document.layers[:index]))
-            changed = live.follow(layer.clone, self.fields[layer.id, "source"].representation, picture, self.settings,
-                                  layer.id)
+            source = self.fields[layer.id, Role.SOURCE].representation
+            changed = live.follow(layer.clone, source, picture, self.settings, layer.id)
             self.clones[layer.id], self._below[layer.id] = live, below
             seconds = time.perf_counter() - start
-            for kind, rep in (("image", live.image), ("mask", live.mask)):
+            for kind, rep in ((Role.IMAGE, live.image), (Role.MASK, live.mask)):
                 n = rep.lattice.cells_per_side
                 cells = np.ones((n, n), bool) if changed is None else changed[kind]
                 updates[layer.id, kind] = Update("clone", cells, seconds)
@@ -236,7 +234,7 @@ class LiveStack:
         """``layer``'s image and mask representations as drawn (and a clone layer's source)."""
         if layer.clone is not None:
             live = self.clones[layer.id]
-            return live.image, live.mask, self.fields[layer.id, "source"].representation
+            return live.image, live.mask, self.fields[layer.id, Role.SOURCE].representation
         return self.image(layer), self.mask(layer)
 
     @property
@@ -255,13 +253,13 @@ class LiveStack:
         """``layer``'s image representation."""
         if layer.clone is not None:
             return self.clones[layer.id].image
-        return self.fields[layer.id, "image"].representation
+        return self.fields[layer.id, Role.IMAGE].representation
 
     def mask(self, layer: Layer) -> Representation | None:
         """``layer``'s mask representation (a clone layer's region); None without a mask or for a constant one."""
         if layer.clone is not None:
             return self.clones[layer.id].mask
-        live = self.fields.get((layer.id, "mask"))
+        live = self.fields.get((layer.id, Role.MASK))
         return live.representation if live is not None else None
 
     @property
@@ -279,12 +277,14 @@ def layer_fields(layer: Layer, image: Representation, mask_field: Representation
                  source: Representation | None = None) -> LayerFields:
     """How ``layer`` is drawn from its image and mask representations (a clone layer's mask: its region; its
     ``source`` is kept with it)."""
+    shown = {"opacity": layer.opacity, "transform": layer.transform, "visible": layer.visible, "id": layer.id}
     if layer.clone is not None:
-        return LayerFields(image, mask_field, 0.0, False, True, layer.opacity, layer.transform, layer.visible,
-                           layer.id, source)
+        return LayerFields(image, mask_field, mask_base=0.0, source=source, **shown)
     mask = layer.mask
-    return LayerFields(image, mask_field, mask.base if mask is not None else 1.0, mask is not None and mask.inverted,
-                       mask is None or mask.enabled, layer.opacity, layer.transform, layer.visible, layer.id)
+    if mask is None:
+        return LayerFields(image, mask_field, **shown)
+    return LayerFields(image, mask_field, mask_base=mask.base, mask_inverted=mask.inverted, mask_enabled=mask.enabled,
+                       **shown)
 
 
 def composite_of(document: Document, fields: Sequence[tuple]) -> Composite:

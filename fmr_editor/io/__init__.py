@@ -5,7 +5,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from ..engine import LiveStack, Progress, Settings
+from ..engine import LiveStack, Progress, Role, Settings
 from ..model import Document
 from .errors import DocumentLoadError
 from .fmr_file import FmrFile, load_fmr, save_fmr
@@ -68,7 +68,7 @@ def open_live(path: str | os.PathLike, settings: Settings | None = None, progres
     live = LiveStack(saved.document, saved.settings or settings, progress, saved.fields)
     found = list(saved.notes)
     for layer, reps in zip(saved.document.layers, saved.fields):
-        for kind, rep in zip(("image", "mask", "source"), reps):
+        for kind, rep in zip(Role, reps):
             field = live.fields.get((layer.id, kind))
             if rep is not None and field is not None and field.origin != "resumed":
                 found.append(f"the saved {kind} of {layer.name} does not match the document; it was rebuilt")

@@ -35,7 +35,7 @@ from typing import BinaryIO
 import numpy as np
 from PIL import Image
 
-from ..engine import Composite, Representation, Settings, clone_points, composite_of, rasterise
+from ..engine import Composite, Representation, Role, Settings, clone_points, composite_of, rasterise
 from ..model import Document, Layer
 from .atomic import write_atomically
 from .document_json import dumps_document, loads_document
@@ -118,8 +118,8 @@ class FmrFile:
         return composite_of(self.document, self.fields)
 
 
-def field_prefix(layer: int, kind: str) -> str:
-    """Where the representation of layer ``layer``'s ``kind`` (``"image"`` or ``"mask"``) is kept."""
+def field_prefix(layer: int, kind: Role) -> str:
+    """Where the representation of layer ``layer``'s field ``kind`` is kept (its ``Role``'s value names it)."""
     return f"layers/{layer}/{kind}/"
 
 
@@ -181,33 +181,34 @@ def _fields(document: Document, representation: Representation | Composite | Non
     if isinstance(representation, Representation):
         if len(document.layers) != 1:
             raise ValueError(f"a document of {len(document.layers)} layers is saved with its composite")
-        return [(field_prefix(0, "image"), representation, document.flat(document.layers[0]))]
+        return [(field_prefix(0, Role.IMAGE), representation, document.flat(document.layers[0]))]
     if len(representation.layers) != len(document.layers):
         raise ValueError(f"the composite has {len(representation.layers)} layers, the document "
                          f"{len(document.layers)}")
     fields = []
     for i, (layer, drawn) in enumerate(zip(document.layers, representation.layers)):
         targets = field_documents(document, layer)
-        fields.append((field_prefix(i, "image"), drawn.image, targets["image"]))
+        fields.append((field_prefix(i, Role.IMAGE), drawn.image, targets[Role.IMAGE]))
         if drawn.mask is not None:
-            if targets.get("mask") is None:
+            if targets.get(Role.MASK) is None:
                 raise ValueError(f"layer {i} of the composite has a mask, the document's has none")
-            fields.append((field_prefix(i, "mask"), drawn.mask, targets["mask"]))
+            fields.append((field_prefix(i, Role.MASK), drawn.mask, targets[Role.MASK]))
         if layer.clone is not None:
             if drawn.source is None:
                 raise ValueError(f"layer {i} is a clone layer: its source's representation is saved with it")
-            fields.append((field_prefix(i, "source"), drawn.source, targets["source"]))
+            fields.append((field_prefix(i, Role.SOURCE), drawn.source, targets[Role.SOURCE]))
     return fields
 
 
-def field_documents(document: Document, layer: Layer) -> dict[str, Document | None]:
-    """The one-image documents each representation of ``layer`` is made for, by kind: ``"image"``, ``"mask"``
-    (None without one), and for a clone layer ``"source"`` (its image holds its placed points; its mask,
-    the region's indicator, none)."""
+def field_documents(document: Document, layer: Layer) -> dict[Role, Document | None]:
+    """The one-image documents each representation of ``layer`` is made for, by role: its image, its mask
+    (None without one), and for a clone layer its source (its image holds its placed points; its mask, the
+    region's indicator, none)."""
     if layer.clone is None:
-        return {"image": document.flat(layer), "mask": document.flat(layer.mask) if layer.mask is not None else None}
+        return {Role.IMAGE: document.flat(layer),
+                Role.MASK: document.flat(layer.mask) if layer.mask is not None else None}
     placed = Document(document.width, document.height, (), clone_points(layer.clone, document.width, document.height))
-    return {"image": placed, "mask": Document(document.width, document.height), "source": layer.clone.source}
+    return {Role.IMAGE: placed, Role.MASK: Document(document.width, document.height), Role.SOURCE: layer.clone.source}
 
 
 def _write_archive(stream: BinaryIO, document_bytes: bytes, fields: list[tuple], rep: Representation | Composite
@@ -318,7 +319,7 @@ def _read(archive: zipfile.ZipFile, with_representation: bool) -> FmrFile:
     for i, layer in enumerate(document.layers):
         reps = []
         for kind, target in field_documents(document, layer).items():
-            prefix = "" if REPRESENTATION_ENTRY in names and (i, kind) == (0, "image") else field_prefix(i, kind)
+            prefix = "" if REPRESENTATION_ENTRY in names and (i, kind) == (0, Role.IMAGE) else field_prefix(i, kind)
             if target is None or prefix + REPRESENTATION_ENTRY not in names:
                 reps.append(None)
                 continue

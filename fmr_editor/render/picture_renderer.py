@@ -21,14 +21,12 @@ from dataclasses import replace
 import numpy as np
 from OpenGL import GL
 
-from ..engine import Composite, LayerFields, Representation
+from ..engine import Composite, FieldKey, LayerFields, Representation, Role
 from .cached_image import CachedImage, show_scaled, union
 from .canvas_renderer import TOLERANCE, CanvasRenderer
 from .gl import Program, VertexArray, in_plain_state, over, plain_state, shader_source
 from .view import View
 
-#: A field: ``(layer id, "image" or "mask")``, as ``engine.stack``'s.
-FieldKey = tuple[int, str]
 #: ``changed`` of a field to upload whole (a new lattice, or changes merged across lattices).
 WHOLE = None
 
@@ -116,7 +114,7 @@ class PictureRenderer:
         ``changed`` may be its ``Update.changed``.
         """
         if isinstance(changed, np.ndarray):
-            changed = {(0, "image"): changed}
+            changed = {(0, Role.IMAGE): changed}
         picture = picture_of(picture)
         fields = _fields(picture, self._overlay)
         for key in [key for key in self.renderers if key not in fields]:
@@ -175,7 +173,7 @@ class PictureRenderer:
         """The renderer that draws the picture by itself: one plain layer shown; else None."""
         shown = self._picture.shown if self._picture is not None else ()
         if len(shown) == 1 and shown[0].covers and shown[0].transform.is_identity and self._overlay is None:
-            return self.renderers[shown[0].id, "image"]
+            return self.renderers[shown[0].id, Role.IMAGE]
         return None
 
     # -- drawing ------------------------------------------------------------------------------
@@ -226,7 +224,7 @@ class PictureRenderer:
         tinted = next((layer for layer in self._picture.layers if layer.id == self._overlay), None)
         keys = {(layer.id, kind) for layer in shown for kind, _ in layer.read}
         if tinted is not None:
-            keys |= {(tinted.id, "image")} | ({(tinted.id, "mask")} if tinted.mask is not None else set())
+            keys |= {(tinted.id, Role.IMAGE)} | ({(tinted.id, Role.MASK)} if tinted.mask is not None else set())
         evaluated = {self.renderers[key].evaluate(view) for key in keys}
         changed = None
         for renderer in self.renderers.values():  # every field's, so that none carries old changes over
@@ -280,7 +278,7 @@ class PictureRenderer:
         """Blend ``layer`` over the composed image (bound); ``tint``: its mask's tint instead, enabled or not."""
         reads_mask = layer.mask is not None and (tint or layer.masked)
         enabled = tint or layer.mask_enabled
-        textures = [(0, (layer.id, "image"))] + ([(1, (layer.id, "mask"))] if reads_mask else [])
+        textures = [(0, (layer.id, Role.IMAGE))] + ([(1, (layer.id, Role.MASK))] if reads_mask else [])
         for unit, key in textures:
             GL.glActiveTexture(GL.GL_TEXTURE0 + unit)
             GL.glBindTexture(GL.GL_TEXTURE_2D, self.renderers[key].image_texture)
@@ -315,11 +313,11 @@ def _fields(picture: Composite, overlay: int | None) -> dict[FieldKey, Represent
     """The fields of the visible layers, of the tinted one and the bottom layer's image (the checkerboard when
     all are hidden): each costs GPU memory of a window image or two, so a hidden layer's are released (showing
     it again uploads them)."""
-    fields = {(picture.layers[0].id, "image"): picture.layers[0].image}
+    fields = {(picture.layers[0].id, Role.IMAGE): picture.layers[0].image}
     for layer in picture.layers:
         if not layer.visible and layer.id != overlay:
             continue
-        fields[layer.id, "image"] = layer.image
+        fields[layer.id, Role.IMAGE] = layer.image
         if layer.mask is not None:
-            fields[layer.id, "mask"] = layer.mask
+            fields[layer.id, Role.MASK] = layer.mask
     return fields

@@ -114,8 +114,8 @@ class BrushTool(Tool):
 
     name = "brush"
     title = "Point Brush"
-    hint = ("Drag to paint dabs. Paint: the colour covers what is below. Glow: each adds amplitude x brush colour, "
-            "so overlapping dabs add up (towards white). On a mask: light adds, dark subtracts, Alt erases")
+    hint = ("Drag to paint dabs (Paint covers what is below, Glow adds up towards white); "
+            "on a mask light adds, dark subtracts, Alt erases")
     shortcut = "B"
     cursor = "crosshair"
 

@@ -24,7 +24,7 @@ from PySide6.QtCore import QPointF, Qt, QTimer, Signal
 from PySide6.QtGui import QImage, QSurfaceFormat
 from PySide6.QtOpenGLWidgets import QOpenGLWidget
 
-from ..engine import Composite, Representation
+from ..engine import Composite, Representation, Role
 from ..render import PictureRenderer, ShaderError, View, merge_changes
 
 Picture = Representation | Composite
@@ -105,7 +105,7 @@ class Canvas(QOpenGLWidget):
         or of a composite a dict of them by field (a field left out is unchanged).
         """
         if isinstance(changed, np.ndarray):
-            changed = {(0, "image"): changed}  # a representation is a picture of one layer of id 0
+            changed = {(0, Role.IMAGE): changed}  # a representation is a picture of one layer of id 0
         if not self._full_upload:
             self._changed = merge_changes(self._changed or {}, changed)
         self._rep = rep

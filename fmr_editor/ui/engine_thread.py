@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from PySide6.QtCore import QObject, QThread, Signal, Slot
 
-from ..engine import Composite, LiveStack, Representation
+from ..engine import Composite, LiveStack, Representation, Role
 from ..model import Document
 
 
@@ -35,7 +35,7 @@ class Frame:
         Its layers' representations: a snapshot (later updates replace the
         engine's arrays, never change them).
     changes : dict
-        By field ``(layer id, "image" | "mask")``, the ``(2^L, 2^L)`` bool
+        By field ``(layer id, Role)``, the ``(2^L, 2^L)`` bool
         cells that differ from the previous frame (every field, all cells, in
         the first); a field left out did not change.
     kind : str
@@ -72,7 +72,7 @@ class Frame:
     def changed(self) -> np.ndarray:
         """The cells of the active layer's image that changed (none when it did not)."""
         layer = self.document.layer
-        changed = self.changes.get((layer.id, "image"))
+        changed = self.changes.get((layer.id, Role.IMAGE))
         if changed is None:
             n = self.representation.lattice.cells_per_side
             changed = np.zeros((n, n), bool)

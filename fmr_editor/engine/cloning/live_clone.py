@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...model.clone import Clone
-from ..composite import Composite
+from ..composite import Composite, Role
 from ..representation import Representation, Settings
 from ..solve.clone import ClonedRegion, SeamlessClone
 from .layer import CopiedCells, clone_layer, clone_points, layer_lattice, ring_cells
@@ -42,13 +42,13 @@ class LiveClone:
         self._points: tuple = ()  # the diffusion points copied into the image
 
     def follow(self, clone: Clone, source: Representation, below: Composite, settings: Settings,
-               layer_id: int) -> dict[str, np.ndarray] | None:
+               layer_id: int) -> dict[Role, np.ndarray] | None:
         """Make the fields for ``clone`` (its source's representation ``source``) over ``below``.
 
         Returns
         -------
         dict or None
-            By ``"image"`` and ``"mask"``, ``(2^L, 2^L)`` bool: the fine cells
+            By ``Role.IMAGE`` and ``Role.MASK``, ``(2^L, 2^L)`` bool: the fine cells
             where the field may differ from the last one (the image: the cells
             of both regions; the mask: where only one of them lies, and the
             rings around both boundaries, since it is 1 inside a region to
@@ -68,7 +68,7 @@ class LiveClone:
             return None
         now, rings = self._copied, ring_cells(before.gamma, before.lattice) | ring_cells(self._copied.gamma,
                                                                                           before.lattice)
-        return {"image": before.cells | now.cells, "mask": (before.cells ^ now.cells) | rings}
+        return {Role.IMAGE: before.cells | now.cells, Role.MASK: (before.cells ^ now.cells) | rings}
 
     def _seamless_for(self, clone: Clone, source: Representation, canvas: tuple[int, int]) -> SeamlessClone:
         """The clone placed on ``canvas``: the last one if nothing moved, through a kept factorisation if one fits."""
