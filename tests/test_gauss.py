@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -104,6 +105,15 @@ def test_split_rule_and_dropped_points():
     assert expansion_ratios(points, lattice, settings).tolist() == [0, 0, 1, 2, 16, -1]
     assert (changed_cells(points, lattice, settings)[5] == 0).all()
     assert cutoff_radii(points, 1e-5)[5] == 0
+
+
+def test_a_point_of_zero_or_subnormal_weight_is_dropped_without_a_warning():
+    weights = np.array([[0.0, 0.0, 0.0], [1e-320, 0.0, 0.0], [1.0, 0.0, 0.0]])  # 1e-5 / 1e-320 overflows
+    points = GaussPoints(np.full((3, 2), 60.0), np.full(3, 5.0), weights)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        ratios = expansion_ratios(points, Lattice(4, 128.0), PointSettings(order=8, tolerance=1e-5))
+    assert ratios[:2].tolist() == [-1, -1] and ratios[2] >= 0
 
 
 def test_contributions_outside_the_changed_cells_are_below_tolerance():

@@ -239,7 +239,7 @@ def expansion_ratios(points: GaussPoints, lattice: Lattice, settings: PointSetti
     and -1 *dropped points* (``A <= tolerance``: below tolerance everywhere).
     """
     peaks = points.peaks
-    with np.errstate(divide="ignore"):
+    with np.errstate(divide="ignore", over="ignore"):  # a zero or subnormal peak: dropped below
         rho = max_cell_ratio(settings.order, settings.tolerance / peaks)
     widest = rho * points.radii / lattice.cell_size  # in fine cells
     ratios = grid_ratios(lattice.cells_per_side)
