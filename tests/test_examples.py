@@ -45,7 +45,7 @@ def test_scripted_editing_example_runs(tmp_path, capsys, monkeypatch):
     found = run("scripted_editing.py", tmp_path, monkeypatch)
     session = found["session"]
     assert capsys.readouterr().out.startswith("colours ")
-    assert session.history.labels == ("", "Change Stop Colour", "Paint") and session.history.index == 2
+    assert session.history.labels == ("", "Change Stop Colour", "Glow Stroke") and session.history.index == 2
     assert found["image"].shape == (128, 128, 3)
     assert (tmp_path / "out" / "edited.png").stat().st_size > 0
 

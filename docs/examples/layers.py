@@ -6,9 +6,11 @@
 from pathlib import Path
 
 from fmr_editor import load, render_image
+from fmr_editor.engine import setup_process
 from fmr_editor.model import DiffusionPoint, Document, Layer, Mask
 from fmr_editor.model.color_transform import hue_rotation
 
+setup_process()  # the engine's thread and memory policy for this process, as the editor sets it
 SAMPLES = Path(__file__).resolve().parents[2] / "resources" / "samples"
 
 ribbon = load(SAMPLES / "ribbon.xml")

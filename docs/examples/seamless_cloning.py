@@ -8,9 +8,11 @@ Reads the shared sample data beside the repository (``../shared/data``).
 from pathlib import Path
 
 from fmr_editor import load, render_image
+from fmr_editor.engine import setup_process
 from fmr_editor.model.clone import Similarity
 from fmr_editor.model.clone_edits import copy_region, paste_seamless
 
+setup_process()  # the engine's thread and memory policy for this process, as the editor sets it
 DATA = Path(__file__).resolve().parents[3] / "shared" / "data" / "orzan_xml" / "berkbavas"
 
 ladybird, flower = load(DATA / "lady_bug.xml"), load(DATA / "flower.xml")

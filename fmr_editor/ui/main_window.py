@@ -325,8 +325,10 @@ class MainWindow(FileCommands, LayerCommands, DocumentTabs, ClipCommands, QMainW
         self.shortcuts_dialog.open()
 
     def user_guide(self) -> None:
-        if not open_user_guide():
-            self.status_label.setText(f"No viewer opened the user guide; it is {USER_GUIDE}")
+        if not USER_GUIDE.is_file():
+            self.status_label.setText("The user guide is docs/user-guide.md in the editor's source repository")
+        elif not open_user_guide():
+            self.status_label.setText(f"No viewer opened the user guide: {USER_GUIDE}")
 
     # -- the document ---------------------------------------------------------------------------------
     def _choose_stop_color(self, current) -> None:

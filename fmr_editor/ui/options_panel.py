@@ -26,7 +26,7 @@ from .stops_panel import swatch
 #: Brush settings: attribute, label, minimum, maximum, step, decimals, tooltip.
 BRUSH_FIELDS = (
     ("brush_radius", "Radius", 0.5, 2000.0, 1.0, 1, "Gaussian radius of each dab, pixels"),
-    ("brush_amplitude", "Amplitude", -4.0, 4.0, 0.05, 2, "Strength of each dab (negative takes colour away)"),
+    ("brush_amplitude", "Amplitude", -4.0, 4.0, 0.05, 2, "Strength of each dab (Glow: negative takes colour away)"),
     ("brush_spacing", "Spacing", 0.5, 2000.0, 1.0, 1, "Distance between dabs along a stroke, pixels"),
 )
 
