@@ -21,7 +21,7 @@ from fmr_editor.engine.cloning import clone_layer, placed_points
 from fmr_editor.engine.geometry.segments import Segments, empty_segments
 from fmr_editor.engine.kernels.segment_sums import direct_sum
 from fmr_editor.engine.solve.clone import SeamlessClone, Similarity, boundary, clipped_to, paper_segments
-from fmr_editor.model import DiffusionPoint
+from fmr_editor.model import DiffusionPoint, EditRefused
 
 SIZE = 128
 STEP = 0.5  # the oracle's grid, pixels
@@ -166,7 +166,7 @@ def test_clipping_keeps_exactly_the_parts_inside_and_the_boundary_turns_the_insi
 
 @pytest.mark.parametrize("region", [np.zeros((2, 2)), np.array([[0, 0], [10, 10], [10, 0], [0, 10.0]])])
 def test_a_region_that_is_no_simple_polygon_is_refused(region):
-    with pytest.raises(ValueError, match="three finite|simple polygon"):
+    with pytest.raises(EditRefused, match="three finite|simple polygon"):
         SeamlessClone(empty_segments(), region)
 
 
@@ -232,7 +232,7 @@ def test_a_source_with_diffusion_points_clones_them_too(below):
 
 def test_a_region_off_the_canvas_is_refused(images):
     source, _ = images
-    with pytest.raises(ValueError, match="wholly outside"):
+    with pytest.raises(EditRefused, match="wholly outside"):
         SeamlessClone(source.segments, hexagon(60, 62, 20, 20), Similarity(offset=(300.0, 0.0)), canvas=(SIZE, SIZE))
 
 

@@ -20,7 +20,7 @@ from fmr_editor.engine.stack import layer_fields
 from fmr_editor.io import load_fmr
 from fmr_editor.io.document_json import document_from_data, dumps_document
 from fmr_editor.io.json_checks import SchemaError
-from fmr_editor.model import DiffusionPoint, Document, edits, layer_edits
+from fmr_editor.model import DiffusionPoint, Document, EditRefused, edits, layer_edits
 from fmr_editor.model.clone import Similarity
 from fmr_editor.model.clone_edits import copy_region, paste_curves, paste_seamless, place_clone
 from fmr_editor.model.color_transform import hue_rotation
@@ -120,13 +120,13 @@ def test_paste_move_undo_and_redo_give_each_step_exactly(source, pasted):
 
 
 def test_a_clone_layer_holds_no_items_merges_with_nothing_and_takes_no_mask(pasted):
-    with pytest.raises(ValueError, match="clone layer"):
+    with pytest.raises(EditRefused, match="clone layer"):
         edits.add_curve(pasted, pasted.layers[0].curves[0])
-    with pytest.raises(ValueError, match="clone layer"):
+    with pytest.raises(EditRefused, match="clone layer"):
         layer_edits.merge_down(pasted, 1)
-    with pytest.raises(ValueError, match="clone layer"):
+    with pytest.raises(EditRefused, match="clone layer"):
         layer_edits.add_mask(pasted, 1)
-    with pytest.raises(ValueError, match="clone layer"):
+    with pytest.raises(EditRefused, match="clone layer"):
         copy_region(pasted, HEXAGON)
     duplicate = layer_edits.duplicate_layer(pasted, 1)
     assert duplicate.layers[2].clone == pasted.layers[1].clone
@@ -140,14 +140,14 @@ def test_a_clone_layer_holds_no_items_merges_with_nothing_and_takes_no_mask(past
     ([[0, 0], [1, 0], [np.nan, 1]], "three finite"),
 ])
 def test_bad_regions_are_refused_with_a_message(source, region, message):
-    with pytest.raises(ValueError, match=message):
+    with pytest.raises(EditRefused, match=message):
         copy_region(source, region)
 
 
 def test_a_region_across_the_canvas_edge_is_cut_to_it_and_a_clone_off_the_canvas_refused(source, pasted):
     copied = copy_region(source, [[-20.0, -20.0], [60.0, -20.0], [60.0, 60.0], [-20.0, 60.0]])
     assert copied.region.min() == 0.0 and copied.region.max() == 60.0
-    with pytest.raises(ValueError, match="wholly outside"):
+    with pytest.raises(EditRefused, match="wholly outside"):
         place_clone(pasted, 1, Similarity(offset=(500.0, 0.0)))
     with pytest.raises(ValueError, match="not a clone layer"):
         place_clone(pasted, 0, Similarity())

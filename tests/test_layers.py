@@ -10,7 +10,7 @@ from layered import SIZE, reference, three_layers
 from shapes import scattered_document
 
 from fmr_editor.engine import LiveStack, evaluate_points, raster, rasterise
-from fmr_editor.model import DiffusionPoint, Document, Layer, edits, layer_edits
+from fmr_editor.model import DiffusionPoint, Document, EditRefused, Layer, edits, layer_edits
 from fmr_editor.model.color_transform import hue_rotation, inversion
 from fmr_editor.model.history import History
 
@@ -44,7 +44,7 @@ def test_the_active_layer_follows_its_layer_through_moves_and_deletions():
     copy = layer_edits.duplicate_layer(document, 2)
     assert [layer.name for layer in copy.layers] == ["a", "b", "c", "c copy", "d"] and copy.active == 3
     assert copy.layers[3].id != copy.layers[2].id
-    with pytest.raises(ValueError, match="at least one layer"):
+    with pytest.raises(EditRefused, match="at least one layer"):
         layer_edits.remove_layer(Document(8, 8))
 
 
@@ -56,9 +56,9 @@ def test_opacity_outside_the_unit_interval_is_refused(opacity):
 
 def test_a_document_holds_at_most_200_layers_of_names_up_to_1000_characters():
     full = Document(8, 8, layers=[Layer(name=str(i)) for i in range(200)], active=199)
-    with pytest.raises(ValueError, match="at most 200 layers"):
+    with pytest.raises(EditRefused, match="at most 200 layers"):
         layer_edits.add_layer(full)
-    with pytest.raises(ValueError, match="at most 1000 characters"):
+    with pytest.raises(EditRefused, match="at most 1000 characters"):
         layer_edits.rename_layer(full, 0, "x" * 1001)
     assert layer_edits.rename_layer(full, 0, "x" * 1000).layers[0].name == "x" * 1000
 
@@ -222,17 +222,17 @@ def test_a_baked_transform_gives_the_same_image_without_a_transform(monkeypatch)
 
 def test_merge_down_joins_the_items_with_transforms_applied_and_keeps_the_lower_layer():
     masked = three_layers()
-    with pytest.raises(ValueError, match="mask and opacity cannot be kept"):
+    with pytest.raises(EditRefused, match="mask and opacity cannot be kept"):
         layer_edits.merge_down(masked, 2)
     document = layer_edits.remove_mask(masked, 2)
-    with pytest.raises(ValueError, match="show both layers"):
+    with pytest.raises(EditRefused, match="show both layers"):
         layer_edits.merge_down(layer_edits.set_visible(document, 1, False), 2)
     merged = layer_edits.merge_down(document, 2)
     assert [layer.name for layer in merged.layers] == ["bottom", "middle"] and merged.active == 1
     middle, top = document.layers[1], layer_edits.baked(document.layers[2])
     assert merged.layers[1].curves == middle.curves + top.curves
     assert merged.layers[1].mask == middle.mask and merged.layers[1].opacity == middle.opacity
-    with pytest.raises(ValueError, match="no layer below"):
+    with pytest.raises(EditRefused, match="no layer below"):
         layer_edits.merge_down(document, 0)
 
 
@@ -242,5 +242,5 @@ def test_flatten_merges_the_visible_layers_into_one_and_drops_hidden_ones():
     bottom, top = document.layers[0], layer_edits.baked(document.layers[2])
     assert len(flat.layers) == 1 and flat.active == 0 and flat.layers[0].name == "bottom"
     assert flat.layers[0].curves == bottom.curves + top.curves
-    with pytest.raises(ValueError, match="no layer is visible"):
+    with pytest.raises(EditRefused, match="no layer is visible"):
         layer_edits.flatten(layer_edits.set_visible(Document(8, 8), 0, False))

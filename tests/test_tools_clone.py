@@ -8,7 +8,7 @@ import shapely
 from shapes import scattered_document
 from test_tools import click, drag, event, make_context
 
-from fmr_editor.model import Document, layer_edits
+from fmr_editor.model import Document, EditRefused, layer_edits
 from fmr_editor.model.clone import Similarity
 from fmr_editor.model.clone_edits import canvas_region, copy_region, paste_curves, paste_position, paste_seamless
 from fmr_editor.model.color_transform import ColorTransform, hue_rotation
@@ -30,7 +30,7 @@ def test_an_outline_encloses_its_largest_loop_clipped_to_the_canvas():
     region, _ = enclosed_region(np.array([(-40.0, -40.0), (50.0, -40.0), (50.0, 50.0), (-40.0, 50.0)]), SIZE, SIZE)
     assert shapely.Polygon(region).equals(shapely.box(0, 0, 50, 50))
     for outline in ([(200.0, 200.0), (220.0, 200.0), (210.0, 230.0)], [(0.0, 0.0), (5.0, 5.0), (10.0, 10.0)]):
-        with pytest.raises(ValueError, match="no area on the canvas"):
+        with pytest.raises(EditRefused, match="no area on the canvas"):
             enclosed_region(np.array(outline), SIZE, SIZE)
 
 
@@ -129,7 +129,7 @@ def test_copy_carries_the_layers_colour_adjustment_and_paste_curves_adds_to_the_
     copied = copy_region(turned, SQUARE)
     baked = layer_edits.baked(turned.layer)
     assert copied.source.curves == baked.curves and copied.source.layer.transform.is_identity
-    with pytest.raises(ValueError, match="Paint layer"):  # an offset no curve carries
+    with pytest.raises(EditRefused, match="Paint layer"):  # an offset no curve carries
         copy_region(layer_edits.set_transform(Document(SIZE, SIZE), 0,
                                               ColorTransform(np.zeros((3, 3)), (1.0, 0.5, 0.0))), SQUARE)
 
@@ -140,7 +140,7 @@ def test_copy_carries_the_layers_colour_adjustment_and_paste_curves_adds_to_the_
     assert all(curve.id not in {c.id for c in target.curves} for curve in added)
     np.testing.assert_allclose(added[0].control_points - [5.0, -5.0],
                                next(c for c in copied.source.curves if c.left == added[0].left).control_points)
-    with pytest.raises(ValueError, match="nothing to paste"):
+    with pytest.raises(EditRefused, match="nothing to paste"):
         paste_curves(target, copy_region(Document(SIZE, SIZE), SQUARE))
 
     assert paste_position(copied, target) == Similarity()  # in place: it fits

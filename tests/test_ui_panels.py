@@ -13,7 +13,7 @@ from PySide6.QtCore import QPoint, Qt  # noqa: E402
 from PySide6.QtGui import QColor  # noqa: E402
 
 from fmr_editor.io import save_fmr  # noqa: E402
-from fmr_editor.model import ColorStop, DiffusionCurve, Document  # noqa: E402
+from fmr_editor.model import ColorStop, DiffusionCurve, Document, edits  # noqa: E402
 from fmr_editor.tools import Selection  # noqa: E402
 from fmr_editor.ui.gradient_bar import BAR, HANDLE  # noqa: E402
 
@@ -205,13 +205,16 @@ def test_with_no_curve_the_bars_are_empty_and_with_no_stop_chosen_the_colour_but
     editor = two_stops
     panel = editor.window.stops_panel
     assert panel.title.text() == "Curve 1: 2 pieces"
+    curve = editor.document.curves[0]
+    editor.history.apply(edits.add_stop(editor.document, curve.id, "left", ColorStop(1.4, BLUE)), "Add Stop")
+    panel.refresh()
     assert panel.color_buttons["left"].isEnabled()  # no stop chosen, yet the button works
-    panel.color_buttons["right"].click()  # one stop on the right, at 0: the nearest the middle
-    assert editor.context.selection.stops == by_index(editor.document, stops=[(0, "right", 0)]).stops
+    panel.color_buttons["left"].click()  # stops at 0, 1.4 and 2 of 2 pieces: 1.4 is the nearest the middle
+    assert editor.context.selection.stops == by_index(editor.document, stops=[(0, "left", 1)]).stops
     dialog = panel.dialog
     dialog.setCurrentColor(QColor(0, 255, 0))
     dialog.accept()
-    assert editor.document.curves[0].right == (ColorStop(0.0, GREEN),)
+    assert editor.document.curves[0].left == (ColorStop(0.0, RED), ColorStop(1.4, GREEN), ColorStop(2.0, GREEN))
     assert editor.history.labels[-1] == "Change Stop Colour"
 
     editor.context.selection = Selection()
