@@ -260,7 +260,7 @@ class LiveRepresentation:
         """
         twin = object.__new__(LiveRepresentation)
         twin.__dict__.update(self.__dict__)
-        twin.document, twin.timings, twin.factorisations, twin.origin = document, {"twin": 0.0}, 0, "twin"
+        twin.document, twin.timings, twin.factorisations, twin.origin = document, {}, 0, "twin"
         twin._curve_cache, twin._cuts = self._curve_cache.copy(), BoundaryCuts()
         twin._solvers = SystemSolvers(twin._new_solver)
         twin._solvers.move_to(self._boundary)

@@ -62,7 +62,6 @@ class Stroke(EditDrag):
         self.last = event.position  # the pointer's previous position
         self.travelled = 0.0  # distance along the path since the last dab
         self.reach = radius  # how near a mask dab's centre an erasing stroke passes to remove it
-        self.canvas = (document.width, document.height)
         super().__init__(context, event, label, pressed=self._painted(document))
 
     def _painted(self, start: Document) -> Document:
@@ -104,9 +103,11 @@ class Stroke(EditDrag):
     def _changes_nothing(self) -> bool:
         if self.erasing:
             return self._painted(self.start).points == self.start.points
-        width, height = self.canvas
-        return all(math.hypot(max(-x, 0.0, x - width), max(-y, 0.0, y - height)) > REACH * dab.radius
-                   for dab in self.dabs for x, y in [dab.position])
+        return not any(self._reaches_canvas(dab) for dab in self.dabs)
+
+    def _reaches_canvas(self, dab: DiffusionPoint) -> bool:
+        (x, y), width, height = dab.position, self.start.width, self.start.height
+        return math.hypot(max(-x, 0.0, x - width), max(-y, 0.0, y - height)) <= REACH * dab.radius
 
 
 class BrushTool(Tool):

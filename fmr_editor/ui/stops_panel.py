@@ -200,11 +200,11 @@ class StopsPanel(QWidget):
         if context is None or self.curve is None:
             return
         if not chosen:
-            curve = context.document.curve(self.curve)
-            stops = getattr(curve, side)
+            shown = context.document.curve(self.curve)
+            stops = getattr(shown, side)
             if not stops:
                 return
-            middle = min(range(len(stops)), key=lambda i: abs(stops[i].position - curve.piece_count / 2))
+            middle = min(range(len(stops)), key=lambda i: abs(stops[i].position - shown.piece_count / 2))
             context.selection = Selection.of(stops=[(self.curve, side, middle)])
             self._done()
             chosen = [middle]
