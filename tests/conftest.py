@@ -25,7 +25,7 @@ def shared_data() -> Path:
 
 
 # --- Qt and OpenGL under a private X server ----------------------------------------------------
-# Qt gets OpenGL here only through an X server (DESIGN.md section 8): GUI tests run on an Xvfb that
+# Qt gets OpenGL here only through an X server (docs/design.md section 8): GUI tests run on an Xvfb that
 # the session starts itself, so they need no xvfb-run and no desktop.  pytest-qt's QApplication is
 # made after it (``qapp_args`` below depends on it), so every Qt test of the run shares that display.
 
@@ -172,10 +172,10 @@ class EditorDriver:
         return self.window.workspace.context
 
     def wait_idle(self, timeout: int = 60_000) -> None:
-        """Until no job runs and the engine has caught up with the current document."""
+        """Until the document shown has no job and its engine has caught up with it (other tabs' jobs may run)."""
         window = self.window
-        self.qtbot.waitUntil(lambda: window.job is None and window.workspace is not None and window.workspace.current,
-                             timeout=timeout)
+        self.qtbot.waitUntil(lambda: window.workspace is not None and window.workspace.task is None
+                             and window.workspace.current, timeout=timeout)
 
     def open(self, path) -> None:
         """Open ``path`` through the window (or show its tab, when it is open already) and wait for it."""
@@ -289,8 +289,9 @@ def editor(gl_display, qtbot, tmp_path, monkeypatch, compiled_kernels):
     qtbot.waitExposed(window)
     window.activateWindow()
     yield driver
-    if window.job is not None:
-        window.job.wait()
+    for tab in window.open_tabs:
+        if tab.task is not None and tab.task.job is not None:
+            tab.task.job.wait()
     window._close_now = True  # noqa: SLF001 - no question at teardown
     window.close()
     window.deleteLater()

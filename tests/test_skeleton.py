@@ -128,3 +128,34 @@ def test_the_top_block_is_factorised_on_the_factorisation_threads_and_blas_is_li
     SkeletonFactorization(system[0], 1e-6, leaf_size=24, top_size=100)
     assert seen and set(seen[0]) == {FACTORISATION_THREADS}
     assert set(blas_threads()) == {BLAS_THREADS}
+
+
+def test_overlapping_factorisations_on_two_threads_leave_blas_as_it_was_only_when_both_are_done():
+    """Two documents may be factorised at once, each on a job's thread (a job per tab): BLAS is raised from those
+    threads (threadpoolctl alone ignores any but the main thread), the first one out does not lower it under the
+    second, and the last one out does not leave it raised."""
+    from fmr_editor.engine.threads import BLAS_THREADS, FACTORISATION_THREADS, blas_threads, factorisation_threads
+
+    first_in, second_in, first_out = threading.Event(), threading.Event(), threading.Event()
+    seen = {}
+
+    def first() -> None:
+        with factorisation_threads():
+            first_in.set()
+            second_in.wait(10)
+        first_out.set()
+
+    def second() -> None:
+        first_in.wait(10)
+        with factorisation_threads():
+            second_in.set()
+            first_out.wait(10)
+            seen["after the first left"] = set(blas_threads())
+        seen["after both left"] = set(blas_threads())
+
+    threads = [threading.Thread(target=first), threading.Thread(target=second)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join(20)
+    assert seen == {"after the first left": {FACTORISATION_THREADS}, "after both left": {BLAS_THREADS}}

@@ -76,15 +76,19 @@ def test_opening_runs_on_a_thread_and_shows_progress(editor, qtbot, monkeypatch)
     monkeypatch.setattr(file_commands, "open_file", held_open)
     window.progress_bar.valueChanged.connect(progress.append)
     window.open_path(RIBBON)
-    assert window.job is not None and window.job.isRunning() and window.workspace is None  # open_path returned
-    assert not window.canvas.isEnabled() and not window.actions["open"].isEnabled()
-    # while the job is held, the window's event loop shows its progress
-    qtbot.waitUntil(lambda: bool(progress) and window.progress_bar.isVisible(), timeout=30_000)
-    assert window.job.isRunning() and window.workspace is None
-    release.set()
+    try:
+        assert window.job is not None and window.job.isRunning() and window.workspace is None  # open_path returned
+        assert window.shown.name == "ribbon.xml" and window.status_label.text() == "Opening ribbon.xml"
+        assert window.actions["open"].isEnabled() and not window.actions["save"].isEnabled()  # nothing to save yet
+        # while the job is held, the window's event loop shows its progress, in the status bar and on the tab
+        qtbot.waitUntil(lambda: 250 in progress and window.progress_bar.isVisible(), timeout=30_000)
+        assert window.job.isRunning() and window.workspace is None
+        assert window.tabs.tabText(0) == "ribbon.xml (25%)" and window.cancel_button.isVisible()
+    finally:
+        release.set()
     qtbot.waitUntil(lambda: window.job is None, timeout=60_000)
-    assert window.workspace.path == RIBBON and window.canvas.isEnabled()
-    assert progress and max(progress) > 0 and not window.progress_bar.isVisible()
+    assert window.workspace.path == RIBBON and window.tabs.tabText(0) == "ribbon.xml"
+    assert not window.progress_bar.isVisible()
 
 
 def test_open_edit_save_close_reopen_gives_the_same_document_and_pixels(ribbon, tmp_path, qtbot):

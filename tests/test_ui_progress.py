@@ -27,3 +27,21 @@ def test_the_words_fit_the_progress_bar(editor):
     metrics = QFontMetrics(bar.font())
     widest = max(metrics.horizontalAdvance(progress_text(stage).replace("%p", "100")) for stage in STAGE_WORDS)
     assert widest <= bar.maximumWidth() - 40  # room for the bar's frame and chunk margins
+
+
+@pytest.mark.gui
+def test_a_long_tool_hint_ends_in_an_ellipsis_and_its_tooltip_holds_all_of_it(editor):
+    from fmr_editor.tools import CloneTool
+
+    window, text = editor.window, CloneTool.hint  # the longest hint
+    hint = window.hint_label
+    hint.setText(text)
+    window.resize(1, window.height())  # as narrow as the window goes
+    editor.qtbot.waitUntil(lambda: hint.fontMetrics().horizontalAdvance(text) > hint.contentsRect().width(),
+                           timeout=5_000)
+    assert hint.toolTip() == text
+    shown = hint.shown_text
+    assert shown.endswith("\u2026") and text.startswith(shown[:-1])
+    assert hint.fontMetrics().horizontalAdvance(shown) <= hint.contentsRect().width()
+    window.resize(2400, window.height())
+    editor.qtbot.waitUntil(lambda: hint.shown_text == text, timeout=5_000)

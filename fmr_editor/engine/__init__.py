@@ -17,6 +17,7 @@ from .composite import Composite, FieldKey, LayerFields, Role
 from .fmm.expansions import local_polynomials
 from .fmm.lattice import Lattice
 from .geometry.segments import Segments
+from .kept_states import DEFAULT_MEMORY
 from .live import LiveRepresentation, Progress, Update
 from .memory import available_memory, check_image_memory
 from .points.field import PointField
@@ -28,7 +29,8 @@ from .solve.clone import SeamlessClone, Similarity
 from .stack import LiveStack, StackUpdate, build, composite_of
 
 __all__ = [
-    "MAX_LEVELS", "Composite", "FieldKey", "GaussPoints", "LayerFields", "Lattice", "LiveRepresentation", "LiveStack",
+    "DEFAULT_MEMORY", "MAX_LEVELS", "Composite", "FieldKey", "GaussPoints", "LayerFields", "Lattice",
+    "LiveRepresentation", "LiveStack",
     "PointField", "Progress", "Representation", "Role", "SeamlessClone", "Segments", "Settings", "Similarity",
     "StackUpdate", "Update", "build",
     "available_memory", "check_image_memory", "clone_points", "composite_of", "evaluate_points", "local_polynomials",

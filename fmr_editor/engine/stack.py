@@ -133,6 +133,15 @@ class LiveStack:
         self._follow(document, progress, kept, exact=True)
         self._blend(document, {})  # the clones not saved
 
+    @property
+    def memory(self) -> int:
+        """Bytes the kept states of all fields may take (a new budget holds from the next update on)."""
+        return self._memory
+
+    @memory.setter
+    def memory(self, memory: int) -> None:
+        self._memory = int(memory)
+
     def _follow(self, document: Document, progress: Progress | None, saved: dict[FieldKey, Representation],
                 exact: bool) -> dict[FieldKey, Update]:
         wanted = _wanted(document)

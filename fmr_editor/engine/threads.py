@@ -18,6 +18,8 @@ per core); ``blas_threads`` says what is in force.
 
 from __future__ import annotations
 
+import threading
+from contextlib import contextmanager
 from functools import lru_cache
 
 import numpy  # noqa: F401  (loads numpy's BLAS, so that the limit reaches it)
@@ -46,6 +48,54 @@ def _controller() -> ThreadpoolController:
     return ThreadpoolController()  # made once: scanning the loaded libraries costs 2 ms
 
 
+def _set_threads(threads: list[int]) -> None:
+    """Set each loaded BLAS library (in ``_blas_libraries`` order) to its number of ``threads``."""
+    for library, count in zip(_blas_libraries(), threads):
+        # threadpoolctl (>= 3.6) ignores a limit asked from any thread but the first to set one (the main
+        # thread, by setup_process), while jobs factorise on threads of their own; _SharedLimit serialises
+        # every change this module makes, which is what that rule guards against.
+        getattr(library, "_real_set_num_threads", library.set_num_threads)(count)
+
+
+def _blas_libraries() -> list:
+    return _controller().select(user_api="blas").lib_controllers
+
+
+class _SharedLimit:
+    """BLAS raised to ``FACTORISATION_THREADS`` while at least one thread is in ``factorisation_threads``.
+
+    Two jobs may factorise at once (documents opened in two tabs); restoring on each exit, as a plain
+    ``threadpool_limits`` context does, would let the first one out lower BLAS under the second, or the last
+    one out leave it raised for good.  So the first in raises it and the last out restores it.
+    """
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._inside = 0
+        self._before: list[int] = []
+
+    @contextmanager
+    def held(self):
+        with self._lock:
+            if self._inside == 0:
+                self._before = [library.get_num_threads() for library in _blas_libraries()]
+                _set_threads([FACTORISATION_THREADS] * len(self._before))
+            self._inside += 1
+        try:
+            yield
+        finally:
+            with self._lock:
+                self._inside -= 1
+                if self._inside == 0:
+                    _set_threads(self._before)
+
+
+@lru_cache(maxsize=None)
+def _shared_limit() -> _SharedLimit:
+    return _SharedLimit()  # one per process, as BLAS's thread setting is
+
+
 def factorisation_threads():
-    """A context in which BLAS runs on ``FACTORISATION_THREADS`` threads (back to what it was after)."""
-    return _controller().limit(limits=FACTORISATION_THREADS, user_api="blas")
+    """A context in which BLAS runs on ``FACTORISATION_THREADS`` threads (back to what it was once no thread is
+    inside one any more)."""
+    return _shared_limit().held()

@@ -118,6 +118,8 @@ class Tool:
     title = ""
     shortcut = ""
     cursor = "arrow"
+    #: A few words on what the tool is for (its tooltip).
+    summary = ""
     #: One line for the status bar: what the tool does and how.
     hint = ""
 

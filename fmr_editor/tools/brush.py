@@ -118,6 +118,7 @@ class BrushTool(Tool):
     hint = ("Drag to paint dabs (Paint covers what is below, Glow adds up towards white); "
             "on a mask light adds, dark subtracts, Alt erases")
     shortcut = "B"
+    summary = "Paint diffusion points: soft Gaussian dabs of colour"
     cursor = "crosshair"
 
     def start(self, event: PointerEvent) -> Stroke:

@@ -44,6 +44,7 @@ class EyedropperTool(Tool):
     title = "Eyedropper"
     hint = "Click to take the foreground colour from the image; Alt+click for the background colour"
     shortcut = "I"
+    summary = "Take a colour from the image"
     cursor = "picker"
 
     def start(self, event: PointerEvent) -> Sampling:

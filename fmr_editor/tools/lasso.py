@@ -71,6 +71,7 @@ class LassoTool(Tool):
     hint = ("Drag to select freehand, or click corners; Return or a click on the first corner closes the selection; "
             "Esc clears it; Ctrl+C copies the active layer inside it")
     shortcut = "L"
+    summary = "Select a region to copy, paste or clone seamlessly"
     cursor = "crosshair"
 
     def __init__(self, context: ToolContext) -> None:

@@ -63,6 +63,7 @@ class PenTool(Tool):
     hint = ("Click for a corner, drag for a smooth anchor; Return or double click ends the curve; "
             "click the first anchor to close it")
     shortcut = "P"
+    summary = "Draw diffusion curves: corners and smooth anchors"
     cursor = "pen"
 
     def __init__(self, context: ToolContext) -> None:

@@ -95,6 +95,7 @@ class SelectTool(Tool):
     hint = ("Click to select (Shift adds), drag to move; drag on empty canvas to select an area; "
             "double click a curve to add an anchor")
     shortcut = "V"
+    summary = "Select and move curves, points and anchors"
     cursor = "arrow"
 
     def under(self, position) -> tuple[str, object] | None:

@@ -81,6 +81,7 @@ class StopsTool(Tool):
     hint = ("Click beside a curve to add a stop on that side; drag stops along the curve; "
             "double click a stop for its colour")
     shortcut = "G"
+    summary = "Add, move and recolour the colour stops on each side of a curve"
     cursor = "crosshair"
 
     def __init__(self, context: ToolContext) -> None:

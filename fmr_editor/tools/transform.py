@@ -125,6 +125,7 @@ class CloneTool(Tool):
     hint = ("Drag inside the box to move the clone, a corner to scale it, the round handle to turn it; "
             "Return keeps the change, Esc drops it; click a clone to choose it")
     shortcut = "T"
+    summary = "Move, scale and turn a pasted clone"
     cursor = "arrow"
 
     def __init__(self, context: ToolContext) -> None:

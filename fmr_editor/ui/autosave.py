@@ -74,9 +74,14 @@ class Autosaver(QObject):
         self._pending: list[Future] = []
         self._written.connect(self._finish, Qt.ConnectionType.QueuedConnection)
         self._timer = QTimer(self)
-        self._timer.setInterval(int(min(1000.0, self.seconds * 250)))
         self._timer.timeout.connect(self._tick)
+        self.set_seconds(seconds)
         self._timer.start()
+
+    def set_seconds(self, seconds: float) -> None:
+        """Autosave ``seconds`` after a document's first unsaved change from now on."""
+        self.seconds = seconds
+        self._timer.setInterval(int(min(1000.0, self.seconds * 250)))
 
     def watch(self, workspace, key: str | None = None) -> None:
         """Autosave ``workspace`` from now on, under ``key`` (a recovered entry's) or a new one."""

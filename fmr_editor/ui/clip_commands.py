@@ -59,8 +59,7 @@ class ClipCommands:
             return
         self.set_tool("clone")
         self.tool.paste(pasted)
-        self.status_label.setText("Place the clone: drag to move, corners scale, the round handle turns; "
-                                  "Return keeps it, Esc drops it")
+        self.status_label.setText(f"Place the clone of {copied.name}")  # the tool's hint says how
         self._after_tool()
 
     def paste(self) -> None:

@@ -171,6 +171,11 @@ class EngineThread(QObject):
         """The frame of the representation as built (call before any ``request``)."""
         return Frame.first(self._worker.live)
 
+    def set_memory(self, memory: int) -> None:
+        """The bytes of recent states the representation may keep for undo (``LiveStack.memory``: the worker
+        reads it at its next update, so setting it from this thread is safe)."""
+        self._worker.live.memory = memory
+
     def request(self, document: Document, preview: bool = False) -> None:
         """Bring the representation to ``document`` (newest request wins); ``preview``: may be approximate."""
         if self._worker.post(document, preview):

@@ -1,10 +1,11 @@
 """The window's file commands: new, open, save, save as, export, recent files, drops and closing.
 
-``FileCommands`` is mixed into ``MainWindow``; it uses the window's job
-runner (``_start``), its busy state and its open ``workspace``.  Saving and
-exporting wait until the engine has caught up with the document
+``FileCommands`` is mixed into ``MainWindow``; it uses the window's tabs
+(``_open_tab``), its job runner (``_start``) and the ``workspace`` shown.
+Each document opens in a tab of its own on a job; saving and exporting wait
+until the engine has caught up with the document
 (``Workspace.when_current``) and then read that frame's representation on
-a job thread while editing is paused.
+a job thread while that document is paused.
 """
 
 from __future__ import annotations
@@ -40,52 +41,40 @@ class FileCommands:
     # -- file commands ------------------------------------------------------------------------------------
     def new_document(self, size: tuple[int, int] | None = None) -> None:
         """A new, empty document in a tab of its own; asks for the canvas size unless ``size`` is given."""
-        if self._busy:
-            return
         chosen = size or NewDocumentDialog.get_size(self, *DEFAULT_SIZE)
         if chosen is None:
             return
         width, height = chosen
-        self._start("New document", lambda progress: new_document(width, height, progress), self._install,
-                    lambda error: show_error(self, "Cannot Create the Document", str(error)))
+        self._open_tab("Untitled", None, "New document", lambda progress: new_document(width, height, progress),
+                       None, lambda error: show_error(self, "Cannot Create the Document", str(error)))
 
     def open_document(self) -> None:
         """Ask for a document and open it."""
-        if self._busy:
-            return
         path = ask_open_path(self, self._folder())
         if path is not None:
             self.open_path(path)
 
     def open_path(self, path: str | os.PathLike, then: Callable[[], None] | None = None) -> None:
-        """Open ``path`` in a tab of its own (its tab, if it is open already), then ``then()``; a failure
-        changes nothing (with nothing open and nothing to follow, a new canvas opens instead)."""
-        if self._busy:
-            return
+        """Open ``path`` in a tab of its own (its tab, if it is open or opening already), then ``then()``; a
+        failure changes nothing (with nothing open and nothing to follow, a new canvas opens instead)."""
         path = Path(path)
-        for workspace in self.workspaces:
-            if workspace.path is not None and workspace.path == path.absolute():
-                self._activate(workspace)
+        for tab in self.open_tabs:
+            if tab.path is not None and tab.path == path.absolute():
+                self._activate(tab)
                 if then is not None:
                     then()
                 return
-
-        def opened(result) -> None:
-            self._install(result)
-            if then is not None:
-                then()
 
         def failed(error: BaseException) -> None:
             message = str(error) if isinstance(error, DocumentLoadError) else f"{path.name}: {error}"
             if not path.exists():
                 self.recent.remove(path)
             show_error(self, "Cannot Open the Document", message)
-            if then is not None:
-                then()
-            elif self.workspace is None:  # nothing open (started on this file): a blank canvas instead
+            if then is None and not self.open_tabs:  # nothing open (started on this file): a blank canvas instead
                 self.new_document(DEFAULT_SIZE)
 
-        self._start(f"Opening {path.name}", lambda progress: open_file(path, progress), opened, failed)
+        self._open_tab(path.name, path.absolute(), f"Opening {path.name}", lambda progress: open_file(path, progress),
+                       then, failed)
 
     def offer_recovery(self) -> bool:
         """Offer the documents a crash left autosaved (``RecoveryDialog``, not blocking); False when there are none."""
@@ -98,9 +87,6 @@ class FileCommands:
         return True
 
     def _recovery_chosen(self, dialog: RecoveryDialog) -> None:
-        if self.job is not None:  # the first document is still being opened: one job at a time
-            QTimer.singleShot(100, lambda: self._recovery_chosen(dialog))
-            return
         self.recovery = None
         if dialog.choice == "discard":
             for entry in dialog.checked():
@@ -113,17 +99,10 @@ class FileCommands:
         if not entries:
             return
         entry, rest = entries[0], entries[1:]
-
-        def opened(result) -> None:
-            self._install(result)
-            self._recover(rest)
-
-        def failed(error: BaseException) -> None:
-            show_error(self, "Cannot Recover the Document", f"{entry.name}: {error}")
-            self._recover(rest)
-
         folder = self.autosaver.folder
-        self._start(f"Recovering {entry.name}", lambda progress: recover(folder, entry, progress), opened, failed)
+        self._open_tab(entry.name, entry.path, f"Recovering {entry.name}",
+                       lambda progress: recover(folder, entry, progress), lambda: self._recover(rest),
+                       lambda error: show_error(self, "Cannot Recover the Document", f"{entry.name}: {error}"))
 
     def open_paths(self, paths: list) -> None:
         """Open each of ``paths`` in a tab, one after the other (a new canvas when none opens)."""
@@ -163,7 +142,7 @@ class FileCommands:
         if self.tool is not None:
             self.tool.finish()
         document, step = workspace.history.document, workspace.history.index
-        self._set_busy(f"Saving {path.name}")  # nothing edits until the job is done
+        self._begin(workspace, f"Saving {path.name}")  # nothing edits it until the job is done
 
         def saved(written: Path) -> None:
             history = workspace.history
@@ -182,7 +161,7 @@ class FileCommands:
         def start(frame) -> None:
             picture = frame.picture if frame is not None and frame.document is document else None
             settings = workspace.settings if picture is not None else None
-            self._start(f"Saving {path.name}",
+            self._start(workspace, f"Saving {path.name}",
                         lambda progress: save_fmr(path, document, picture, settings=settings), saved, failed)
 
         workspace.when_current(start)
@@ -202,7 +181,7 @@ class FileCommands:
         if self.tool is not None:
             self.tool.finish()
             document = workspace.history.document
-        self._set_busy(f"Exporting {options.path.name}")
+        self._begin(workspace, f"Exporting {options.path.name}")
 
         def done(written: Path) -> None:
             self.status_label.setText(f"Exported {Path(written).name} ({options.width}x{options.height})")
@@ -212,7 +191,7 @@ class FileCommands:
 
         def start(frame) -> None:
             picture = frame.picture if frame is not None and frame.document is document else None
-            self._start(f"Exporting {options.path.name}",
+            self._start(workspace, f"Exporting {options.path.name}",
                         lambda progress: export_png(options, document, picture, workspace.settings, progress),
                         done, failed)
 
@@ -225,7 +204,6 @@ class FileCommands:
         for k, path in enumerate(paths, 1):
             action = menu.addAction(f"&{k % 10} {path.name}  \u2014  {path.parent}")
             action.triggered.connect(lambda _=False, path=path: self.open_path(path))
-            action.setEnabled(not self._busy)
         if paths:
             menu.addSeparator()
         clear = menu.addAction("Clear Recent Files")
@@ -241,7 +219,7 @@ class FileCommands:
         return [Path(url.toLocalFile()) for url in mime.urls() if url.isLocalFile() and openable(url.toLocalFile())]
 
     def dragEnterEvent(self, event) -> None:
-        if self._dropped(event) and not self._busy:
+        if self._dropped(event):
             event.acceptProposedAction()
         else:
             event.ignore()
@@ -251,16 +229,17 @@ class FileCommands:
 
     def dropEvent(self, event) -> None:
         paths = self._dropped(event)
-        if not paths or self._busy:
+        if not paths:
             event.ignore()
             return
         event.acceptProposedAction()
         QTimer.singleShot(0, lambda: self.open_paths(paths))  # not inside the drop: opening may show a message
 
     def closeEvent(self, event) -> None:
-        if not self._close_now and self.job is not None:
+        busy = [tab.task.title for tab in self.open_tabs if tab.task is not None]
+        if not self._close_now and busy:
             event.ignore()  # a job is writing or reading: close when asked again after it
-            self.status_label.setText("Wait for the current job to finish before closing.")
+            self.status_label.setText(f"Wait for {busy[0]} to finish, or cancel it, before closing.")
             return
         if not self._close_now and any(workspace.history.modified for workspace in self.workspaces):
             event.ignore()  # asks about each document; closes when none is left unsettled

@@ -2,7 +2,9 @@
 
 A ``Job`` runs one function on its own ``QThread`` and reports back on the
 window's thread through signals, so the window keeps painting and shows the
-progress while the work runs.  ``Job.cancel`` stops the work at its next
+progress while the work runs.  A job belongs to one document's tab, whose
+``Task`` says what it does and how far it got: that document waits for it,
+every other tab stays usable.  ``Job.cancel`` stops the work at its next
 progress report (the work sees ``Cancelled`` raised there and leaves nothing
 half done: files are written atomically, documents installed only at the end).
 """
@@ -11,6 +13,7 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Callable
+from dataclasses import dataclass
 
 from PySide6.QtCore import QThread, Signal
 
@@ -78,3 +81,23 @@ class Job(QThread):
             self.cancelled.emit()  # asked after the last report: the result is dropped all the same
             return
         self.succeeded.emit(result)
+
+
+@dataclass(eq=False)
+class Task:
+    """What a document's tab is busy with, for as long as it is.
+
+    Attributes
+    ----------
+    title : str
+        What it does, for the status bar ("Saving roses.fmr").
+    job : Job or None
+        Its job once started (a save first waits for the engine to catch up).
+    stage, fraction : str, float
+        The job's last progress report.
+    """
+
+    title: str
+    job: Job | None = None
+    stage: str = "Starting"
+    fraction: float = 0.0

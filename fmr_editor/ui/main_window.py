@@ -1,12 +1,13 @@
 """The editor's main window: canvas, panels, menus, and the jobs that open, save and export.
 
 Each open document is a ``Workspace`` in a tab of its own (``documents``);
-the active one is ``workspace``.  Pointer events from the canvas go to its
+the one shown is ``workspace``.  Pointer events from the canvas go to its
 active tool; every change of the document goes to the
 engine thread, whose frames update the canvas cell by cell.  Opening,
-building, saving and exporting run on ``jobs.Job`` threads with progress in
-the status bar; while one runs the document cannot be edited, so that a job
-reads a representation nothing changes.
+building, saving and exporting run on ``jobs.Job`` threads, each for one tab
+with its progress in the status bar while that tab is shown; the document a
+job works on cannot be edited until it ends (so that it reads a
+representation nothing changes), every other tab can.
 """
 
 from __future__ import annotations
@@ -22,25 +23,28 @@ from .. import __version__
 from ..io.autosave import AutosaveFolder
 from ..model import EditRefused
 from ..model.clone_edits import canvas_region
-from ..tools import Selection, ToolOptions, delete_selection
+from ..tools import TOOLS, Selection, ToolOptions, delete_selection
 from ..tools.overlay import region_marks
 from .autosave import Autosaver, RecoveryDialog, default_folder
 from .canvas import Canvas
 from .clip_commands import ClipCommands
-from .documents import DocumentTabs
+from .documents import DocumentTabs, Opening
+from .elided_label import ElidedLabel
 from .events import modifier_names, pointer_event, tool_key
 from .file_commands import FileCommands
 from .files import RecentFiles
 from .help import USER_GUIDE, ShortcutsDialog, open_user_guide
 from .history_panel import HistoryPanel
-from .jobs import Job
+from .jobs import Job, Task
 from .layer_commands import LayerCommands
 from .layers_panel import LayersPanel
 from .menus import build_actions, build_menus
 from .options_panel import OptionsPanel
 from .overlay import Overlay
+from .preferences import Preferences, PreferencesDialog
 from .progress import progress_text
 from .stops_panel import StopsPanel
+from .toolbox import build_toolbox
 from .workspace import Workspace
 from .zoom import ZoomButton
 
@@ -66,9 +70,11 @@ class MainWindow(FileCommands, LayerCommands, DocumentTabs, ClipCommands, QMainW
     Attributes
     ----------
     workspace : Workspace or None
-        The active document (None while none is open).
+        The document shown (None while none is, or its tab is still opening).
     workspaces : list of Workspace
         Every open document, in the order of their tabs.
+    open_tabs : list of Workspace or documents.Opening
+        Every tab, documents still opening included.
     canvas : ui.canvas.Canvas
     actions : dict of str to QAction
     """
@@ -76,15 +82,15 @@ class MainWindow(FileCommands, LayerCommands, DocumentTabs, ClipCommands, QMainW
     def __init__(self, settings: QSettings, parent=None, autosave: Autosaver | None = None) -> None:
         super().__init__(parent)
         self.settings = settings
-        self.autosaver = autosave or Autosaver(AutosaveFolder(default_folder()))
+        self.preferences = Preferences.load(settings)
+        self.autosaver = autosave or Autosaver(AutosaveFolder(default_folder()), self.preferences.autosave_seconds)
         self.autosaver.setParent(self)
         self.recovery: RecoveryDialog | None = None  # the recovery dialog while it is open
         self.recent = RecentFiles(settings)
         self.options = ToolOptions()
+        self.preferences.apply_brush(self.options)
         self.workspace: Workspace | None = None
         self.tool_name = "select"
-        self.job: Job | None = None
-        self._busy = False
         self._close_now = False
         self._swallow: int | None = None  # a key press the tool took at its shortcut override
         self._declined: int | None = None  # a key press the tool declined at its shortcut override
@@ -102,7 +108,8 @@ class MainWindow(FileCommands, LayerCommands, DocumentTabs, ClipCommands, QMainW
         self.actions = build_actions(self)
         self.recent_menu = QMenu("Open &Recent", self)
         self.recent_menu.aboutToShow.connect(self._fill_recent_menu)
-        self.options_panel = OptionsPanel(self.options, [a for k, a in self.actions.items() if k.startswith("tool:")])
+        self.toolbox = build_toolbox(self, self.actions)
+        self.options_panel = OptionsPanel(self.options)
         self.options_panel.changed.connect(self.overlay.update)
         self.stops_panel = StopsPanel()
         self.stops_panel.changed.connect(self._after_tool)
@@ -115,7 +122,8 @@ class MainWindow(FileCommands, LayerCommands, DocumentTabs, ClipCommands, QMainW
             self._dock("Colour Stops", "stops", self.stops_panel, Qt.DockWidgetArea.RightDockWidgetArea),
             self._dock("History", "history", self.history_panel, Qt.DockWidgetArea.RightDockWidgetArea),
         ]
-        build_menus(self, self.actions, self.recent_menu, [d.toggleViewAction() for d in docks])
+        build_menus(self, self.actions, self.recent_menu,
+                    [self.toolbox.toggleViewAction()] + [d.toggleViewAction() for d in docks])
 
         self._build_status_bar()
         self.autosaver.failed.connect(lambda message: self.status_label.setText(message))
@@ -132,7 +140,7 @@ class MainWindow(FileCommands, LayerCommands, DocumentTabs, ClipCommands, QMainW
     def _build_status_bar(self) -> None:
         """Messages and the active tool's hint on the left; preview notice, progress and pointer on the right."""
         self.status_label = QLabel()
-        self.hint_label = QLabel()  # what the active tool does
+        self.hint_label = ElidedLabel()  # what the active tool does
         self.shading_label = QLabel()  # shown while a frame is a drag's preview
         self.shading_label.hide()
         self.position_label = QLabel()
@@ -178,7 +186,7 @@ class MainWindow(FileCommands, LayerCommands, DocumentTabs, ClipCommands, QMainW
         self.actions[f"tool:{name}"].setChecked(True)
         cursor = self.workspace.tools[name].cursor if self.workspace is not None else "arrow"
         self.canvas.setCursor(QCursor(CURSORS.get(cursor, Qt.CursorShape.ArrowCursor)))
-        self.hint_label.setText(self.tool.hint if self.tool is not None else "")
+        self.hint_label.setText((self.tool or next(cls for cls in TOOLS if cls.name == name)).hint)
         self._after_tool()
 
     def _pointer(self, kind: str, event) -> None:
@@ -315,6 +323,23 @@ class MainWindow(FileCommands, LayerCommands, DocumentTabs, ClipCommands, QMainW
     def default_colors(self) -> None:
         self.options_panel.default_colors()
 
+    def edit_preferences(self) -> None:
+        """Edit > Preferences: a dialog; its choices hold at once and from one start to the next."""
+        self.preferences_dialog = dialog = PreferencesDialog(self.preferences, self)
+        dialog.accepted.connect(lambda: self.set_preferences(dialog.chosen))
+        dialog.open()
+
+    def set_preferences(self, preferences: Preferences) -> None:
+        """Keep ``preferences`` in the settings and apply them: the brush now, the autosave delay, and the undo
+        memory of every open document."""
+        self.preferences = preferences
+        preferences.save(self.settings)
+        preferences.apply_brush(self.options)
+        self.options_panel.refresh()
+        self.autosaver.set_seconds(preferences.autosave_seconds)
+        for workspace in self.workspaces:
+            workspace.set_undo_memory(preferences.undo_memory)
+
     def about(self) -> None:
         QMessageBox.about(self, f"About {APP_NAME}",
                           f"<b>{APP_NAME}</b> {__version__}<p>Diffusion curves and points, rendered through the fast "
@@ -354,7 +379,7 @@ class MainWindow(FileCommands, LayerCommands, DocumentTabs, ClipCommands, QMainW
     def _frame_ready(self, frame) -> None:
         self._show_shading(frame)
         self.canvas.update_representation(frame.picture, frame.changes)
-        if self.job is None:
+        if not self._busy:
             self.progress_bar.hide()
 
     def _show_shading(self, frame) -> None:
@@ -374,7 +399,7 @@ class MainWindow(FileCommands, LayerCommands, DocumentTabs, ClipCommands, QMainW
         self.status_label.setText(f"The image could not be updated: {message.splitlines()[0]}")
 
     def _engine_progress(self, stage: str, fraction: float) -> None:
-        if self.job is None:
+        if not self._busy:
             self._show_progress(stage, fraction)
 
     def _show_progress(self, stage: str, fraction: float) -> None:
@@ -402,13 +427,11 @@ class MainWindow(FileCommands, LayerCommands, DocumentTabs, ClipCommands, QMainW
         gesture = self.tool is not None and self.tool.busy  # Undo drops it
         actions["undo"].setEnabled(free and (undo is not None or gesture))
         actions["redo"].setEnabled(free and redo is not None)
-        for name in ("new", "open"):
-            actions[name].setEnabled(free)
-        for name in ("save", "save_as", "export", "close", "delete", "select_all", "deselect"):
+        for name in ("save", "save_as", "export", "delete", "select_all", "deselect"):
             actions[name].setEnabled(free and workspace is not None)
+        actions["close"].setEnabled(self.shown is not None)
         for name in ("next_document", "previous_document"):
-            actions[name].setEnabled(free and len(self.workspaces) > 1)
-        self.tabs.setEnabled(free)
+            actions[name].setEnabled(len(self.open_tabs) > 1)
         self._update_clip_actions()
         self._update_layer_actions()
 
@@ -420,46 +443,87 @@ class MainWindow(FileCommands, LayerCommands, DocumentTabs, ClipCommands, QMainW
         self.stops_panel.refresh()
         self.overlay.update()
 
-    def _set_busy(self, message: str | None) -> None:
-        """Pause editing while a job runs (``message`` says what it does), or resume it (None)."""
-        self._busy = message is not None
-        for widget in (self.canvas, self.stops_panel, self.history_panel, self.layers_panel, self.tabs):
-            widget.setEnabled(not self._busy)
-        self.status_label.setText(message or "")
-        if self._busy:
-            self._show_progress("Starting", 0.0)  # the job's name is in the status label
+    # -- jobs -------------------------------------------------------------------------------------------
+    @property
+    def _busy(self) -> bool:
+        """True while the tab shown waits for a job (opening, saving, exporting): nothing edits it."""
+        return self.shown is not None and self.shown.task is not None
+
+    @property
+    def job(self) -> Job | None:
+        """A job still running for any tab (None when none is)."""
+        return next((tab.task.job for tab in self.open_tabs if tab.task is not None and tab.task.job is not None),
+                    None)
+
+    def _show_task(self) -> None:
+        """The shown tab's job in the status bar (title, progress, Cancel) and its document paused, or neither."""
+        task = self.shown.task if self.shown is not None else None
+        for widget in (self.stops_panel, self.history_panel, self.layers_panel):
+            widget.setEnabled(task is None)
+        running = task is not None and task.job is not None
+        if task is not None:
+            self.status_label.setText(task.title)
+            self._show_progress(task.stage, task.fraction)
         else:
             self.progress_bar.hide()
-        self.cancel_button.setVisible(self._busy and self.job is not None)
-        self.cancel_shortcut.setEnabled(self._busy and self.job is not None)
+        self.cancel_button.setVisible(running)
+        self.cancel_shortcut.setEnabled(running)
         self._update_actions()
 
-    # -- jobs -------------------------------------------------------------------------------------------
-    def _start(self, title: str, work, succeeded: Callable, failed: Callable) -> None:
-        """Run ``work(progress)`` on a job thread, editing paused; then ``succeeded(result)`` or ``failed(error)``."""
-        if self.tool is not None:
+    def _begin(self, tab, title: str) -> Task:
+        """Mark ``tab`` busy with ``title`` (before its job starts: a save waits for the engine first)."""
+        if tab is self.shown and self.tool is not None:
             self.tool.finish()
-        job = Job(work, title, self)
-        self.job = job
-        self._set_busy(title)
-        job.progress.connect(self._show_progress)
-        job.succeeded.connect(lambda result: self._finish_job(job, succeeded, result))
-        job.failed.connect(lambda error: self._finish_job(job, failed, error))
-        job.cancelled.connect(lambda: self._finish_job(job, lambda _: self.status_label.setText(
-            f"Cancelled: {title}"), None))
+        tab.task = Task(title)
+        if tab is self.shown:
+            self._show_task()
+        return tab.task
+
+    def _start(self, tab, title: str, work, succeeded: Callable, failed: Callable,
+               cancelled: Callable[[], None] | None = None) -> None:
+        """Run ``work(progress)`` on a job thread for ``tab``, which waits for it; then ``succeeded(result)``,
+        ``failed(error)`` or ``cancelled()`` (default: the status bar says so)."""
+        task = tab.task if tab.task is not None and tab.task.title == title else self._begin(tab, title)
+        job = task.job = Job(work, title, self)
+        job.progress.connect(lambda stage, fraction: self._job_progress(tab, stage, fraction))
+        job.succeeded.connect(lambda result: self._finish_job(tab, job, succeeded, result))
+        job.failed.connect(lambda error: self._finish_job(tab, job, failed, error))
+        job.cancelled.connect(lambda: self._finish_job(
+            tab, job, lambda _: cancelled() if cancelled is not None else self.status_label.setText(
+                f"Cancelled: {title}"), None))
+        if tab is self.shown:
+            self._show_task()
         job.start()
 
-    def cancel_job(self) -> None:
-        """Stop the running job at its next progress report (the Cancel button, Esc)."""
-        if self.job is not None:
-            self.job.cancel()
-            self.status_label.setText(f"Cancelling: {self.job.title}")
+    def _job_progress(self, tab, stage: str, fraction: float) -> None:
+        task = tab.task
+        if task is None:
+            return
+        shown_percent = round(task.fraction * 100)
+        task.stage, task.fraction = stage, fraction
+        if tab is self.shown:
+            self._show_progress(stage, fraction)
+        if isinstance(tab, Opening) and round(fraction * 100) != shown_percent:
+            self._name_tab(tab)
 
-    def _finish_job(self, job: Job, then: Callable, value) -> None:
+    def cancel_job(self) -> None:
+        """Stop the shown tab's job at its next progress report (the Cancel button, Esc)."""
+        if self.shown is not None:
+            self._cancel(self.shown)
+
+    def _cancel(self, tab) -> None:
+        if tab.task is not None and tab.task.job is not None:
+            tab.task.job.cancel()
+            if tab is self.shown:
+                self.status_label.setText(f"Cancelling: {tab.task.title}")
+
+    def _finish_job(self, tab, job: Job, then: Callable, value) -> None:
         job.wait()
         job.deleteLater()
-        if self.job is job:
-            self.job = None
-        self._set_busy(None)
+        tab.task = None
+        if tab is self.shown:
+            self._show_task()
+            self.status_label.setText("")
         then(value)
-        self._update_state()
+        if tab is self.shown:
+            self._update_state()

@@ -31,12 +31,14 @@ ACTIONS = {
     "delete": ("&Delete", ["Delete", "Backspace"], "delete_selection", "Delete the selection"),
     "select_all": ("Select &All", ["Ctrl+A"], "select_all", "Select every curve and point"),
     "deselect": ("D&eselect", ["Ctrl+Shift+A"], "deselect", "Clear the selection"),
+    "preferences": ("Pre&ferences\u2026", ["Ctrl+,"], "edit_preferences",
+                    "Brush settings to start with, autosave delay, undo memory"),
     "zoom_in": ("Zoom &In", ["Ctrl++", "Ctrl+="], "zoom_in", "Zoom in about the centre"),
     "zoom_out": ("Zoom &Out", ["Ctrl+-"], "zoom_out", "Zoom out about the centre"),
     "actual_size": ("&Actual Size", ["1"], "actual_size", "One document pixel per screen pixel (100%)"),
     "fit": ("&Fit Canvas", ["Ctrl+0", "5"], "fit", "Show the whole canvas"),
-    "next_document": ("Ne&xt Document", ["Ctrl+Tab"], "next_document", "Show the next open document"),
-    "previous_document": ("Pre&vious Document", ["Ctrl+Shift+Tab"], "previous_document",
+    "next_document": ("Ne&xt Document", ["Ctrl+Tab", "Ctrl+PgDown"], "next_document", "Show the next open document"),
+    "previous_document": ("Pre&vious Document", ["Ctrl+Shift+Tab", "Ctrl+PgUp"], "previous_document",
                           "Show the previous open document"),
     "swap_colors": ("&Swap Colours", ["X"], "swap_colors", "Swap the foreground and background colours"),
     "default_colors": ("&Default Colours", ["D"], "default_colors", "Black foreground, white background"),
@@ -71,7 +73,7 @@ LAYER_ACTIONS = ("new_layer", "duplicate_layer", "delete_layer", "merge_down", "
 MENUS = (
     ("&File", ("new", "open", "recent", None, "save", "save_as", "export", None, "close", "quit")),
     ("&Edit", ("undo", "redo", None, "copy", "paste", "paste_seamless", None, "delete", None, "select_all",
-               "deselect")),
+               "deselect", None, "preferences")),
     ("&View", ("zoom_in", "zoom_out", "actual_size", "fit", None, "next_document", "previous_document", None,
                "panels")),
     ("&Layer", ("new_layer", "duplicate_layer", "delete_layer", None, "merge_down", "flatten", None, "add_mask",
@@ -97,8 +99,8 @@ def build_actions(window) -> dict[str, QAction]:
         action = QAction(cls.title, window)
         action.setCheckable(True)
         action.setShortcut(QKeySequence(cls.shortcut))
-        action.setToolTip(f"{cls.title} ({cls.shortcut})")
-        action.setStatusTip(f"{cls.title} tool")
+        action.setToolTip(f"<b>{cls.title}</b> ({cls.shortcut})<br>{cls.summary}")
+        action.setStatusTip(f"{cls.title} ({cls.shortcut}): {cls.summary}")
         action.triggered.connect(lambda _=False, name=cls.name: window.set_tool(name))
         group.addAction(action)
         actions[f"tool:{cls.name}"] = action

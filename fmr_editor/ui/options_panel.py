@@ -1,16 +1,12 @@
-"""The tool options panel: the tools, the foreground and background colours, the brush."""
+"""The tool options panel: the foreground and background colours, the brush."""
 
 from __future__ import annotations
 
-from collections.abc import Iterable
-
-from PySide6.QtCore import QSize, Qt, Signal
-from PySide6.QtGui import QAction
+from PySide6.QtCore import QSize, Signal
 from PySide6.QtWidgets import (
     QComboBox,
     QDoubleSpinBox,
     QFormLayout,
-    QGridLayout,
     QGroupBox,
     QHBoxLayout,
     QToolButton,
@@ -30,16 +26,17 @@ BRUSH_FIELDS = (
     ("brush_spacing", "Spacing", 0.5, 2000.0, 1.0, 1, "Distance between dabs along a stroke, pixels"),
 )
 
+#: The brush's modes (``ToolOptions.brush_mode``) and their names.
+BRUSH_MODES = {"paint": "Paint", "glow": "Glow"}
+
 
 class OptionsPanel(QWidget):
-    """Tool buttons, colour swatches and brush settings, editing one ``ToolOptions``.
+    """Colour swatches and brush settings, editing one ``ToolOptions``.
 
     Parameters
     ----------
     options : ToolOptions
         Shared with every document's tool context.
-    tool_actions : iterable of QAction
-        The window's checkable tool actions, shown as buttons.
     parent : QWidget, optional
 
     Signals
@@ -50,16 +47,9 @@ class OptionsPanel(QWidget):
 
     changed = Signal()
 
-    def __init__(self, options: ToolOptions, tool_actions: Iterable[QAction], parent=None) -> None:
+    def __init__(self, options: ToolOptions, parent=None) -> None:
         super().__init__(parent)
         self.options = options
-        tools = QGridLayout()
-        for k, action in enumerate(tool_actions):
-            button = QToolButton(self)
-            button.setDefaultAction(action)
-            button.setToolButtonStyle(Qt.ToolButtonStyle.ToolButtonTextOnly)
-            button.setMinimumWidth(40)
-            tools.addWidget(button, k // 3, k % 3)
 
         self.foreground = self._swatch_button("Foreground colour: new stops, dabs, a new curve's left side", "color")
         self.background = self._swatch_button("Background colour: a new curve's right side", "secondary_color")
@@ -82,8 +72,8 @@ class OptionsPanel(QWidget):
                                                 "brush_color")
         form.addRow("Colour", self.brush_swatch)
         self.brush_mode = QComboBox(self)
-        self.brush_mode.addItem("Paint", "paint")
-        self.brush_mode.addItem("Glow", "glow")
+        for mode, label in BRUSH_MODES.items():
+            self.brush_mode.addItem(label, mode)
         self.brush_mode.setToolTip("Paint: dabs cover what is below with the brush colour (a fill layer's mask). "
                                    "Glow: dabs add colour and overlapping dabs brighten towards white")
         self.brush_mode.currentIndexChanged.connect(self._set_mode)
@@ -100,12 +90,10 @@ class OptionsPanel(QWidget):
             form.addRow(label, spin)
             self.spins[name] = spin
 
-        tools_box = QGroupBox("Tools")
-        tools_box.setLayout(tools)
         colours_box = QGroupBox("Colours")
         colours_box.setLayout(colours)
         layout = QVBoxLayout(self)
-        for box in (tools_box, colours_box, brush):
+        for box in (colours_box, brush):
             layout.addWidget(box)
         layout.addStretch(1)
         self.refresh()

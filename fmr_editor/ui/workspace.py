@@ -23,6 +23,7 @@ from ..model import ColorStop, DiffusionCurve, Document
 from ..model.history import History
 from ..tools import ToolContext, ToolOptions, create_tools
 from .engine_thread import EngineThread, Frame
+from .jobs import Task
 
 #: Canvas size of a new document, pixels.
 DEFAULT_SIZE = (512, 512)
@@ -140,6 +141,9 @@ class Workspace(QObject):
     failure : str or None
         The engine's last failure, until a frame arrives (shown when the
         document's tab comes to the front).
+    task : jobs.Task or None
+        The job the document waits for (saving, exporting): nothing edits it
+        until it is done.
 
     Signals
     -------
@@ -173,6 +177,7 @@ class Workspace(QObject):
                                    say=self.message.emit)
         self.view = (None, True)
         self.failure: str | None = None  # why the engine could not bring the image up to date, until it can
+        self.task: Task | None = None
         self.tools = create_tools(self.context)
         self.frame = opened.frame
         self._waiting: list[Callable[[Frame | None], None]] = []
@@ -238,6 +243,10 @@ class Workspace(QObject):
             callback(self.frame)
         else:
             self._waiting.append(callback)
+
+    def set_undo_memory(self, memory: int) -> None:
+        """Let the document keep ``memory`` bytes of recent states for fast undo (from its next change on)."""
+        self.engine.set_memory(memory)
 
     def sample(self, x: float, y: float) -> tuple[float, float, float]:
         """The rendered colour at document point ``(x, y)`` (the eyedropper's sampler)."""
