@@ -1,4 +1,4 @@
-"""The engine's FMM applied to point charges and dipoles (DESIGN section 4), for ``bench_fmm2d``.
+"""The engine's FMM applied to point charges and dipoles (docs/design.md section 3), for ``bench_fmm2d``.
 
 Computes, at every target x (a complex number z),
 
@@ -353,7 +353,7 @@ def evaluate_points_fmm(
         clock("sort")
     tiny2 = (side * 2.0**-52) ** 2
     flat = np.repeat(np.arange(cells * cells), np.diff(target_start))
-    # the engine's locals carry 1/2pi (DESIGN section 4); these sums do not
+    # the engine's locals carry 1/2pi (docs/design.md section 3); these sums do not
     sorted_out = 2 * np.pi * far_field_at(local, lattice, np.stack(np.divmod(flat, cells), axis=1),
                                           np.stack([tx, ty], axis=1))[:, 0]
     _near_field(tx, ty, target_start, sx, sy, charge, dip_x, dip_y, source_start, cells, tiny2, sorted_out)

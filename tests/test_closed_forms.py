@@ -1,4 +1,4 @@
-"""The FMR against closed-form solutions of the diffusion problem (DESIGN section 3)."""
+"""The FMR against closed-form solutions of the diffusion problem (docs/design.md section 2)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Each FMM operator against the direct sum at well-separated points (DESIGN section 4)."""
+"""Each FMM operator against the direct sum at well-separated points (docs/design.md section 3)."""
 
 from __future__ import annotations
 

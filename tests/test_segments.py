@@ -10,7 +10,7 @@ Checks
   length of the segment/rectangle intersection (computed with shapely); parts
   running along the canvas edge are dropped.
 * ``canvas_border``: a closed chain of length ``2(w + h)`` with the canvas on
-  its left (DESIGN section 2: with y down the left normal is ``(t_y, -t_x)``).
+  its left (docs/design.md section 1: with y down the left normal is ``(t_y, -t_x)``).
 * ``cut_at_cells``: every piece lies in one lattice cell, lengths and colours
   are preserved, and the number of pieces matches the lattice lines crossed.
 * ``boundary_segments`` puts curve segments first and the border last.

@@ -1,4 +1,4 @@
-"""What a layered picture is drawn from, and its composition sample by sample (DESIGN section 6).
+"""What a layered picture is drawn from, and its composition sample by sample (docs/design.md section 5).
 
 ``Composite`` holds each visible layer's representation with its mask's,
 opacity and colour transform; ``compose`` blends their values sample by

@@ -1,4 +1,4 @@
-"""A clone layer's recipe: a region of a source image, placed into the picture by a similarity (DESIGN section 6).
+"""A clone layer's recipe: a region of a source image, placed into the picture by a similarity (docs/design.md sec. 6).
 
 A clone layer holds no curves of its own: it holds what was copied (the
 source layer's items on the source's canvas, and the region in source

@@ -2,7 +2,7 @@
 
 A diffusion image is linear in its colours, so a transform applies exactly to
 every cell coefficient of a layer (``A`` to each coefficient vector, ``b`` to
-the constant term) and to its segments' colours (DESIGN section 6).  The
+the constant term) and to its segments' colours (docs/design.md section 5).  The
 presets are the W3C filter-effects matrices (``hueRotate``, ``saturate``)
 and component transfers (brightness, contrast, invert), in sRGB values as
 the editor diffuses them.

@@ -1,4 +1,4 @@
-"""Layers and masks: a document is a stack of diffusion images composed bottom to top (DESIGN section 6).
+"""Layers and masks: a document is a stack of diffusion images composed bottom to top (docs/design.md section 5).
 
 Each layer is a whole diffusion image (its curves and points, solved on its
 own with the canvas's reflecting border).  It is drawn over what lies below

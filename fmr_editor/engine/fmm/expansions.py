@@ -1,4 +1,4 @@
-"""Multipole and local expansions of the complex potential (DESIGN section 4).
+"""Multipole and local expansions of the complex potential (docs/design.md section 3).
 
 The colour is u = Re Phi with::
 

@@ -1,4 +1,4 @@
-"""The lattice of cells and the FMM passes over it (DESIGN section 4).
+"""The lattice of cells and the FMM passes over it (docs/design.md section 3).
 
 A uniform ``2^L x 2^L`` lattice covers the canvas's bounding square with the
 full quadtree above it.  Level arrays are indexed ``[row, column, ...]``.

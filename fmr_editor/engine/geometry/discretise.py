@@ -4,7 +4,7 @@ A document becomes segments in three steps: each curve is flattened into a
 polyline that carries its colours (``flatten``), clipped to the canvas
 (``clip_to_canvas``; where two segments overlap along a line the later one
 keeps the overlap, ``overlaps``), then joined by the canvas border
-(``canvas_border``, DESIGN section 3) and cut where they cross the lattice's
+(``canvas_border``, docs/design.md section 2) and cut where they cross the lattice's
 cell edges (``cut_at_cells``), so that each lies in one fine cell.
 """
 

@@ -3,7 +3,7 @@
 Each segment carries its colour jump ``C = u_left - u_right`` and the mean of
 both sides ``(u_left + u_right) / 2`` per channel, both constant along it; the
 solve adds the normal-derivative jump ``E``.  The canvas border is one closed
-chain of segments with the canvas on its left (DESIGN section 3).
+chain of segments with the canvas on its left (docs/design.md section 2).
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Kernels: the closed-form layer potentials of a segment and their compiled sums.
 
-``potentials`` is the plain numpy reference (DESIGN section 3),
+``potentials`` is the plain numpy reference (docs/design.md section 2),
 ``fastmath`` the vectorisable scalar maths every compiled loop shares,
 ``segment_sums`` the sums over segments at arbitrary points (direct, near
 field, collocation) and ``grid`` the same on tensor grids of samples

@@ -135,7 +135,7 @@ def subtended_angle(v0x, v0y, v1x, v1y):
 def potentials_from(x, y, px, py, qx, qy, tx, ty, h, log_p):
     """Single and double layer of one segment at (x, y) given ``log|p - x|^2``; also ``log|q - x|^2``.
 
-    The closed form of ``potentials.pair_integrals`` (DESIGN section 3).  The two
+    The closed form of ``potentials.pair_integrals`` (docs/design.md section 2).  The two
     arctangents of the single layer differ by the angle the segment subtends,
     which the double layer computes anyway, so one ``atan2`` and two
     logarithms serve both.  Guards: the logarithms' arguments are at least

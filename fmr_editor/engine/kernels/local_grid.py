@@ -2,7 +2,7 @@
 
 A sample in fine cell ``(cy, cx)`` at ``w = xi + i eta`` (its offset from
 the cell centre in cell sizes) takes ``(1/2pi) Re sum_{l <= order} L_l w^l``
-of that cell's scaled local expansion ``L`` (DESIGN section 4), written
+of that cell's scaled local expansion ``L`` (docs/design.md section 3), written
 straight into the image.  Threads take rows of cells; each cell's
 coefficients are read once (scaled by ``1/2pi`` into a small table) and its
 samples evaluated by Horner's rule in ``w``, the three channels side by side,

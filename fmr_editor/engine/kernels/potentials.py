@@ -1,7 +1,7 @@
 """Closed-form single- and double-layer integrals of straight segments.
 
 For a segment from p to q (length h, unit tangent t, left normal n) and a
-target x, with a = (x - p).t and b = (x - p).n (DESIGN section 3)::
+target x, with a = (x - p).t and b = (x - p).n (docs/design.md section 2)::
 
     S(x) = (1/2pi) integral ln|x - y| ds = (F(h - a, b) - F(-a, b)) / 2pi
     D(x) = (1/2pi) integral (y - x).n / |x - y|^2 ds = angle(p - x, q - x) / 2pi

@@ -16,7 +16,7 @@ sub-cell of centre ``zs``:
   ``grid``.
 
 With ``w = (z - zs) / s``, ``v = (z0 - zs) / s`` on a segment from ``p`` to
-``q`` (unit tangent ``t``, normal ``n0 = -i t``; DESIGN section 4)::
+``q`` (unit tangent ``t``, normal ``n0 = -i t``; docs/design.md section 3)::
 
     L_0 = 2 pi (E S(zs) - C D(zs))                 (real part only counts)
     L_l = -E s J_l / l - C n0 J_(l+1),   l >= 1

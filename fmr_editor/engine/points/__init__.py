@@ -1,4 +1,4 @@
-"""Diffusion points: Gaussians expanded into the cells' polynomials (DESIGN section 5).
+"""Diffusion points: Gaussians expanded into the cells' polynomials (docs/design.md section 4).
 
 ``gauss`` holds the settings, truncation and Hermite functions,
 ``tensor`` (with ``tensor_kernels``) builds the cell polynomials,

@@ -1,4 +1,4 @@
-"""Diffusion points as Gaussian sums: packed input, error rules and plain references (DESIGN section 5).
+"""Diffusion points as Gaussian sums: packed input, error rules and plain references (docs/design.md section 4).
 
 A point ``i`` adds ``w_i exp(-|x - x_i|^2 / r_i^2)`` (``w_i`` = amplitude times
 colour, three channels).  About a centre ``c`` with ``s = (x_i - c) / r`` and
@@ -17,7 +17,7 @@ polynomial in a cell is ``w u(s_x) (x) u(s_y)``: rank one per channel.
   come nearer than ``R = r sqrt(ln(A / tolerance))`` (``A = max |w|``; a
   square of cells, separable, so the batch build is matrix products); beyond
   them it is below ``tolerance``.  They lie within ``ceil(R / l)`` cells of
-  its own (DESIGN section 5).
+  its own (docs/design.md section 4).
 - *Truncation*: keeping degrees ``<= P`` in each of ``xi, eta`` on
   ``|xi|, |eta| <= 1/2`` errs by at most ``e1 (2 + e1)`` times ``A``, with ``e1``
   the 1-D error ``max |exp(-(t - s)^2) - sum_(n<=P) h_n(s) t^n / n!|`` over all

@@ -1,4 +1,4 @@
-"""Solving the boundary-element system for the unknown densities (DESIGN section 3).
+"""Solving the boundary-element system for the unknown densities (docs/design.md section 2).
 
 ``dense`` assembles and solves it directly, ``solver`` by GMRES with FMM
 products preconditioned by the compressed factorisation of ``skeleton``

@@ -1,4 +1,4 @@
-"""Exact seamless (Poisson) cloning on the boundary representation (DESIGN section 6, Perez et al. 2003).
+"""Exact seamless (Poisson) cloning on the boundary representation (docs/design.md section 6, Perez et al. 2003).
 
 A region ``Omega`` of a source image (its solved segments, field ``g``) is
 placed into a target (field ``f_t``) by a similarity.  The result is ``f_t``
@@ -110,7 +110,7 @@ def _edge_cuts(p: np.ndarray, q: np.ndarray, polygon: np.ndarray) -> tuple[np.nd
 def boundary(polygon: np.ndarray, spacing: float) -> tuple[np.ndarray, np.ndarray]:
     """``Gamma``: the polygon's edges cut into pieces of at most ``spacing``, with the inside on their left.
 
-    The left is the side of ``n = (t_y, -t_x)``, the engine's normal (DESIGN section 3).
+    The left is the side of ``n = (t_y, -t_x)``, the engine's normal (docs/design.md section 1).
     """
     a = np.asarray(polygon, dtype=np.float64)
     x, y = a[:, 0], a[:, 1]

@@ -1,4 +1,4 @@
-"""Boundary-element solve for the normal-derivative jumps (DESIGN section 3).
+"""Boundary-element solve for the normal-derivative jumps (docs/design.md section 2).
 
 Collocation at segment midpoints x_i.  On a curve segment the mean of both
 sides is known::

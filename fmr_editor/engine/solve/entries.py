@@ -3,7 +3,7 @@
 Row i is the field of unit densities at segment midpoint i: column j is
 ``S_ij`` on a curve segment and ``-D_ij`` on a border segment, with the
 principal value (``D_ii = 0``) and the border's ``-1/2`` on the diagonal
-(``dense``, DESIGN section 3).  The skeleton factorisation asks for the
+(``dense``, docs/design.md section 2).  The skeleton factorisation asks for the
 blocks it compresses, the updated solve for the rows and columns of the
 segments an edit replaced.
 

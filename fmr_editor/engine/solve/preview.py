@@ -21,7 +21,7 @@ segments and solved unknowns), so that nothing drifts along the drag:
    representation), again with the removed segments' field taken out and
    the added ones' put in.  The local system is bordered by the net flux
    kept and one unknown constant, the level the rest of the picture lends
-   the region (as the clone's seam is, DESIGN section 6).
+   the region (as the clone's seam is, docs/design.md section 6).
 3. **Say how good it is.**  The preview's residual at ``SAMPLES`` kept
    collocation points (the field of what changed, summed directly) is the
    error of its picture on the curves there: the error is continuous across
