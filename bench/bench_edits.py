@@ -253,7 +253,7 @@ def geometry_step(path: Path, repeat: int) -> None:
     cache = CurveSegments(settings.tolerance, settings.max_length)
     curves = cache.segments(document)
     side = float(max(document.width, document.height))
-    cell = Lattice(affordable_levels(choose_levels(curves, side)), side).cell_size
+    cell = Lattice(affordable_levels(choose_levels(curves, side), settings.propagation_order + 1), side).cell_size
     cuts = discretise.BoundaryCuts()
     held = curves, cuts(curves, document, cell, settings.border_spacing)
     k = edited_curve(document)

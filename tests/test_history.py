@@ -256,3 +256,24 @@ def test_remove_anchors_joins_inner_pieces_and_cuts_end_pieces():
         edits.remove_anchors(doc, doc.curves[0].id, [4])  # a handle
     with pytest.raises(ValueError):
         edits.remove_anchors(doc, doc.curves[0].id, [0, 3, 6, 9])  # one anchor would remain
+
+
+def test_unsubscribed_listeners_hear_nothing_more(history_and_calls):
+    history, calls = history_and_calls
+    heard = []
+
+    def listener(before, after):
+        heard.append("document")
+
+    def steps():
+        heard.append("steps")
+
+    history.subscribe(listener)
+    history.subscribe_steps(steps)
+    history.apply(edits.add_points(history.document, [DiffusionPoint((1.0, 1.0), 2.0, (1.0, 0.0, 0.0))]), "Paint")
+    assert sorted(heard) == ["document", "steps"]
+    history.unsubscribe(listener)
+    history.unsubscribe_steps(steps)
+    history.unsubscribe(listener)  # twice: nothing
+    history.undo()
+    assert sorted(heard) == ["document", "steps"]

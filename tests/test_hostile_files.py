@@ -98,15 +98,16 @@ def test_canvases_too_large_or_too_thin_are_refused(name, words):
 
 
 def test_a_huge_canvas_gets_the_lattice_the_memory_allows():
-    assert affordable_levels(11, available=64 * GB) == 11
-    assert affordable_levels(11, available=3 * GB) == 9  # 2048 x 2048 cells would take 3.4 GB
-    assert affordable_levels(11, available=0) == 2
+    assert affordable_levels(11, 17, available=64 * GB) == 11
+    assert affordable_levels(11, 17, available=3 * GB) == 9  # 2048 x 2048 cells would take 3.4 GB
+    assert affordable_levels(11, 17, available=0) == 2
+    assert affordable_levels(11, 65, available=3 * GB) == 8  # expansions of more terms: a coarser lattice
 
 
 def test_builds_and_renders_that_would_not_fit_are_refused_before_they_start():
-    check_build_memory(90_000, 8, available=3 * GB)  # roses
+    check_build_memory(90_000, 8, 17, available=3 * GB)  # roses
     with pytest.raises(LimitError, match="needs about"):
-        check_build_memory(400_000, 8, available=3 * GB)
+        check_build_memory(400_000, 8, 17, available=3 * GB)
     with pytest.raises(LimitError, match="16,384 x 16,384 pixels"):
         check_image_memory(16384, 16384, available=16 * GB)
 

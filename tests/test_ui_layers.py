@@ -141,3 +141,28 @@ def test_paint_mode_covers_with_a_fill_layer_instead_of_adding_up(line, qtbot):
     colour = editor.workspace.sample(60.0, 52.0)
     np.testing.assert_allclose(colour, (0.1, 0.2, 0.9), atol=1e-3)  # covered: the brush colour, not more
     shows_the_composite(editor)
+
+
+def test_a_layer_command_refused_says_why_and_one_that_breaks_is_reported_as_a_bug(line, monkeypatch):
+    from fmr_editor.model import EditRefused, layer_edits
+
+    editor, window = line, line.window
+    start, before = editor.history.index, editor.document
+
+    def refused(document):
+        raise EditRefused("a document holds at most 64 layers")
+
+    monkeypatch.setattr(layer_edits, "add_layer", refused)
+    window.actions["new_layer"].trigger()
+    assert window.status_label.text() == "Not done: a document holds at most 64 layers"
+    assert editor.history.index == start and editor.document is before
+
+    def broken(document):
+        raise IndexError("list index out of range")
+
+    monkeypatch.setattr(layer_edits, "add_layer", broken)
+    with editor.qtbot.capture_exceptions() as caught:  # what sys.excepthook is given
+        window.actions["new_layer"].trigger()
+    assert [(kind, str(error)) for kind, error, _ in caught] == [(IndexError, "list index out of range")]
+    assert window.status_label.text().startswith("Internal error (IndexError)")
+    assert editor.history.index == start and editor.document is before and len(editor.document.layers) == 1

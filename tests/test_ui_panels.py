@@ -225,3 +225,29 @@ def test_with_no_curve_the_bars_are_empty_and_with_no_stop_chosen_the_colour_but
     image = bar.grab().toImage()
     middle = image.pixelColor(bar.width() // 2, BAR // 2 + 1)
     assert middle == bar.palette().window().color()  # an empty bar, not a black side
+
+
+def test_the_history_and_layers_panels_follow_the_document_they_show_and_only_it(editor):
+    """Bound to a history, the panels show its every change by themselves (no window pushes them); bound to
+    another, they no longer hear the first."""
+    from fmr_editor.model import layer_edits
+    from fmr_editor.model.history import History
+
+    first, second = History(Document(64, 64)), History(Document(32, 32))
+    history_panel, layers_panel = editor.window.history_panel, editor.window.layers_panel  # no document open
+    history_panel.bind(first, "Open first")
+    layers_panel.bind(first)
+    first.apply(layer_edits.add_layer(first.document), "New Layer")
+    first.apply(layer_edits.rename_layer(first.document, None, "Sky"), "Rename Layer")
+    rows = [history_panel.list.item(k).text() for k in range(history_panel.list.count())]
+    assert rows == ["Open first", "New Layer", "Rename Layer"] and history_panel.list.currentRow() == 2
+    assert [layers_panel.list.item(k).text() for k in range(layers_panel.list.count())][0] == "Sky"
+    first.undo()
+    assert history_panel.list.currentRow() == 1 and layers_panel.list.count() == 2
+
+    history_panel.bind(second, "Open second")
+    layers_panel.bind(second)
+    first.apply(layer_edits.add_layer(first.document), "New Layer")  # no longer shown: not heard
+    assert history_panel.list.count() == 1 and layers_panel.list.count() == 1
+    second.apply(layer_edits.add_layer(second.document), "New Layer")
+    assert history_panel.list.count() == 2 and layers_panel.list.count() == 2

@@ -178,6 +178,11 @@ class LiveRepresentation:
         """Drop the kept segments of curves in neither ``keep`` nor the current document."""
         self._curve_cache.forget(keep + self.document.curves)
 
+    @property
+    def _terms(self) -> int:
+        """Expansion terms a cell holds (what its memory estimate counts)."""
+        return self.settings.propagation_order + 1
+
     def _levels(self, curves: Segments) -> int:
         """The lattice depth for ``curves``: what they ask for, or what the points asked for when built.
 
@@ -187,7 +192,7 @@ class LiveRepresentation:
         """
         if self.settings.levels:
             return self.settings.levels
-        return affordable_levels(max(choose_levels(curves, self._side), self._point_levels))
+        return affordable_levels(max(choose_levels(curves, self._side), self._point_levels), self._terms)
 
     def _rebuild(self, document: Document, progress: Progress | None) -> None:
         report = progress or (lambda stage, fraction: None)
@@ -230,7 +235,7 @@ class LiveRepresentation:
         self._point_levels = point_levels(lattice_radius(self._radii), self._side)
         self.lattice = Lattice(self._levels(self._curves), self._side)
         self._boundary = self._cuts(self._curves, document, self.lattice.cell_size, self.settings.border_spacing)
-        check_build_memory(len(self._boundary), self.lattice.levels)
+        check_build_memory(len(self._boundary), self.lattice.levels, self._terms)
 
     def _resume(self, document: Document, saved: Representation) -> bool:
         """Take the solution and expansions of ``saved`` (of ``document``); False if they do not fit it."""

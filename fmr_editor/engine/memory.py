@@ -63,27 +63,29 @@ def _read_number(path: str) -> int | None:
 #: Bytes a build holds at its peak per boundary unknown (the solve's factorisation and products): roses,
 #: 90,000 unknowns, peaks at 1.1 GB.
 BYTES_PER_UNKNOWN = 12_000
-#: Bytes a build holds at its peak per fine cell of its lattice: the local and the fine multipole expansions
-#: (3 channels, 17 complex terms each), the coarser levels' and the passes' temporaries.
-BYTES_PER_CELL = 4 * 3 * 17 * 16
+#: Bytes a build holds at its peak per fine cell and expansion term: the local and the fine multipole
+#: expansions (3 channels of complex terms), the coarser levels' and the passes' temporaries.
+BYTES_PER_CELL_TERM = 4 * 3 * 16
 #: Share of the available memory a build plans to use (the rest: the document, the image, the interface).
 BUILD_SHARE = 0.75
 
 
-def affordable_levels(levels: int, available: int | None = None) -> int:
-    """``levels``, or fewer when a lattice that deep would not fit in memory (at least 2).
+def affordable_levels(levels: int, terms: int, available: int | None = None) -> int:
+    """``levels``, or fewer when a lattice that deep, of ``terms`` expansion terms a cell
+    (``Settings.propagation_order + 1``), would not fit in memory (at least 2).
 
     A coarser lattice only puts more segments in each cell (pixels cost
     more), so a huge canvas is built on the lattice the memory allows.
     """
     budget = BUILD_SHARE * (available_memory() if available is None else available)
-    while levels > 2 and 4**levels * BYTES_PER_CELL > budget:
+    while levels > 2 and 4**levels * terms * BYTES_PER_CELL_TERM > budget:
         levels -= 1
     return levels
 
 
-def check_build_memory(unknowns: int, levels: int, available: int | None = None) -> None:
-    """Refuse a build of ``unknowns`` boundary segments on a lattice of ``levels`` that would not fit in memory.
+def check_build_memory(unknowns: int, levels: int = 0, terms: int = 0, available: int | None = None) -> None:
+    """Refuse a build of ``unknowns`` boundary segments on a lattice of ``levels`` with ``terms`` expansion terms
+    a cell that would not fit in memory (the default 0 and 0: the segments alone, before a lattice is chosen).
 
     Raises
     ------
@@ -91,7 +93,7 @@ def check_build_memory(unknowns: int, levels: int, available: int | None = None)
         Naming the estimate and the memory available.
     """
     available = available_memory() if available is None else available
-    need = unknowns * BYTES_PER_UNKNOWN + 4**levels * BYTES_PER_CELL
+    need = unknowns * BYTES_PER_UNKNOWN + (4**levels * terms * BYTES_PER_CELL_TERM if levels else 0)
     if need > BUILD_SHARE * available:
         raise LimitError(f"building this document needs about {_gigabytes(need)} of memory "
                          f"({unknowns:,} boundary segments), more than the {_gigabytes(available)} available")

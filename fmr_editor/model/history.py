@@ -50,6 +50,16 @@ class History:
         and when a transaction ends."""
         self._step_listeners.append(listener)
 
+    def unsubscribe(self, listener: Listener) -> None:
+        """Stop calling ``listener`` (given to ``subscribe``; nothing when it was not)."""
+        if listener in self._listeners:
+            self._listeners.remove(listener)
+
+    def unsubscribe_steps(self, listener: Callable[[], None]) -> None:
+        """Stop calling ``listener`` (given to ``subscribe_steps``; nothing when it was not)."""
+        if listener in self._step_listeners:
+            self._step_listeners.remove(listener)
+
     def _steps_changed(self) -> None:
         for listener in list(self._step_listeners):
             listener()

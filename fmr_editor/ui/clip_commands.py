@@ -12,9 +12,10 @@ when it fits the canvas, else in the middle of the canvas.
 
 from __future__ import annotations
 
-from ..model import Document, EditRefused
+from ..model import Document
 from ..model.clone_edits import Copied, copy_region, paste_curves, paste_position, paste_seamless
 from ..tools import Selection
+from .refusals import reporting
 
 
 class ClipCommands:
@@ -31,10 +32,9 @@ class ClipCommands:
         if region is None:
             self.status_label.setText("Nothing to copy: select a region with the Lasso (L) first")
             return
-        try:
+        with reporting(self.status_label.setText, "Cannot copy") as outcome:
             self.clipboard = copy_region(workspace.history.document, region)
-        except EditRefused as error:
-            self.status_label.setText(f"Cannot copy: {error}")
+        if outcome.failed:
             return
         self.status_label.setText(f"Copied {self.clipboard.name} inside the selection")
         self._update_actions()
@@ -52,10 +52,9 @@ class ClipCommands:
         if pasting is None:
             return
         document, copied = pasting
-        try:
+        with reporting(self.status_label.setText, "Cannot paste") as outcome:
             pasted = paste_seamless(document, copied, paste_position(copied, document))
-        except EditRefused as error:
-            self.status_label.setText(f"Cannot paste: {error}")
+        if outcome.failed:
             return
         self.set_tool("clone")
         self.tool.paste(pasted)
@@ -68,10 +67,9 @@ class ClipCommands:
         if pasting is None:
             return
         document, copied = pasting
-        try:
+        with reporting(self.status_label.setText, "Cannot paste") as outcome:
             pasted = paste_curves(document, copied, paste_position(copied, document).offset)
-        except EditRefused as error:
-            self.status_label.setText(f"Cannot paste: {error}")
+        if outcome.failed:
             return
         context = self.workspace.context
         context.history.apply(pasted, "Paste")

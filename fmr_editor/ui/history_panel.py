@@ -12,8 +12,8 @@ class HistoryPanel(QWidget):
     """A list of the history's steps; the current one bold and selected, undone ones grey.
 
     Clicking a row (or moving to it with the keyboard) makes that step
-    current (``History.jump``).  Call ``bind`` with each new document's
-    history and ``refresh`` after changes.
+    current (``History.jump``).  ``bind`` shows a document's history, which
+    the panel then follows by itself.
 
     Parameters
     ----------
@@ -33,12 +33,21 @@ class HistoryPanel(QWidget):
         self.list.currentRowChanged.connect(self._jump)
 
     def bind(self, history: History | None, first: str) -> None:
-        """Show ``history`` (None: no document); ``first`` names its starting state ("Open ribbon.xml")."""
+        """Show and follow ``history`` (None: no document); ``first`` names its starting state ("Open ribbon.xml")."""
+        if self._history is not None:
+            self._history.unsubscribe(self._changed)
+            self._history.unsubscribe_steps(self.refresh)
         self._history, self._first, self._shown = history, first, None
         if history is None:
             self.list.blockSignals(True)
             self.list.clear()
             self.list.blockSignals(False)
+        else:
+            history.subscribe(self._changed)
+            history.subscribe_steps(self.refresh)
+        self.refresh()
+
+    def _changed(self, before, after) -> None:
         self.refresh()
 
     def refresh(self) -> None:

@@ -26,8 +26,9 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from ..model import Document, EditRefused, layer_edits
+from ..model import Document, layer_edits
 from ..model.history import History
+from .refusals import reporting
 
 #: Buttons under the list: (window action, short text); the mask button's menu holds MASK_ACTIONS.
 BUTTONS = (("new_layer", "+"), ("duplicate_layer", "Dup"), ("delete_layer", "\u2212"), ("mask", "Mask"),
@@ -37,7 +38,7 @@ MASK_ACTIONS = ("add_mask", "add_hiding_mask", "delete_mask", "invert_mask", "di
 
 
 class LayersPanel(QWidget):
-    """The document's layers; call ``bind`` with each new document's history and ``refresh`` after changes.
+    """The document's layers; ``bind`` shows a document's history, which the panel then follows by itself.
 
     Parameters
     ----------
@@ -112,12 +113,19 @@ class LayersPanel(QWidget):
 
     # -- the history -----------------------------------------------------------------------------
     def bind(self, history: History | None) -> None:
-        """Show the layers of ``history``'s document (None: no document)."""
+        """Show and follow the layers of ``history``'s document (None: no document)."""
+        if self._history is not None:
+            self._history.unsubscribe(self._changed)
         self._history, self._shown = history, None
         if history is None:
             self.list.blockSignals(True)
             self.list.clear()
             self.list.blockSignals(False)
+        else:
+            history.subscribe(self._changed)
+        self.refresh()
+
+    def _changed(self, before, after) -> None:
         self.refresh()
 
     @property
@@ -125,13 +133,11 @@ class LayersPanel(QWidget):
         return self._history.document if self._history is not None else None
 
     def apply(self, edit: Callable[[Document], Document], label: str, merge_key=None) -> None:
-        """``edit`` of the current document as one step ``label``; a refusal goes to ``failed``."""
+        """``edit`` of the current document as one step ``label``; why it was not done goes to ``failed``."""
         history = self._history
         if history is not None and self._settle() and not history.in_transaction:
-            try:
+            with reporting(self.failed.emit):
                 history.apply(edit(history.document), label, merge_key)
-            except EditRefused as error:
-                self.failed.emit(str(error))
         self._shown = None  # what the list shows may be the user's change, refused
         self.refresh()
 

@@ -12,7 +12,6 @@ representation nothing changes), every other tab can.
 
 from __future__ import annotations
 
-import sys
 from collections.abc import Callable
 
 from PySide6.QtCore import QEvent, QSettings, Qt
@@ -21,7 +20,6 @@ from PySide6.QtWidgets import QDockWidget, QLabel, QMainWindow, QMenu, QMessageB
 
 from .. import __version__
 from ..io.autosave import AutosaveFolder
-from ..model import EditRefused
 from ..model.clone_edits import canvas_region
 from ..tools import TOOLS, Selection, ToolOptions, delete_selection
 from ..tools.overlay import region_marks
@@ -43,6 +41,7 @@ from .options_panel import OptionsPanel
 from .overlay import Overlay
 from .preferences import Preferences, PreferencesDialog
 from .progress import progress_text
+from .refusals import reporting
 from .stops_panel import StopsPanel
 from .toolbox import build_toolbox
 from .workspace import Workspace
@@ -207,27 +206,16 @@ class MainWindow(FileCommands, LayerCommands, DocumentTabs, ClipCommands, QMainW
         return not self.workspace.history.in_transaction
 
     def _refusing(self, action: Callable, *args):
-        """``action(*args)`` of the tool; an edit the document refuses (drawing on a clone layer, say) cancels
-        what the tool was doing and says why in the status bar.
-
-        Any other error is a bug: it goes to ``sys.excepthook`` with its traceback (an exception let out of a
-        Qt event handler is lost, and can crash the interpreter later) and the status bar says so.
-        """
-        try:
+        """``action(*args)`` of the tool; an edit the document refuses (drawing on a clone layer, say), or a bug,
+        cancels what the tool was doing and the status bar says why (``refusals.reporting``)."""
+        with reporting(self.status_label.setText):
             return action(*args)
-        except EditRefused as error:
-            self.tool.cancel()
-            self.status_label.setText(f"Not done: {error}")
-            return True
-        except Exception as error:
-            self.tool.cancel()
-            sys.excepthook(type(error), error, error.__traceback__)
-            self.status_label.setText(f"Internal error ({type(error).__name__}): please report it, with the "
-                                      "message printed in the terminal")
-            return True
+        self.tool.cancel()
+        return True
 
     def _after_tool(self) -> None:
-        """Show what a tool or panel did: overlay, stops, colours, actions."""
+        """Show what a tool or panel did that no panel follows by itself: the overlay, the selection's stops, the
+        colours (the eyedropper's), the actions."""
         self.overlay.update()
         self.stops_panel.refresh()
         self.options_panel.refresh()
@@ -365,8 +353,6 @@ class MainWindow(FileCommands, LayerCommands, DocumentTabs, ClipCommands, QMainW
         return None
 
     def _document_changed(self) -> None:
-        self.history_panel.refresh()
-        self.layers_panel.refresh()
         document = self.workspace.history.document
         overlay = document.layer.id if document.editing_mask else None
         if overlay != self.canvas.mask_overlay:
@@ -438,9 +424,6 @@ class MainWindow(FileCommands, LayerCommands, DocumentTabs, ClipCommands, QMainW
     def _update_state(self) -> None:
         self._update_title()
         self._update_actions()
-        self.history_panel.refresh()
-        self.layers_panel.refresh()
-        self.stops_panel.refresh()
         self.overlay.update()
 
     # -- jobs -------------------------------------------------------------------------------------------
@@ -483,7 +466,7 @@ class MainWindow(FileCommands, LayerCommands, DocumentTabs, ClipCommands, QMainW
                cancelled: Callable[[], None] | None = None) -> None:
         """Run ``work(progress)`` on a job thread for ``tab``, which waits for it; then ``succeeded(result)``,
         ``failed(error)`` or ``cancelled()`` (default: the status bar says so)."""
-        task = tab.task if tab.task is not None and tab.task.title == title else self._begin(tab, title)
+        task = tab.task or self._begin(tab, title)  # a save's began while it waited for the engine
         job = task.job = Job(work, title, self)
         job.progress.connect(lambda stage, fraction: self._job_progress(tab, stage, fraction))
         job.succeeded.connect(lambda result: self._finish_job(tab, job, succeeded, result))

@@ -35,8 +35,8 @@ def swatch(color: QColor | None, size: int = 16) -> QIcon:
 class StopsPanel(QWidget):
     """Edits the stops of the selected curve (the curve of the selected stops, else the first selected).
 
-    Call ``bind`` with each document's tool context and ``refresh`` after
-    anything changed.
+    ``bind`` shows a document's tool context, whose document the panel then
+    follows by itself; call ``refresh`` after the selection changed.
 
     Signals
     -------
@@ -90,8 +90,16 @@ class StopsPanel(QWidget):
 
     # -- state ---------------------------------------------------------------------------------------
     def bind(self, context: ToolContext | None) -> None:
-        """Edit the stops of ``context``'s document and selection."""
+        """Edit the stops of ``context``'s document and selection, following the document's changes (a change
+        of the selection alone is the caller's to show, with ``refresh``: selections are not observed)."""
+        if self.context is not None:
+            self.context.history.unsubscribe(self._changed)
         self.context, self._drag, self._shown = context, None, None
+        if context is not None:
+            context.history.subscribe(self._changed)
+        self.refresh()
+
+    def _changed(self, before, after) -> None:
         self.refresh()
 
     def chosen_curve(self) -> int | None:

@@ -209,7 +209,7 @@ class CurveSegments:
                                  self.max_length)
         if count > MAX_SEGMENTS:
             raise LimitError(f"the curves make about {count:,} segments, more than the {MAX_SEGMENTS:,} allowed")
-        check_build_memory(count, 2)
+        check_build_memory(count)
 
     def _entries_of(self, curves: tuple[DiffusionCurve, ...], was: np.ndarray, fresh: np.ndarray) -> list[_Curve]:
         """Each curve's entry: the last document's, a kept one, or made now (all new curves flattened at once)."""
