@@ -13,6 +13,7 @@ engine's thread and memory policy, once, before work.
 """
 
 from .cloning import clone_points
+from .compile_kernels import load_raster_kernels
 from .composite import Composite, FieldKey, LayerFields, Role
 from .fmm.expansions import local_polynomials
 from .fmm.lattice import Lattice
@@ -33,6 +34,6 @@ __all__ = [
     "LiveRepresentation", "LiveStack",
     "PointField", "Progress", "Representation", "Role", "SeamlessClone", "Segments", "Settings", "Similarity",
     "StackUpdate", "Update", "build",
-    "available_memory", "check_image_memory", "clone_points", "composite_of", "evaluate_points", "local_polynomials",
-    "output_size", "rasterise", "setup_process",
+    "available_memory", "check_image_memory", "clone_points", "composite_of", "evaluate_points", "load_raster_kernels",
+    "local_polynomials", "output_size", "rasterise", "setup_process",
 ]

@@ -66,6 +66,18 @@ def sub_cells() -> None:
     _grid(4, 64.0, split=2, samples_per_cell=32)
 
 
+def load_raster_kernels() -> None:
+    """Load (from numba's cache, else compile) the kernels of a CPU render, on a tiny one of each kind.
+
+    The editor draws with shaders, so its first CPU render is a save's
+    thumbnail or a PNG export; its worker thread calls this after opening a
+    document, so that they do not wait for the loading (0.2-0.7 s) or, with a
+    cache gone stale, the compiling (about 70 s).
+    """
+    near_grid()
+    sub_cells()
+
+
 def solver() -> None:
     """A build and the kinds of edit a drawing takes (the solver, the passes, the edits' propagation).
 

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from PySide6.QtCore import QObject, QThread, Signal, Slot
 
-from ..engine import Composite, LiveStack, Representation, Role
+from ..engine import Composite, LiveStack, Representation, Role, load_raster_kernels
 from ..model import Document
 
 
@@ -104,7 +104,10 @@ class _Worker(QObject):
 
     @Slot()
     def warm_up(self) -> None:
+        """The first edit's and the first CPU render's one-off costs (a save's thumbnail, a PNG export), paid
+        while the user looks at the document just opened."""
         self.live.warm_up()
+        load_raster_kernels()
 
     @Slot()
     def run(self) -> None:
