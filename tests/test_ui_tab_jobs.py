@@ -84,9 +84,11 @@ def test_a_second_tab_stays_usable_while_the_first_opens_a_slow_file(opening_in_
     assert window.shown.name == "slow.xml" and window.workspace is None
     assert window.status_label.text() == "Opening slow.xml" and window.cancel_button.isVisible()
     assert not window.actions["save"].isEnabled() and window.actions["open"].isEnabled()
+    assert not window.zoom_button.isVisible()
 
     editor.key(Qt.Key.Key_PageUp, Qt.KeyboardModifier.ControlModifier)  # the first tab, while the job is held
     assert window.workspace is first and window.job is not None and window.job.isRunning()
+    assert window.zoom_button.isVisible()
     assert not window.cancel_button.isVisible() and not window.progress_bar.isVisible()
     assert window.layers_panel.isEnabled() and window.history_panel.isEnabled()
     assert window.actions["save"].isEnabled() and not window.actions["undo"].isEnabled()

@@ -201,6 +201,7 @@ class DocumentTabs:
             self._document_changed()
             self._frame_ready(workspace.frame)
         self.tabs.setVisible(len(self.open_tabs) > 1)
+        self.zoom_button.setVisible(workspace is not None)  # nothing to zoom while a tab is still opening
         self.status_label.setText("")  # what was said was about the document shown before
         self._show_task()
         if workspace is not None and workspace.failure is not None:
