@@ -13,7 +13,6 @@ engine's thread and memory policy, once, before work.
 """
 
 from .cloning import clone_points
-from .compile_kernels import load_raster_kernels
 from .composite import Composite, FieldKey, LayerFields, Role
 from .fmm.expansions import local_polynomials
 from .fmm.lattice import Lattice
@@ -25,6 +24,7 @@ from .points.field import PointField
 from .points.gauss import GaussPoints
 from .process import setup_process
 from .raster import evaluate_points, output_size, rasterise
+from .raster_kernels import load_raster_kernels
 from .representation import MAX_LEVELS, Representation, Settings
 from .solve.clone import SeamlessClone, Similarity
 from .stack import LiveStack, StackUpdate, build, composite_of
