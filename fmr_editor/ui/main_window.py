@@ -468,12 +468,11 @@ class MainWindow(FileCommands, LayerCommands, DocumentTabs, ClipCommands, QMainW
         ``failed(error)`` or ``cancelled()`` (default: the status bar says so)."""
         task = tab.task or self._begin(tab, title)  # a save's began while it waited for the engine
         job = task.job = Job(work, title, self)
+        cancelled = cancelled or (lambda: self.status_label.setText(f"Cancelled: {title}"))
         job.progress.connect(lambda stage, fraction: self._job_progress(tab, stage, fraction))
         job.succeeded.connect(lambda result: self._finish_job(tab, job, succeeded, result))
         job.failed.connect(lambda error: self._finish_job(tab, job, failed, error))
-        job.cancelled.connect(lambda: self._finish_job(
-            tab, job, lambda _: cancelled() if cancelled is not None else self.status_label.setText(
-                f"Cancelled: {title}"), None))
+        job.cancelled.connect(lambda: self._finish_job(tab, job, lambda _: cancelled(), None))
         if tab is self.shown:
             self._show_task()
         job.start()

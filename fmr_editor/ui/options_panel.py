@@ -26,6 +26,20 @@ BRUSH_FIELDS = (
     ("brush_spacing", "Spacing", 0.5, 2000.0, 1.0, 1, "Distance between dabs along a stroke, pixels"),
 )
 
+
+def brush_spins(parent) -> list[tuple[str, str, QDoubleSpinBox]]:
+    """``(attribute, label, spin box)`` for each of ``BRUSH_FIELDS``, with its range, step and tooltip."""
+    spins = []
+    for name, label, low, high, step, decimals, tip in BRUSH_FIELDS:
+        spin = QDoubleSpinBox(parent)
+        spin.setRange(low, high)
+        spin.setSingleStep(step)
+        spin.setDecimals(decimals)
+        spin.setToolTip(tip)
+        spins.append((name, label, spin))
+    return spins
+
+
 #: The brush's modes (``ToolOptions.brush_mode``) and their names.
 BRUSH_MODES = {"paint": "Paint", "glow": "Glow"}
 
@@ -79,12 +93,7 @@ class OptionsPanel(QWidget):
         self.brush_mode.currentIndexChanged.connect(self._set_mode)
         form.addRow("Mode", self.brush_mode)
         self.spins: dict[str, QDoubleSpinBox] = {}
-        for name, label, low, high, step, decimals, tip in BRUSH_FIELDS:
-            spin = QDoubleSpinBox(self)
-            spin.setRange(low, high)
-            spin.setSingleStep(step)
-            spin.setDecimals(decimals)
-            spin.setToolTip(tip)
+        for name, label, spin in brush_spins(self):
             spin.setValue(float(getattr(options, name)))
             spin.valueChanged.connect(lambda value, name=name: self._set(name, value))
             form.addRow(label, spin)

@@ -15,7 +15,7 @@ from PySide6.QtWidgets import QComboBox, QDialog, QDialogButtonBox, QDoubleSpinB
 from ..engine import DEFAULT_MEMORY
 from ..tools import ToolOptions
 from .autosave import AUTOSAVE_SECONDS
-from .options_panel import BRUSH_FIELDS, BRUSH_MODES
+from .options_panel import BRUSH_FIELDS, BRUSH_MODES, brush_spins
 
 MIB = 2**20
 #: Bounds of the autosave delay, seconds, and of a document's undo memory, MiB.
@@ -91,12 +91,7 @@ class PreferencesDialog(QDialog):
         self.setWindowTitle("Preferences")
         form = QFormLayout(self)
         self.spins: dict[str, QDoubleSpinBox | QSpinBox] = {}
-        for name, label, low, high, step, decimals, tip in BRUSH_FIELDS:
-            spin = QDoubleSpinBox(self)
-            spin.setRange(low, high)
-            spin.setSingleStep(step)
-            spin.setDecimals(decimals)
-            spin.setToolTip(tip)
+        for name, label, spin in brush_spins(self):
             self.spins[name] = spin
             form.addRow(f"Brush {label.lower()}", spin)
         self.mode = QComboBox(self)
