@@ -1,9 +1,10 @@
 """The window's open documents: one tab each, with its own history, engine, unsaved state and job.
 
-``DocumentTabs`` is mixed into ``MainWindow``.  Every open document is a
+``DocumentCommands`` is mixed into ``MainWindow``.  Every open document is a
 ``Workspace``; a document still being read and built is an ``Opening`` in a
-tab of its own until its job ends.  The tab bar above the canvas chooses the
-one shown, which the canvas, the panels, the tools and the menus act on.
+tab of its own until its job ends.  The window's ``tabs.Tabs`` keeps their
+order and the one in front; its ``shown_changed`` points the canvas, the
+panels, the tools and the menus at that one (``_show``).
 Each workspace keeps its own view (pan and zoom) and its engine thread; a
 frame of a document in the background only updates that document's
 ``frame``, shown when its tab is chosen.  A job (opening, saving, exporting)
@@ -21,6 +22,7 @@ from PySide6.QtWidgets import QTabBar, QVBoxLayout, QWidget
 
 from .files import ask_keep_changes
 from .jobs import Task
+from .tabs import Tabs
 from .workspace import Opened, Workspace
 
 
@@ -46,44 +48,45 @@ class Opening:
     came_from: object = None
 
 
-class DocumentTabs:
-    """Tabs of open documents for ``MainWindow`` (needs its canvas, panels, tool and job runner).
+class DocumentCommands:
+    """Opening, showing and closing documents for ``MainWindow``, over its ``Tabs`` (``documents``).
 
-    Attributes
-    ----------
-    open_tabs : list of Workspace or Opening
-        Every tab, in order.
-    shown : Workspace or Opening or None
-        The tab in front; ``workspace`` is it when it is a ``Workspace``.
+    Needs the window's canvas, panels, tools, job runner (``_start``) and status bar.
     """
 
-    open_tabs: list[Workspace | Opening]
-    shown: Workspace | Opening | None
+    documents: Tabs
 
     def _build_tabs(self) -> QWidget:
-        """The tab bar over the canvas, in one widget for the window's centre."""
-        self.open_tabs, self.shown = [], None
-        self.tabs = QTabBar()
-        self.tabs.setDocumentMode(True)
-        self.tabs.setTabsClosable(True)
-        self.tabs.setMovable(True)
-        self.tabs.setExpanding(False)
-        self.tabs.currentChanged.connect(self._tab_chosen)
-        self.tabs.tabCloseRequested.connect(lambda index: self.close_document(self.open_tabs[index]))
-        self.tabs.tabMoved.connect(self._tab_moved)
-        self.tabs.hide()
+        """The tabs (``documents``) and the bar over the canvas, in one widget for the window's centre."""
+        self.documents = Tabs(self)
+        self.documents.shown_changed.connect(self._show)
+        self.documents.close_requested.connect(self.close_document)
         centre = QWidget()
         layout = QVBoxLayout(centre)
         layout.setContentsMargins(0, 0, 0, 0)
         layout.setSpacing(0)
-        layout.addWidget(self.tabs)
+        layout.addWidget(self.documents.bar)
         layout.addWidget(self.canvas, 1)
         return centre
 
     @property
+    def tabs(self) -> QTabBar:
+        return self.documents.bar
+
+    @property
+    def open_tabs(self) -> list[Workspace | Opening]:
+        """Every tab, documents still opening included, in order."""
+        return self.documents.open_tabs
+
+    @property
+    def shown(self) -> Workspace | Opening | None:
+        """The tab in front."""
+        return self.documents.shown
+
+    @property
     def workspaces(self) -> list[Workspace]:
         """The open documents (tabs still opening left out), in the order of their tabs."""
-        return [tab for tab in self.open_tabs if isinstance(tab, Workspace)]
+        return self.documents.workspaces
 
     # -- opening and choosing ---------------------------------------------------------------------
     def _open_tab(self, name: str, path: Path | None, title: str, work, then: Callable[[], None] | None,
@@ -112,12 +115,9 @@ class DocumentTabs:
         self._start(opening, title, work, succeeded, refused, cancelled)
 
     def _add_tab(self, tab: Workspace | Opening) -> None:
-        self.open_tabs.append(tab)
-        self.tabs.blockSignals(True)  # shown once, by _activate
-        self.tabs.addTab(tab.name)
-        self.tabs.blockSignals(False)
+        self.documents.add(tab, tab.name)
         self._name_tab(tab)
-        self._activate(tab)
+        self.documents.show(tab)
 
     def _install(self, opened: Opened, opening: Opening) -> None:
         """Make ``opening``'s tab the document ``opened``, shown if its tab is.
@@ -133,13 +133,11 @@ class DocumentTabs:
         workspace.engine_failed.connect(lambda text, w=workspace: self._if_shown(w, self._engine_failed, text))
         workspace.engine_progress.connect(lambda *a, w=workspace: self._if_shown(w, self._engine_progress, *a))
         workspace.message.connect(lambda text, w=workspace: self._if_shown(w, self.status_label.setText, text))
-        self.open_tabs[self.open_tabs.index(opening)] = workspace
+        self.documents.replace(opening, workspace)  # shown at once if its tab is in front
         self._name_tab(workspace)
         self.autosaver.watch(workspace, opened.recovered)
         if workspace.path is not None:
             self.recent.add(workspace.path)
-        if self.shown is opening:
-            self._show(workspace)
         blank = opening.came_from
         if (isinstance(blank, Workspace) and blank in self.open_tabs and blank.path is None and blank.task is None
                 and blank.history.index == 0 and not blank.history.modified):
@@ -152,36 +150,23 @@ class DocumentTabs:
             slot(*args)
 
     def _activate(self, tab: Workspace | Opening) -> None:
-        """Make ``tab`` current (which shows it)."""
-        index = self.open_tabs.index(tab)
-        if self.tabs.currentIndex() != index:
-            self.tabs.setCurrentIndex(index)
-        else:
-            self._show(tab)
-
-    def _tab_chosen(self, index: int) -> None:
-        if 0 <= index < len(self.open_tabs) and self.open_tabs[index] is not self.shown:
-            self._show(self.open_tabs[index])
+        """Bring ``tab`` to the front (which shows it)."""
+        self.documents.show(tab)
 
     def next_document(self, step: int = 1) -> None:
         """Show the next tab (Ctrl+Tab), or with ``step`` -1 the previous one."""
-        if len(self.open_tabs) > 1:
-            self.tabs.setCurrentIndex((self.tabs.currentIndex() + step) % len(self.open_tabs))
+        self.documents.step(step)
 
     def previous_document(self) -> None:
         self.next_document(-1)
 
-    def _tab_moved(self, source: int, target: int) -> None:
-        self.open_tabs.insert(target, self.open_tabs.pop(source))
-
     def _show(self, tab: Workspace | Opening | None) -> None:
-        """Point the canvas, the panels and the tools at ``tab`` (None: nothing open; an ``Opening``: nothing to
-        edit yet, its progress in the status bar)."""
+        """Point the canvas, the panels and the tools at ``tab``, now in front (``Tabs.shown_changed``; None:
+        nothing open; an ``Opening``: nothing to edit yet, its progress in the status bar)."""
         old = self.workspace
         if old is not None and old is not tab:
             old.tools[self.tool_name].finish()
             old.view = (self.canvas.view, self.canvas.fitted)
-        self.shown = tab
         self.workspace = workspace = tab if isinstance(tab, Workspace) else None
         if workspace is None:
             self.canvas.set_representation(None)
@@ -200,7 +185,6 @@ class DocumentTabs:
             self.stops_panel.bind(workspace.context)
             self._document_changed()
             self._frame_ready(workspace.frame)
-        self.tabs.setVisible(len(self.open_tabs) > 1)
         self.zoom_button.setVisible(workspace is not None)  # nothing to zoom while a tab is still opening
         self.status_label.setText("")  # what was said was about the document shown before
         self._show_task()
@@ -221,13 +205,11 @@ class DocumentTabs:
 
     def _name_tab(self, tab: Workspace | Opening) -> None:
         """The file name on ``tab``, with ``*`` while it has unsaved changes, or how far its opening got."""
-        index = self.open_tabs.index(tab)
         if isinstance(tab, Opening):
-            self.tabs.setTabText(index, f"{tab.name} ({tab.task.fraction:.0%})")
-            self.tabs.setTabToolTip(index, tab.task.title)
-            return
-        self.tabs.setTabText(index, tab.name + ("*" if tab.history.modified else ""))
-        self.tabs.setTabToolTip(index, str(tab.path) if tab.path is not None else "not saved yet")
+            self.documents.name(tab, f"{tab.name} ({tab.task.fraction:.0%})", tab.task.title)
+        else:
+            self.documents.name(tab, tab.name + ("*" if tab.history.modified else ""),
+                                str(tab.path) if tab.path is not None else "not saved yet")
 
     # -- closing ------------------------------------------------------------------------------------
     def close_document(self, tab: Workspace | Opening | None = None) -> None:
@@ -261,25 +243,14 @@ class DocumentTabs:
     def _drop(self, tab: Workspace | Opening, show_next: bool = True) -> None:
         """Close ``tab`` now: its tools and engine thread; if it was shown, the one it was opened from is shown
         (an ``Opening``'s), else the next (unless not ``show_next``: the window is closing)."""
-        index = self.open_tabs.index(tab)
         if isinstance(tab, Workspace):
             tab.tools[self.tool_name].cancel()
             tab.close()
             self.autosaver.forget(tab)
-        self.open_tabs.pop(index)
-        self.tabs.blockSignals(True)
-        self.tabs.removeTab(index)
-        self.tabs.blockSignals(False)
-        if tab is self.shown:
-            self.shown = self.workspace = None  # nothing to keep of it: the next one is shown without finishing
-            following = self.open_tabs[min(index, len(self.open_tabs) - 1)] if self.open_tabs else None
-            if isinstance(tab, Opening) and tab.came_from in self.open_tabs:
-                following = tab.came_from
-            if following is not None and show_next:
-                self._activate(following)
-            else:
-                self._show(None)
-        self.tabs.setVisible(len(self.open_tabs) > 1)
+        if tab is self.workspace:
+            self.workspace = None  # nothing to keep of it: the next one is shown without finishing its tools
+        back = tab.came_from if isinstance(tab, Opening) and tab.came_from in self.open_tabs else None
+        self.documents.remove(tab, back, show_next)
         if isinstance(tab, Workspace):
             tab.deleteLater()
 

@@ -58,12 +58,12 @@ class FileCommands:
         """Open ``path`` in a tab of its own (its tab, if it is open or opening already), then ``then()``; a
         failure changes nothing (with nothing open and nothing to follow, a new canvas opens instead)."""
         path = Path(path)
-        for tab in self.open_tabs:
-            if tab.path is not None and tab.path == path.absolute():
-                self._activate(tab)
-                if then is not None:
-                    then()
-                return
+        tab = self.documents.find(path.absolute())
+        if tab is not None:
+            self._activate(tab)
+            if then is not None:
+                then()
+            return
 
         def failed(error: BaseException) -> None:
             message = str(error) if isinstance(error, DocumentLoadError) else f"{path.name}: {error}"

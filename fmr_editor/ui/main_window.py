@@ -1,6 +1,6 @@
 """The editor's main window: canvas, panels, menus, and the jobs that open, save and export.
 
-Each open document is a ``Workspace`` in a tab of its own (``documents``);
+Each open document is a ``Workspace`` in a tab of its own (``documents``, ``tabs``);
 the one shown is ``workspace``.  Pointer events from the canvas go to its
 active tool; every change of the document goes to the
 engine thread, whose frames update the canvas cell by cell.  Opening,
@@ -26,7 +26,7 @@ from ..tools.overlay import region_marks
 from .autosave import Autosaver, RecoveryDialog, default_folder
 from .canvas import Canvas
 from .clip_commands import ClipCommands
-from .documents import DocumentTabs, Opening
+from .documents import DocumentCommands, Opening
 from .elided_label import ElidedLabel
 from .events import modifier_names, pointer_event, tool_key
 from .file_commands import FileCommands
@@ -56,7 +56,7 @@ CURSORS = {
 }
 
 
-class MainWindow(FileCommands, LayerCommands, DocumentTabs, ClipCommands, QMainWindow):
+class MainWindow(FileCommands, LayerCommands, DocumentCommands, ClipCommands, QMainWindow):
     """The editor window (its file, layer, tab and clipboard commands: ``file_commands``, ``layer_commands``,
     ``documents``, ``clip_commands``).
 
