@@ -396,8 +396,8 @@ class MainWindow(FileCommands, LayerCommands, DocumentCommands, ClipCommands, QM
     # -- state shown --------------------------------------------------------------------------------------
     def _update_title(self) -> None:
         workspace = self.workspace
-        if workspace is None:
-            self.setWindowTitle(APP_NAME)
+        if workspace is None:  # nothing open, or a tab still opening
+            self.setWindowTitle(f"{self.shown.name} \u2014 {APP_NAME}" if self.shown is not None else APP_NAME)
             return
         mark = "*" if workspace.history.modified else ""
         self.setWindowTitle(f"{workspace.name}{mark} \u2014 {APP_NAME}")
