@@ -66,13 +66,13 @@ def test_layers_panel_mask_hue_undo_redo_save_and_reopen(line, tmp_path, qtbot):
     tinted = mismatches(editor.canvas.grab_image(), LiveStack(editor.document).composite,
                         editor.canvas.device_view(), 1.0)
     assert tinted["inside"] > 100  # while the mask is edited, what it hides is tinted red
-    window.edit_mask()
+    window.layer_commands.edit_mask()
     assert not editor.document.editing_mask
     steps[-1] = editor.document  # choosing the target changes the current step's document, adds none
     shows_the_composite(editor)
 
-    window.adjust_colors()
-    dialog = window.color_dialog
+    window.layer_commands.adjust_colors()
+    dialog = window.layer_commands.color_dialog
     dialog.set_values(hue=120)
     dialog.accept()
     step("Colour Adjust")

@@ -26,7 +26,7 @@ class ClipCommands:
     def copy(self) -> None:
         """Copy the active layer inside the lasso's region (Ctrl+C)."""
         workspace = self.workspace
-        if workspace is None or self._busy:
+        if workspace is None or self.busy:
             return
         region = workspace.context.region
         if region is None:
@@ -40,8 +40,8 @@ class ClipCommands:
         self._update_actions()
 
     def _pasting(self) -> tuple[Document, Copied] | None:
-        """The active document and the clipboard, when a paste can go ahead (``_settle_edits``)."""
-        if self.clipboard is None or not self._settle_edits():
+        """The active document and the clipboard, when a paste can go ahead (``settle_edits``)."""
+        if self.clipboard is None or not self.settle_edits():
             return None
         self.canvas.setFocus()  # Return and Esc go to the tool through the canvas
         return self.workspace.history.document, self.clipboard
@@ -81,7 +81,7 @@ class ClipCommands:
         self._after_tool()
 
     def _update_clip_actions(self) -> None:
-        open_and_free = self.workspace is not None and not self._busy
+        open_and_free = self.workspace is not None and not self.busy
         self.actions["copy"].setEnabled(open_and_free)
         for name in ("paste", "paste_seamless"):
             self.actions[name].setEnabled(open_and_free and self.clipboard is not None)

@@ -191,7 +191,7 @@ class DocumentCommands:
         if workspace is not None and workspace.failure is not None:
             self._engine_failed(workspace.failure)
         self.set_tool(self.tool_name)
-        self._update_state()
+        self.update_state()
         self.canvas.setFocus()
         if workspace is not None and self.canvas.error:  # no suitable OpenGL: editing works, nothing is shown
             self.status_label.setText(f"The canvas cannot draw the image: {self.canvas.error}")
@@ -201,7 +201,7 @@ class DocumentCommands:
         """A workspace's steps or saved mark changed: its tab's name, and the window if it is shown."""
         self._name_tab(workspace)
         if workspace is self.shown:
-            self._update_state()
+            self.update_state()
 
     def _name_tab(self, tab: Workspace | Opening) -> None:
         """The file name on ``tab``, with ``*`` while it has unsaved changes, or how far its opening got."""

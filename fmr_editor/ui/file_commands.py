@@ -113,7 +113,7 @@ class FileCommands:
     def save(self, then: Callable[[], None] | None = None) -> None:
         """Save to the document's ``.fmr`` file (Save As for a new or imported one)."""
         workspace = self.workspace
-        if workspace is None or self._busy:
+        if workspace is None or self.busy:
             return
         if workspace.native:
             self.save_to(workspace.path, then)
@@ -123,7 +123,7 @@ class FileCommands:
     def save_as(self, then: Callable[[], None] | None = None) -> None:
         """Ask for a ``.fmr`` file and save there."""
         workspace = self.workspace
-        if workspace is None or self._busy:
+        if workspace is None or self.busy:
             return
         if workspace.path is not None:
             suggested = workspace.path.with_suffix(".fmr")
@@ -136,7 +136,7 @@ class FileCommands:
     def save_to(self, path: str | os.PathLike, then: Callable[[], None] | None = None) -> None:
         """Save the document with its representation to ``path`` (atomically), then ``then()``."""
         workspace = self.workspace
-        if workspace is None or self._busy:
+        if workspace is None or self.busy:
             return
         path = Path(path).absolute()
         if self.tool is not None:
@@ -169,7 +169,7 @@ class FileCommands:
     def export_png(self, options: ExportOptions | None = None) -> None:
         """Export the image to PNG (asks for file, size and antialiasing unless ``options`` are given)."""
         workspace = self.workspace
-        if workspace is None or self._busy:
+        if workspace is None or self.busy:
             return
         document = workspace.history.document
         if options is None:

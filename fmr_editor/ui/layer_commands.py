@@ -1,28 +1,52 @@
 """The window's Layer commands: new, duplicate, delete, merge down, masks and Colour Adjust.
 
-Mixed into ``MainWindow`` (as ``file_commands``): each command is one named
-undo step through the Layers panel, refused with a message in the status bar
-when it cannot be done (deleting the last layer, merging the bottom one).
+Each command is one named undo step through the Layers panel, refused with a
+message in the status bar when it cannot be done (deleting the last layer,
+merging the bottom one).  ``LayerCommands`` sees the window only through
+``editing.Editing``.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
 
+from PySide6.QtWidgets import QWidget
+
 from ..model import Document, Mask, layer_edits
 from ..tools import Selection
 from .color_adjust import ColorAdjustDialog
+from .editing import Editing
+from .layers_panel import LayersPanel
 from .menus import LAYER_ACTIONS
 
 
 class LayerCommands:
-    """Layer menu commands of ``MainWindow`` (needs its ``workspace``, ``layers_panel``, ``actions``)."""
+    """The Layer menu's commands on the document in front.
 
-    color_dialog: ColorAdjustDialog | None = None
-    _layer_actions_state: tuple | None = None  # what the Layer actions show; they are set again when it changes
+    Parameters
+    ----------
+    editing : Editing
+        The window.
+    panel : LayersPanel
+        Applies each edit (after ``editing.settle_edits``) and says why one was refused.
+    actions : dict of str to QAction
+        The window's actions; the Layer ones are enabled as the active layer allows.
+    parent : QWidget
+        The Colour Adjust dialog's parent.
+
+    Attributes
+    ----------
+    color_dialog : ColorAdjustDialog or None
+        The last Colour Adjust dialog opened.
+    """
+
+    def __init__(self, editing: Editing, panel: LayersPanel, actions: dict, parent: QWidget) -> None:
+        self.editing, self.panel, self.actions, self.parent = editing, panel, actions, parent
+        self.color_dialog: ColorAdjustDialog | None = None
+        self._actions_state: tuple | None = None  # what the Layer actions show; they are set again when it changes
 
     def _layer_edit(self, edit: Callable[[Document], Document], label: str) -> None:
-        self.layers_panel.apply(edit, label)  # which makes way for it (the window's _settle_edits)
+        self.panel.apply(edit, label)  # which makes way for it (the window's settle_edits)
 
     def new_layer(self) -> None:
         self._layer_edit(layer_edits.add_layer, "New Layer")
@@ -52,40 +76,42 @@ class LayerCommands:
         self._layer_edit(layer_edits.invert_mask, "Invert Mask")
 
     def toggle_mask(self) -> None:
-        mask = self.workspace.history.document.layer.mask if self.workspace is not None else None
+        workspace = self.editing.workspace
+        mask = workspace.history.document.layer.mask if workspace is not None else None
         if mask is not None:
             self._layer_edit(lambda d: layer_edits.set_mask_enabled(d, None, not mask.enabled),
                              "Enable Mask" if not mask.enabled else "Disable Mask")
 
     def edit_mask(self) -> None:
         """Turn the tools to the active layer's mask, or back to the layer."""
-        if self.workspace is None or self._busy:
+        workspace = self.editing.workspace
+        if workspace is None or self.editing.busy:
             return
-        if self.workspace.history.document.layer.mask is not None and self._settle_edits():
-            self.workspace.context.selection = Selection()  # ids of the layer's items mean nothing in its mask
-            self.layers_panel.retarget(lambda d: layer_edits.select_layer(d, d.active, not d.editing_mask))
-        self._update_layer_actions()
+        if workspace.history.document.layer.mask is not None and self.editing.settle_edits():
+            workspace.context.selection = Selection()  # ids of the layer's items mean nothing in its mask
+            self.panel.retarget(lambda d: layer_edits.select_layer(d, d.active, not d.editing_mask))
+        self.update_actions()
 
     def adjust_colors(self) -> None:
         """Open the Colour Adjust dialog on the active layer (live preview; OK is one step)."""
-        if not self._settle_edits():
+        if not self.editing.settle_edits():
             return
-        self.color_dialog = ColorAdjustDialog(self.workspace.history, self)
-        self.color_dialog.finished.connect(lambda _: self._update_state())
+        self.color_dialog = ColorAdjustDialog(self.editing.workspace.history, self.parent)
+        self.color_dialog.finished.connect(lambda _: self.editing.update_state())
         self.color_dialog.open()
 
-    def _update_layer_actions(self) -> None:
+    def update_actions(self) -> None:
         """Enable what the active layer allows; check Edit Mask while the tools act on a mask."""
-        actions, workspace = self.actions, self.workspace
+        actions, workspace = self.actions, self.editing.workspace
         document = workspace.history.document if workspace is not None else None
-        free = document is not None and not self._busy
+        free = document is not None and not self.editing.busy
         mask = document.layer.mask if document is not None else None
         state = (free, document is not None and (len(document.layers), document.active, document.editing_mask,
                                                  document.layer.clone is None),
                  mask is not None and mask.enabled, mask is None)
-        if state == self._layer_actions_state:  # this runs on every pointer move: setting actions is not free
+        if state == self._actions_state:  # this runs on every pointer move: setting actions is not free
             return
-        self._layer_actions_state = state
+        self._actions_state = state
         for name in LAYER_ACTIONS:
             actions[name].setEnabled(free)
         if document is None:

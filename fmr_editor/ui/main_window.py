@@ -56,7 +56,7 @@ CURSORS = {
 }
 
 
-class MainWindow(FileCommands, LayerCommands, DocumentCommands, ClipCommands, QMainWindow):
+class MainWindow(FileCommands, DocumentCommands, ClipCommands, QMainWindow):
     """The editor window (its file, layer, tab and clipboard commands: ``file_commands``, ``layer_commands``,
     ``documents``, ``clip_commands``).
 
@@ -113,7 +113,8 @@ class MainWindow(FileCommands, LayerCommands, DocumentCommands, ClipCommands, QM
         self.stops_panel = StopsPanel()
         self.stops_panel.changed.connect(self._after_tool)
         self.history_panel = HistoryPanel()
-        self.layers_panel = LayersPanel(self.actions, self._settle_edits)
+        self.layers_panel = LayersPanel(self.actions, self.settle_edits)
+        self.layer_commands = LayerCommands(self, self.layers_panel, self.actions, self)
         self.layers_panel.failed.connect(lambda message: self.status_label.setText(message))
         docks = [
             self._dock("Tool Options", "options", self.options_panel, Qt.DockWidgetArea.LeftDockWidgetArea),
@@ -134,7 +135,7 @@ class MainWindow(FileCommands, LayerCommands, DocumentCommands, ClipCommands, QM
             self.restoreGeometry(geometry)
             self.restoreState(settings.value("window/state", b""))
         self.set_tool(self.tool_name)
-        self._update_state()
+        self.update_state()
 
     def _build_status_bar(self) -> None:
         """Messages and the active tool's hint on the left; preview notice, progress and pointer on the right."""
@@ -190,17 +191,17 @@ class MainWindow(FileCommands, LayerCommands, DocumentCommands, ClipCommands, QM
 
     def _pointer(self, kind: str, event) -> None:
         tool = self.tool
-        if tool is None or self._busy:
+        if tool is None or self.busy:
             return
         self._refusing(getattr(tool, kind), event)
         x, y = event.position
         self.position_label.setText(f"{x:.1f}, {y:.1f}")
         self._after_tool()
 
-    def _settle_edits(self) -> bool:
+    def settle_edits(self) -> bool:
         """Make way for an edit from a menu or a panel: the active tool finishes what it was doing (a clone's
         placement is kept); False when nothing can be edited (no document, a job, a panel's drag open)."""
-        if self.workspace is None or self._busy:
+        if self.workspace is None or self.busy:
             return False
         self.tool.finish()
         return not self.workspace.history.in_transaction
@@ -235,7 +236,7 @@ class MainWindow(FileCommands, LayerCommands, DocumentCommands, ClipCommands, QM
         if watched is not self.canvas or kind not in (QEvent.Type.ShortcutOverride, QEvent.Type.KeyPress):
             return super().eventFilter(watched, event)
         name, tool = tool_key(event.key()), self.tool
-        if name is None or tool is None or self._busy:
+        if name is None or tool is None or self.busy:
             return False
         key = event.key()
         if kind == QEvent.Type.KeyPress:
@@ -259,7 +260,7 @@ class MainWindow(FileCommands, LayerCommands, DocumentCommands, ClipCommands, QM
     # -- edit commands --------------------------------------------------------------------------------
     def undo(self) -> None:
         """Undo the last step (a gesture in progress is cancelled instead)."""
-        if self.workspace is None or self._busy:
+        if self.workspace is None or self.busy:
             return
         if self.tool.busy:
             self.tool.cancel()
@@ -268,11 +269,11 @@ class MainWindow(FileCommands, LayerCommands, DocumentCommands, ClipCommands, QM
         self.workspace.history.undo()
 
     def redo(self) -> None:
-        if self.workspace is not None and not self._busy and not self.tool.busy:
+        if self.workspace is not None and not self.busy and not self.tool.busy:
             self.workspace.history.redo()
 
     def delete_selection(self) -> None:
-        if self.workspace is None or self._busy:
+        if self.workspace is None or self.busy:
             return
         if not self.tool.key("Delete"):
             delete_selection(self.workspace.context)
@@ -365,7 +366,7 @@ class MainWindow(FileCommands, LayerCommands, DocumentCommands, ClipCommands, QM
     def _frame_ready(self, frame) -> None:
         self._show_shading(frame)
         self.canvas.update_representation(frame.picture, frame.changes)
-        if not self._busy:
+        if not self.busy:
             self.progress_bar.hide()
 
     def _show_shading(self, frame) -> None:
@@ -385,7 +386,7 @@ class MainWindow(FileCommands, LayerCommands, DocumentCommands, ClipCommands, QM
         self.status_label.setText(f"The image could not be updated: {message.splitlines()[0]}")
 
     def _engine_progress(self, stage: str, fraction: float) -> None:
-        if not self._busy:
+        if not self.busy:
             self._show_progress(stage, fraction)
 
     def _show_progress(self, stage: str, fraction: float) -> None:
@@ -404,7 +405,7 @@ class MainWindow(FileCommands, LayerCommands, DocumentCommands, ClipCommands, QM
         self._name_tab(workspace)
 
     def _update_actions(self) -> None:
-        workspace, actions, free = self.workspace, self.actions, not self._busy
+        workspace, actions, free = self.workspace, self.actions, not self.busy
         history = workspace.history if workspace is not None else None
         undo = history.undo_label if history is not None else None
         redo = history.redo_label if history is not None else None
@@ -419,16 +420,17 @@ class MainWindow(FileCommands, LayerCommands, DocumentCommands, ClipCommands, QM
         for name in ("next_document", "previous_document"):
             actions[name].setEnabled(len(self.open_tabs) > 1)
         self._update_clip_actions()
-        self._update_layer_actions()
+        self.layer_commands.update_actions()
 
-    def _update_state(self) -> None:
+    def update_state(self) -> None:
+        """Show the document's state again: title, actions, overlay."""
         self._update_title()
         self._update_actions()
         self.overlay.update()
 
     # -- jobs -------------------------------------------------------------------------------------------
     @property
-    def _busy(self) -> bool:
+    def busy(self) -> bool:
         """True while the tab shown waits for a job (opening, saving, exporting): nothing edits it."""
         return self.shown is not None and self.shown.task is not None
 
@@ -508,4 +510,4 @@ class MainWindow(FileCommands, LayerCommands, DocumentCommands, ClipCommands, QM
             self.status_label.setText("")
         then(value)
         if tab is self.shown:
-            self._update_state()
+            self.update_state()

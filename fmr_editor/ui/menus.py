@@ -12,7 +12,7 @@ from PySide6.QtGui import QAction, QActionGroup, QKeySequence
 
 from ..tools import TOOLS
 
-#: name: (text, shortcuts, window method, status tip)
+#: name: (text, shortcuts, window method (or ``"part.method"`` of one of its command objects), status tip)
 ACTIONS = {
     "new": ("&New\u2026", ["Ctrl+N"], "new_document", "Start a new document (asks for the canvas size)"),
     "open": ("&Open\u2026", ["Ctrl+O"], "open_document", "Open a .fmr document or an Orzan .xml curve set"),
@@ -42,24 +42,27 @@ ACTIONS = {
                           "Show the previous open document"),
     "swap_colors": ("&Swap Colours", ["X"], "swap_colors", "Swap the foreground and background colours"),
     "default_colors": ("&Default Colours", ["D"], "default_colors", "Black foreground, white background"),
-    "new_layer": ("&New Layer", ["Ctrl+Shift+N"], "new_layer", "Add an empty layer above the active one"),
-    "duplicate_layer": ("&Duplicate Layer", ["Ctrl+J"], "duplicate_layer", "Copy the active layer above it"),
-    "delete_layer": ("De&lete Layer", [], "delete_layer", "Delete the active layer"),
-    "merge_down": ("&Merge Down", [], "merge_down",
+    "new_layer": ("&New Layer", ["Ctrl+Shift+N"], "layer_commands.new_layer",
+                  "Add an empty layer above the active one"),
+    "duplicate_layer": ("&Duplicate Layer", ["Ctrl+J"], "layer_commands.duplicate_layer",
+                        "Copy the active layer above it"),
+    "delete_layer": ("De&lete Layer", [], "layer_commands.delete_layer", "Delete the active layer"),
+    "merge_down": ("&Merge Down", [], "layer_commands.merge_down",
                    "Join the active layer's curves and points into the layer below (they then diffuse together)"),
-    "flatten": ("&Flatten Image", [], "flatten",
+    "flatten": ("&Flatten Image", [], "layer_commands.flatten",
                 "Join the curves and points of every visible layer into one layer (hidden layers are dropped)"),
-    "add_mask": ("Add &Mask", [], "add_mask",
+    "add_mask": ("Add &Mask", [], "layer_commands.add_mask",
                  "Give the active layer a mask that shows all of it (paint dark or draw dark shapes to hide)"),
-    "add_hiding_mask": ("Add Mask: &Hide All", [], "add_hiding_mask",
+    "add_hiding_mask": ("Add Mask: &Hide All", [], "layer_commands.add_hiding_mask",
                         "Give the active layer a mask that hides all of it (paint light or draw light shapes to show)"),
-    "delete_mask": ("Delete Mas&k", [], "delete_mask", "Remove the active layer's mask"),
-    "invert_mask": ("&Invert Mask", [], "invert_mask", "Show what the mask hid and hide what it showed"),
-    "disable_mask": ("Disa&ble Mask", [], "toggle_mask", "Draw the layer as if it had no mask (the mask is kept)"),
-    "edit_mask": ("&Edit Mask", ["Ctrl+Shift+M"], "edit_mask",
+    "delete_mask": ("Delete Mas&k", [], "layer_commands.delete_mask", "Remove the active layer's mask"),
+    "invert_mask": ("&Invert Mask", [], "layer_commands.invert_mask", "Show what the mask hid and hide what it showed"),
+    "disable_mask": ("Disa&ble Mask", [], "layer_commands.toggle_mask",
+                     "Draw the layer as if it had no mask (the mask is kept)"),
+    "edit_mask": ("&Edit Mask", ["Ctrl+Shift+M"], "layer_commands.edit_mask",
                   "Tools act on the mask: the brush paints it (light adds, dark subtracts, Alt erases), "
                   "the pen draws its sharp edges"),
-    "adjust_colors": ("&Colour Adjust\u2026", ["Ctrl+U"], "adjust_colors",
+    "adjust_colors": ("&Colour Adjust\u2026", ["Ctrl+U"], "layer_commands.adjust_colors",
                       "Hue, saturation, brightness, contrast and invert of the active layer"),
     "shortcuts": ("&Keyboard Shortcuts", ["Ctrl+F1"], "show_shortcuts", "Every command's keys"),
     "user_guide": ("&User Guide", ["F1"], "user_guide", "Open the user guide (docs/user-guide.md)"),
@@ -83,6 +86,14 @@ MENUS = (
 )
 
 
+def _method(window, path: str):
+    """``window``'s method ``path``, or a method of one of its parts (``"layer_commands.new_layer"``)."""
+    target = window
+    for name in path.split("."):
+        target = getattr(target, name)
+    return target
+
+
 def build_actions(window) -> dict[str, QAction]:
     """Every action of ``window``, by name; the tools' as ``"tool:NAME"`` (checkable, exclusive)."""
     actions = {}
@@ -90,7 +101,7 @@ def build_actions(window) -> dict[str, QAction]:
         action = QAction(text, window)
         action.setShortcuts([QKeySequence(s) for s in shortcuts])
         action.setStatusTip(tip)
-        action.triggered.connect(lambda _=False, method=method: getattr(window, method)())
+        action.triggered.connect(lambda _=False, method=method: _method(window, method)())
         actions[name] = action
     actions["edit_mask"].setCheckable(True)
     group = QActionGroup(window)
