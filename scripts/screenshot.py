@@ -55,7 +55,7 @@ def main(out: Path) -> None:
         history.apply(edits.move_control_point(history.document, curve.id, 6, (anchor[0], anchor[1] - 6.0)),
                       "Move Anchor")
         window.workspace.context.selection = Selection.of(stops=[(curve.id, "left", 2)])
-        window._after_tool()  # noqa: SLF001 - what a click of the select tool ends with
+        window.after_tool()  # what a click of the select tool ends with
         wait_until(app, lambda: window.workspace.current)
         for _ in range(20):
             app.processEvents()

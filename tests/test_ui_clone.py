@@ -74,8 +74,8 @@ def test_copy_in_one_tab_paste_seamless_in_another_place_it_and_undo(two_documen
     assert region is not None and len(region) == len(CORNERS)
     np.testing.assert_allclose(sorted(map(tuple, region)), sorted(editor.doc(*c) for c in CORNERS), atol=1e-9)
     editor.key(Qt.Key.Key_C, CTRL)
-    assert window.clipboard is not None and editor.history.index == 0  # copying is no step
-    np.testing.assert_array_equal(window.clipboard.region, region)
+    assert window.clip_commands.clipboard is not None and editor.history.index == 0  # copying is no step
+    np.testing.assert_array_equal(window.clip_commands.clipboard.region, region)
 
     window.tabs.setCurrentIndex(1)
     assert editor.workspace.path == target_path and editor.document is target_document
@@ -121,9 +121,9 @@ def test_a_clone_is_chosen_and_moved_again_later_and_esc_drops_the_change(two_do
     window = editor.window
     window.tabs.setCurrentIndex(0)
     lasso_corners(editor, CORNERS)
-    window.copy()
+    window.clip_commands.copy()
     window.tabs.setCurrentIndex(1)
-    window.paste_seamless()
+    window.clip_commands.paste_seamless()
     editor.key(Qt.Key.Key_Return)
     pasted = editor.document
     window.layers_panel.list.setCurrentRow(1)  # the bottom layer (the list shows the top first)
@@ -172,7 +172,7 @@ def test_plain_paste_saving_and_closing_ask_per_document(two_documents, tmp_path
     editor.drag([(x, y), (70.0, y), (70.0, 60.0), (x, 60.0)])  # freehand, over the canvas edge
     region = editor.context.region
     assert region.min() == 0.0 and region.max() <= 70.5  # clipped to the canvas
-    window.copy()
+    window.clip_commands.copy()
     window.tabs.setCurrentIndex(1)
     before = editor.document
     editor.key(Qt.Key.Key_V, CTRL)  # into the active layer, as they are
@@ -183,7 +183,7 @@ def test_plain_paste_saving_and_closing_ask_per_document(two_documents, tmp_path
     assert editor.context.selection.curves == {c.id for c in pasted.curves[len(before.curves):]}  # to move on
     shows_the_composite(editor)
 
-    window.paste_seamless()
+    window.clip_commands.paste_seamless()
     editor.key(Qt.Key.Key_Return)
     document = editor.document
     editor.answers["save"] = tmp_path / "cloned.fmr"
@@ -211,7 +211,7 @@ def test_a_paste_session_gives_way_to_undo_the_layers_panel_and_other_tabs(two_d
     window = editor.window
     window.tabs.setCurrentIndex(0)
     lasso_corners(editor, CORNERS)
-    window.copy()
+    window.clip_commands.copy()
     window.tabs.setCurrentIndex(1)
     target = editor.document
     window.layers_panel.list.setFocus()
@@ -221,7 +221,7 @@ def test_a_paste_session_gives_way_to_undo_the_layers_panel_and_other_tabs(two_d
     window.actions["undo"].trigger()  # Ctrl+Z drops the paste, as Esc does
     assert editor.document == target and not editor.history.in_transaction and window.tool_name == "clone"
 
-    window.paste_seamless()
+    window.clip_commands.paste_seamless()
     window.layers_panel.list.setCurrentRow(1)  # the bottom layer: the placement is kept, then the layer chosen
     assert editor.history.labels == ("", "Paste Seamless") and editor.document.active == 0
     window.layers_panel.list.setCurrentRow(0)

@@ -56,9 +56,9 @@ CURSORS = {
 }
 
 
-class MainWindow(FileCommands, DocumentCommands, ClipCommands, QMainWindow):
-    """The editor window (its file, layer, tab and clipboard commands: ``file_commands``, ``layer_commands``,
-    ``documents``, ``clip_commands``).
+class MainWindow(FileCommands, DocumentCommands, QMainWindow):
+    """The editor window: file and tab commands mixed in (``file_commands``, ``documents``); the Layer and the
+    clipboard commands are parts that see it through ``editing.Editing`` (``layer_commands``, ``clip_commands``).
 
     Parameters
     ----------
@@ -76,6 +76,8 @@ class MainWindow(FileCommands, DocumentCommands, ClipCommands, QMainWindow):
         Every tab, documents still opening included.
     canvas : ui.canvas.Canvas
     actions : dict of str to QAction
+    layer_commands : layer_commands.LayerCommands
+    clip_commands : clip_commands.ClipCommands
     """
 
     def __init__(self, settings: QSettings, parent=None, autosave: Autosaver | None = None) -> None:
@@ -111,10 +113,11 @@ class MainWindow(FileCommands, DocumentCommands, ClipCommands, QMainWindow):
         self.options_panel = OptionsPanel(self.options)
         self.options_panel.changed.connect(self.overlay.update)
         self.stops_panel = StopsPanel()
-        self.stops_panel.changed.connect(self._after_tool)
+        self.stops_panel.changed.connect(self.after_tool)
         self.history_panel = HistoryPanel()
         self.layers_panel = LayersPanel(self.actions, self.settle_edits)
         self.layer_commands = LayerCommands(self, self.layers_panel, self.actions, self)
+        self.clip_commands = ClipCommands(self, self.actions, self.canvas)
         self.layers_panel.failed.connect(lambda message: self.status_label.setText(message))
         docks = [
             self._dock("Tool Options", "options", self.options_panel, Qt.DockWidgetArea.LeftDockWidgetArea),
@@ -187,7 +190,7 @@ class MainWindow(FileCommands, DocumentCommands, ClipCommands, QMainWindow):
         cursor = self.workspace.tools[name].cursor if self.workspace is not None else "arrow"
         self.canvas.setCursor(QCursor(CURSORS.get(cursor, Qt.CursorShape.ArrowCursor)))
         self.hint_label.setText((self.tool or next(cls for cls in TOOLS if cls.name == name)).hint)
-        self._after_tool()
+        self.after_tool()
 
     def _pointer(self, kind: str, event) -> None:
         tool = self.tool
@@ -196,7 +199,7 @@ class MainWindow(FileCommands, DocumentCommands, ClipCommands, QMainWindow):
         self._refusing(getattr(tool, kind), event)
         x, y = event.position
         self.position_label.setText(f"{x:.1f}, {y:.1f}")
-        self._after_tool()
+        self.after_tool()
 
     def settle_edits(self) -> bool:
         """Make way for an edit from a menu or a panel: the active tool finishes what it was doing (a clone's
@@ -214,7 +217,11 @@ class MainWindow(FileCommands, DocumentCommands, ClipCommands, QMainWindow):
         self.tool.cancel()
         return True
 
-    def _after_tool(self) -> None:
+    def say(self, text: str) -> None:
+        """``text`` in the status bar (what was done, or why not)."""
+        self.status_label.setText(text)
+
+    def after_tool(self) -> None:
         """Show what a tool or panel did that no panel follows by itself: the overlay, the selection's stops, the
         colours (the eyedropper's), the actions."""
         self.overlay.update()
@@ -248,7 +255,7 @@ class MainWindow(FileCommands, DocumentCommands, ClipCommands, QMainWindow):
                 return False
         used = self._refusing(tool.key, name, modifier_names(event.modifiers()))
         if used:
-            self._after_tool()
+            self.after_tool()
             if kind == QEvent.Type.ShortcutOverride:
                 self._swallow = key
                 event.accept()
@@ -264,7 +271,7 @@ class MainWindow(FileCommands, DocumentCommands, ClipCommands, QMainWindow):
             return
         if self.tool.busy:
             self.tool.cancel()
-            self._after_tool()
+            self.after_tool()
             return
         self.workspace.history.undo()
 
@@ -277,7 +284,7 @@ class MainWindow(FileCommands, DocumentCommands, ClipCommands, QMainWindow):
             return
         if not self.tool.key("Delete"):
             delete_selection(self.workspace.context)
-        self._after_tool()
+        self.after_tool()
 
     def select_all(self) -> None:
         if self.workspace is None:
@@ -286,13 +293,13 @@ class MainWindow(FileCommands, DocumentCommands, ClipCommands, QMainWindow):
         document = context.document
         context.selection = Selection.of(curves=[c.id for c in document.curves], points=document.point_ids())
         context.region = canvas_region(document)
-        self._after_tool()
+        self.after_tool()
 
     def deselect(self) -> None:
         if self.workspace is not None:
             self.workspace.context.selection = Selection()
             self.workspace.context.region = None
-            self._after_tool()
+            self.after_tool()
 
     def zoom_in(self) -> None:
         self.canvas.zoom_in()
@@ -360,7 +367,7 @@ class MainWindow(FileCommands, DocumentCommands, ClipCommands, QMainWindow):
             self.canvas.set_mask_overlay(overlay)
             self.status_label.setText(f"Editing the mask of {document.layer.name} (red: hidden); "
                                       "Ctrl+Shift+M goes back to the layer" if overlay is not None else "")
-        self._after_tool()
+        self.after_tool()
         self._update_title()
 
     def _frame_ready(self, frame) -> None:
@@ -419,7 +426,7 @@ class MainWindow(FileCommands, DocumentCommands, ClipCommands, QMainWindow):
         actions["close"].setEnabled(self.shown is not None)
         for name in ("next_document", "previous_document"):
             actions[name].setEnabled(len(self.open_tabs) > 1)
-        self._update_clip_actions()
+        self.clip_commands.update_actions()
         self.layer_commands.update_actions()
 
     def update_state(self) -> None:
