@@ -7,7 +7,7 @@ value missing or unreadable there takes its default.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, fields
 
 from PySide6.QtCore import QSettings
 from PySide6.QtWidgets import QComboBox, QDialog, QDialogButtonBox, QDoubleSpinBox, QFormLayout, QSpinBox
@@ -66,7 +66,7 @@ class Preferences:
                                                                    BRUSH_MODES):
                 continue
             values[field.name] = value
-        return replace(cls(), **values)
+        return cls(**values)
 
     def save(self, settings: QSettings) -> None:
         for field in fields(self):
