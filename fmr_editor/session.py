@@ -118,7 +118,7 @@ class Session:
         return self.last_update
 
     def image(self, width: int | None = None, height: int | None = None, samples: int = 3) -> np.ndarray:
-        """The picture (all layers composed) ``(height, width, 3)``, floats not clamped, as ``engine.rasterise``."""
+        """The picture (all layers composed, each clamped to [0, 1]) ``(height, width, 3)``, as ``engine.rasterise``."""
         return rasterise(self.live.composite, width, height, samples=samples)
 
     def cells(self, order: int | None = None) -> np.ndarray:

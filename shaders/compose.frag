@@ -1,9 +1,10 @@
 #version 410 core
 // One layer of a layered picture drawn over what lies below (fmr_editor/render/picture_renderer.py):
-//     out = m T(V) + (1 - m) below,  m = opacity * clamp(M, 0, 1),  M = base + luma . mask colour (or 1 - that),
+//     out = m S(V) + (1 - m) below,  m = opacity * clamp(M, 0, 1),  M = base + luma . mask colour (or 1 - that),
+//     S(V) = clamp(T(clamp(V, 0, 1)), 0, 1)  (what the layer shows),
 // as fmr_editor/engine/composite.py computes it on the CPU.  V and the mask colour are the layer's and its mask's
 // evaluated window images (float, unclamped); the blend unit does the mixing (SRC_ALPHA, ONE_MINUS_SRC_ALPHA),
-// so this writes (T(V), m).  Outside the canvas the images hold the checkerboard, which is kept as it is.
+// so this writes (S(V), m).  Outside the canvas the images hold the checkerboard, which is kept as it is.
 // u_tint = 1 draws the tint of a mask being edited over the result: red, half strength where it hides all.
 
 uniform sampler2D u_image;
@@ -44,5 +45,6 @@ void main() {
         colour = vec4(1.0, 0.1, 0.1, 0.5 * (1.0 - clamp(m, 0.0, 1.0)));
         return;
     }
-    colour = vec4(u_matrix * value + u_offset, u_opacity * clamp(m, 0.0, 1.0));
+    vec3 shown = clamp(u_matrix * clamp(value, 0.0, 1.0) + u_offset, 0.0, 1.0);
+    colour = vec4(shown, u_opacity * clamp(m, 0.0, 1.0));
 }

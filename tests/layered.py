@@ -6,10 +6,12 @@ import numpy as np
 from shapes import circle_points, scattered_document, uniform_curve
 
 from fmr_editor.engine import LiveStack, rasterise
-from fmr_editor.model import DiffusionPoint, Document, Layer, Mask
+from fmr_editor.model import DiffusionPoint, Document, Layer, Mask, edits, layer_edits
 from fmr_editor.model.color_transform import hue_rotation
 
 SIZE = 128
+#: The Paint colour of ``paint_over_glow``.
+GREEN = (0.2, 0.7, 0.3)
 
 
 def soft_mask(seed: int = 3) -> Mask:
@@ -32,8 +34,19 @@ def three_layers() -> Document:
     return Document(SIZE, SIZE, layers=(bottom, middle, top), active=1)
 
 
+def paint_over_glow() -> Document:
+    """A Glow stroke (white underneath far above 1) with a Paint stroke of green across it, as the brush
+    makes them: the dabs of the Paint stroke go, white, into the mask of a green fill layer."""
+    glow = [DiffusionPoint((64.0, 40.0 + 12 * i), 22.0, (1.0, 0.9, 0.6), amplitude=4.0) for i in range(5)]
+    document = edits.add_points(Document(SIZE, SIZE), glow)
+    document, fill = layer_edits.with_fill_layer(document, GREEN)
+    paint = [DiffusionPoint((20.0 + 9 * i, 64.0), 10.0, (1.0, 1.0, 1.0), amplitude=0.8) for i in range(11)]
+    return layer_edits.add_mask_points(document, fill, paint)
+
+
 def reference(document: Document, width: int, height: int) -> np.ndarray:
-    """Per-pixel composition of each layer and mask rendered by the direct sums (no FMR), by the formula."""
+    """Per-pixel composition of each layer and mask rendered by the direct sums (no FMR), by the formula
+    ``out = m clamp(T(clamp(V))) + (1 - m) below`` (docs/design.md section 5)."""
     def direct(target) -> np.ndarray:
         return rasterise(LiveStack(document.flat(target)).representation, width, height, samples=1, method="direct")
 
@@ -47,6 +60,8 @@ def reference(document: Document, width: int, height: int) -> np.ndarray:
             value = layer.mask.base + (direct(layer.mask) @ luma if not layer.mask.is_constant else 0.0)
             value = 1.0 - value if layer.mask.inverted else value
         m = layer.opacity * np.minimum(np.maximum(value, 0.0), 1.0)
-        colour = direct(layer) @ layer.transform.matrix.T + layer.transform.offset
+        shown = np.minimum(np.maximum(direct(layer), 0.0), 1.0)  # what the layer shows, clamped, ...
+        shown = shown @ layer.transform.matrix.T + layer.transform.offset  # ... transformed ...
+        colour = np.minimum(np.maximum(shown, 0.0), 1.0)  # ... and clamped again
         out = m[..., None] * colour + (1.0 - m[..., None]) * out
     return out

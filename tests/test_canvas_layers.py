@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from canvas_oracle import CHECKER, error_levels, window_samples
-from layered import three_layers
+from layered import paint_over_glow, three_layers
 
 pytest.importorskip("pytestqt", reason="pytest-qt is in the [test] extra")
 
@@ -95,3 +95,10 @@ def test_the_canvas_shows_the_composite_and_follows_edits_of_one_layer(canvas, q
     canvas.update_representation(stack.composite, {})
     check(canvas, stack.composite)
     assert not evaluate_points(stack.composite, [[10.0, 10.0]]).any()
+
+
+def test_the_canvas_clamps_each_layer_before_blending_as_the_composite_does(canvas):
+    stack = LiveStack(paint_over_glow())  # a glow far above 1 under green paint
+    canvas.set_representation(stack.composite, fit=False)
+    canvas.set_view(VIEW)
+    check(canvas, stack.composite)

@@ -179,6 +179,7 @@ def layered_errors(source, below, clone: SeamlessClone) -> dict[str, float]:
     points = source.points.source if source.points is not None else ()
     picture = Composite(below.width, below.height, below.layers + (clone_layer(clone, below, points=points),))
     points, inside, _, fields, expected, distance = oracle_grid(source, below, clone)
+    expected, fields = np.clip(expected, 0, 1), np.clip(fields, 0, 1)  # a layer shows its colours clamped
     shown = evaluate_points(picture, points)
     on_canvas = ((points >= 0) & (points <= [below.width, below.height])).all(axis=1)
     far_in = (distance >= 3)[inside.ravel()]

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import pytest
-from layered import SIZE, reference, three_layers
+from layered import GREEN, SIZE, paint_over_glow, reference, three_layers
 from shapes import scattered_document
 
 from fmr_editor.engine import LiveStack, evaluate_points, raster, rasterise
@@ -109,6 +109,22 @@ def test_the_composite_equals_per_pixel_composition_of_the_layers(stack):
     for changed in (layer_edits.remove_mask(document, 2), layer_edits.set_opacity(document, 1, 1.0),
                     layer_edits.set_transform(document, 2, hue_rotation(0))):
         assert np.abs(reference(changed, PIXELS, PIXELS) - expected).max() > 10 * ONE_STEP
+
+
+def test_paint_over_a_glow_blends_with_the_white_shown_there_and_leaves_no_fringe():
+    document = paint_over_glow()
+    stack = LiveStack(document)
+    xs = (np.arange(PIXELS) + 0.5) * SIZE / PIXELS
+    grid = np.stack(np.meshgrid(xs, xs), axis=-1).reshape(-1, 2)
+    glow = evaluate_points(stack.image(document.layers[0]), grid)
+    white = (glow >= 1).all(axis=1)  # shown white; underneath (4, 3.6, 2.4) at the centre
+    assert white.mean() > 0.2 and glow.max() > 3
+    got = evaluate_points(stack.composite, grid)[white]
+    weight = (1 - got) / (1 - np.array(GREEN))  # got = k GREEN + (1 - k) white: the same k in every channel
+    painted = weight[:, 0] > 0.05
+    assert painted.mean() > 0.1 and (weight <= 1 + 1e-9).all()
+    assert np.abs(weight - weight[:, :1]).max() < 1e-9  # on the segment from white to green: no yellow
+    np.testing.assert_allclose(got, reference(document, PIXELS, PIXELS).reshape(-1, 3)[white], atol=ONE_STEP)
 
 
 def test_the_curve_mask_is_the_indicator_of_its_circle(stack):
@@ -215,9 +231,13 @@ def test_a_baked_transform_gives_the_same_image_without_a_transform(monkeypatch)
     document = Document(SIZE, SIZE, layers=(layer,))
     baked = layer_edits.baked(layer)
     assert baked.transform.is_identity and baked != layer
-    transformed = rasterise(LiveStack(document).composite, PIXELS, PIXELS, samples=1)
-    np.testing.assert_allclose(rasterise(LiveStack(document.with_layer(0, baked)).composite, PIXELS, PIXELS,
-                                         samples=1), transformed, atol=1e-6)
+    stack = LiveStack(document)
+    transformed = rasterise(stack.composite, PIXELS, PIXELS, samples=1)
+    plain = rasterise(stack.representation, PIXELS, PIXELS, samples=1)
+    exact = ((plain >= 0) & (plain <= 1)).all(axis=-1)  # the layer clamps V before T: baking is exact there
+    assert 0.5 < exact.mean() < 1
+    baked_image = rasterise(LiveStack(document.with_layer(0, baked)).composite, PIXELS, PIXELS, samples=1)
+    np.testing.assert_allclose(baked_image[exact], transformed[exact], atol=1e-6)
 
 
 def test_merge_down_joins_the_items_with_transforms_applied_and_keeps_the_lower_layer():

@@ -2,11 +2,15 @@
 
 ``Composite`` holds each visible layer's representation with its mask's,
 opacity and colour transform; ``compose`` blends their values sample by
-sample, ``out = m T(V) + (1 - m) out_below`` with ``m = opacity * clamp(M, 0,
-1)``, from the topmost layer that covers everything (what lies below it cannot
-show).  Composing the values exactly, rather than the cells' polynomials as
-the paper's merged coefficients (its equation 32) would, keeps a mask's edge
-and a product's dropped terms out of the picture.
+sample, ``out = m S(V) + (1 - m) out_below`` with ``m = opacity * clamp(M, 0,
+1)`` and ``S(V) = clamp(T(clamp(V, 0, 1)), 0, 1)`` what the layer shows, from
+the topmost layer that covers everything (what lies below it cannot show).
+Clamping each layer before blending makes the picture below a layer what the
+user saw there: a glow that shows white is (4, 2.7, 1.5) underneath, and
+blending that unclamped with green showed yellow fringes.  Composing the
+values exactly, rather than the cells' polynomials as the paper's merged
+coefficients (its equation 32) would, keeps a mask's edge and a product's
+dropped terms out of the picture.
 """
 
 from __future__ import annotations
@@ -119,18 +123,24 @@ class Composite:
         return tuple(rep for layer in self.shown for _, rep in layer.read)
 
 
+def shown_colour(layer: LayerFields, colour: np.ndarray) -> np.ndarray:
+    """What ``layer`` shows where its image's values are ``colour (..., 3)``: ``clamp(T(clamp(colour)))``."""
+    colour = np.clip(colour, 0.0, 1.0)
+    if layer.transform.is_identity:
+        return colour
+    return np.clip(layer.transform.apply(colour), 0.0, 1.0)
+
+
 def compose(composite: Composite, values: Callable[[Representation], np.ndarray], shape: tuple[int, ...]) -> np.ndarray:
     """The composite's colours, of ``shape`` ``(..., 3)``, given ``values(rep)`` of each representation there.
 
-    Zero where no layer shows (all hidden); not clamped.
+    In [0, 1] (each layer is clamped before it is blended); zero where no layer shows (all hidden).
     """
     out = np.zeros(shape)
     for layer in composite.shown:
-        colour = values(layer.image)
-        if not layer.transform.is_identity:
-            colour = layer.transform.apply(colour)
+        colour = shown_colour(layer, values(layer.image))
         if layer.covers:
-            out = np.array(colour)  # a copy: the next layers blend into it in place
+            out = colour
             continue
         weight = layer.weight(values(layer.mask) if layer.masked else None)
         out += np.asarray(weight)[..., None] * (colour - out)

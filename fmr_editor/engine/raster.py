@@ -158,7 +158,7 @@ def rasterise(
     Returns
     -------
     numpy.ndarray
-        ``(height, width, 3)`` float64, not clamped.
+        ``(height, width, 3)`` float64: a representation's values not clamped, a composite's in [0, 1].
     """
     width, height = output_size(rep.width, rep.height, width, height)
     if samples < 1:
@@ -235,7 +235,8 @@ def output_size(canvas_width: int, canvas_height: int, width: int | None, height
 
 
 def evaluate_points(rep: Representation | Composite, points: np.ndarray, order: int | None = None) -> np.ndarray:
-    """The FMR colour at arbitrary ``points (m, 2)``, ``(m, 3)`` (not clamped); of a composite, its layers composed.
+    """The FMR colour at arbitrary ``points (m, 2)``, ``(m, 3)`` (not clamped); of a composite, its layers composed
+    (``composite.compose``: in [0, 1]).
 
     Zero outside the canvas.
     """

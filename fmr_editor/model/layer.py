@@ -3,8 +3,8 @@
 Each layer is a whole diffusion image (its curves and points, solved on its
 own with the canvas's reflecting border).  It is drawn over what lies below
 with weight ``m = opacity * clamp(M, 0, 1)``, where ``M`` is its mask's value
-(1 without a mask): ``out = m T(V) + (1 - m) out_below``, ``T`` the layer's
-colour transform.  A mask is a diffusion image too, read through its
+(1 without a mask): ``out = m S(V) + (1 - m) out_below``, ``S(V) = clamp(T(clamp(V,
+0, 1)), 0, 1)`` what it shows, ``T`` its colour transform.  A mask is a diffusion image too, read through its
 luminance (``MASK_LUMA``) plus a constant ``base``: white points add, points
 of negative amplitude subtract, and a closed curve with white inside and
 black outside is a sharp mask of its region.

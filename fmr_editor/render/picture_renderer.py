@@ -5,7 +5,7 @@ re-evaluates only its changed cells, so an edit to one layer costs what it
 costs in a one-layer document.  Drawing brings every shown field's image up
 to date and, when any of them or the layers' settings changed, composes them
 bottom up into a float image with ``shaders/compose.frag`` (a pass a layer,
-the blend unit doing ``m T(V) + (1 - m) below``, as ``engine.composite.compose``
+the blend unit doing ``m S(V) + (1 - m) below``, as ``engine.composite.compose``
 on the CPU; one pass for all layers, with sampler arrays, was twice as slow
 under llvmpipe), over the whole window after a change of the layers' settings,
 else over the rectangle whose fields changed; a redraw with nothing changed
