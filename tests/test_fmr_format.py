@@ -40,7 +40,7 @@ from fmr_editor.io import DocumentLoadError, FmrFile, fmr_file, load_document, l
 from fmr_editor.io.document_json import document_from_data, document_to_data, dumps_document, loads_document
 from fmr_editor.io.png import to_rgb8
 from fmr_editor.io.zip_reading import MAX_ENTRIES
-from fmr_editor.model import BlurStop, ColorStop, DiffusionCurve, DiffusionPoint, Document
+from fmr_editor.model import BlurStop, ColorStop, DiffusionCurve, DiffusionPoint, Document, edits
 
 # --- fixtures and helpers -----------------------------------------------------------------------
 
@@ -147,6 +147,27 @@ def test_document_round_trips_exactly(saved, document):
         assert a.left == b.left and a.right == b.right and a.blur == b.blur
     assert loaded.points == document.points
     assert load_document(saved) == document
+
+
+def test_alpha_round_trips_in_version_4_and_only_documents_with_alpha_need_it(tmp_path):
+    curve = DiffusionCurve(np.array([[1.0, 1.0], [9.0, 2.0], [12.0, 9.0], [3.0, 12.0]]),
+                           left=(ColorStop(0.0, (0.1, 0.2, 0.7), 0.25), ColorStop(1.0, (1.0, 0.5, 0.0))),
+                           right=(ColorStop(0.5, (0.0, 0.0, 0.0), 0.0),))
+    translucent = Document(16, 16, [curve])
+    data = document_to_data(translucent)
+    assert data["version"] == 4
+    assert [stop.get("alpha") for stop in first(data)["curves"][0]["left"]] == [0.25, None]  # 1 is not written
+    assert load_fmr(save_fmr(tmp_path / "alpha.fmr", translucent)).document == translucent
+    opaque = edits.set_stop_alpha(translucent, curve.id, "left", 0, 1.0)
+    opaque = edits.set_stop_alpha(opaque, curve.id, "right", 0, 1.0)
+    assert document_to_data(opaque)["version"] == 2
+    assert [stop.alpha for stop in opaque.curves[0].left] == [1.0, 1.0]
+    assert opaque.curves[0].left[0].color == (0.1, 0.2, 0.7)  # setting the alpha keeps the colour ...
+    recoloured = edits.set_stop_color(translucent, curve.id, "left", 0, (1.0, 1.0, 1.0))
+    assert recoloured.curves[0].left[0].alpha == 0.25  # ... and setting the colour, or moving it, the alpha
+    assert edits.move_stop(translucent, curve.id, "left", 0, 0.5).curves[0].left[0].alpha == 0.25
+    with pytest.raises(ValueError, match="alphas must lie in"):
+        edits.set_stop_alpha(translucent, curve.id, "left", 0, float("nan"))
 
 
 def test_document_only_file_opens_without_representation(tmp_path, document):
@@ -423,7 +444,7 @@ def first(data: dict) -> dict:
 @pytest.mark.parametrize(
     "edit, message",
     [
-        (lambda d: d.update(version=4), "newer fmr-editor (document format version 4; this version reads up to 3)"),
+        (lambda d: d.update(version=5), "newer fmr-editor (document format version 5; this version reads up to 4)"),
         (lambda d: d.update(version="1"), "version must be a whole number"),
         (lambda d: d.pop("version"), "version is missing"),
         (lambda d: d.update(format="something else"), "format is 'something else'"),
@@ -453,6 +474,11 @@ def first(data: dict) -> dict:
          "layers[0].curves[0].left[1].color must be 3 numbers, got 2"),
         (lambda d: first(d)["curves"][0]["left"][1].update(color=[1, None, 2]),
          "layers[0].curves[0].left[1].color[1] must be a number, got null"),
+        (lambda d: first(d)["curves"][0]["left"][1].update(alpha=1.5),
+         "layers[0].curves[0].left[1].alpha is 1.5; an alpha lies in [0, 1]"),
+        (lambda d: first(d)["curves"][0]["left"][1].update(alpha=-0.25), "left[1].alpha is -0.25"),
+        (lambda d: first(d)["curves"][0]["left"][1].update(alpha="opaque"),
+         "layers[0].curves[0].left[1].alpha must be a number, got a string"),
         (lambda d: first(d)["curves"][0]["right"][0].pop("position"),
          "layers[0].curves[0].right[0]: position is missing"),
         (lambda d: first(d)["curves"][3]["blur"][0].update(blur=False),

@@ -290,6 +290,20 @@ def test_colours_outside_0_255_are_clamped_and_fractions_kept() -> None:
     assert curve.left[0].color == pytest.approx((1.0, 0.5, 0.0))
 
 
+def test_an_alpha_attribute_is_read_on_the_colour_scale_and_its_absence_is_opaque() -> None:
+    def alpha(stop: str, value: str) -> str:
+        return stop.replace(" />", f' A="{value}" />')
+
+    left = alpha(_stop("left_color"), "51") + alpha(_stop("left_color", globalid="5"), "400")
+    right, scene_left = alpha(_stop("right_color"), "-3"), alpha(_stop("left_color"), "127.5")
+    curve = parse_orzan(_orzan(_curve(left=left, right=right), _curve()), NAME).curves
+    assert [stop.alpha for stop in curve[0].left] == pytest.approx([0.2, 1.0])  # clamped as the channels are
+    assert curve[0].right[0].alpha == 0.0 and curve[1].left[0].alpha == curve[1].right[0].alpha == 1.0
+    assert parse_orzan(_scene(_curve(left=scene_left)), NAME).curves[0].right[0].alpha == pytest.approx(0.5)
+    unreadable = _orzan(_curve(left=left.replace('A="51"', 'A="half"')))
+    assert "left_color 1: A='half' is not a number" in str(_load_error(unreadable))
+
+
 def test_empty_colour_sides_and_missing_blur_load_empty() -> None:
     curve = parse_orzan(_orzan(_curve(left="", right="", blur="")), NAME).curves[0]
     assert curve.left == () and curve.right == () and curve.blur == ()

@@ -10,7 +10,7 @@ the clipboard) can reuse it.  The schema, with an example, is in
                  "transform": {"matrix": [[1, 0, 0], [0, 1, 0], [0, 0, 1]], "offset": [0, 0, 0]},
                  "mask": null or {"base": 1.0, "inverted": false, "enabled": true, "curves": [...], "points": [...]},
                  "curves": [{"control_points": [[x, y], ...],
-                             "left": [{"position": s, "color": [r, g, b]}, ...],
+                             "left": [{"position": s, "color": [r, g, b], "alpha": a (optional)}, ...],
                              "right": [...], "blur": [{"position": s, "blur": b}, ...]}],
                  "points": [{"position": [x, y], "radius": r, "color": [r, g, b], "amplitude": a}]}]}
 
@@ -50,9 +50,11 @@ from .json_checks import (
 FORMAT_NAME = "fmr-editor document"
 """Value of the ``format`` key."""
 
-SCHEMA_VERSION = 3
-"""The newest version read (1: one image, 2: layers, 3: clone layers); a document is written in the oldest
-version that holds it, so that a file without clone layers still opens in an editor of version 2."""
+SCHEMA_VERSION = 4
+"""The newest version read (1: one image, 2: layers, 3: clone layers, 4: alpha on colour stops); a document is
+written in the oldest version that holds it, so that a file without clone layers or alpha still opens in an
+editor of version 2, and one with alpha is refused by older editors (which would drop its alpha) with a clear
+message."""
 
 
 MAX_CANVAS_SIZE = limits.MAX_CANVAS_SIDE
@@ -72,11 +74,24 @@ def document_to_data(document: Document) -> dict:
     """
     return {
         "format": FORMAT_NAME,
-        "version": 3 if any(layer.clone is not None for layer in document.layers) else 2,
+        "version": _version(document),
         "canvas": {"width": document.width, "height": document.height},
         "active": document.active,
         "layers": [_layer_to_data(layer) for layer in document.layers],
     }
+
+
+def _version(document: Document) -> int:
+    """The oldest version that holds ``document``: 4 for stops with alpha, 3 for clone layers, else 2."""
+    def translucent(target: Layer | Mask | None) -> bool:
+        return target is not None and any(stop.alpha != 1.0 for curve in target.curves
+                                           for stop in curve.left + curve.right)
+
+    if any(translucent(layer) or translucent(layer.mask) or (layer.clone is not None and
+                                                             translucent(layer.clone.source.layer))
+           for layer in document.layers):
+        return 4
+    return 3 if any(layer.clone is not None for layer in document.layers) else 2
 
 
 def _items_to_data(target: Layer | Mask) -> dict:
@@ -121,7 +136,8 @@ def _curve_to_data(curve: DiffusionCurve) -> dict:
 
 
 def _color_stop_to_data(stop: ColorStop) -> dict:
-    return {"position": float(stop.position), "color": _color(stop.color)}
+    alpha = {"alpha": float(stop.alpha)} if stop.alpha != 1.0 else {}
+    return {"position": float(stop.position), "color": _color(stop.color), **alpha}
 
 
 def _point_to_data(point: DiffusionPoint) -> dict:
@@ -284,16 +300,23 @@ def _curve(value: object, where: str) -> DiffusionCurve:
         raise SchemaError(
             f"{where}.control_points has {len(points)} points; a chain of cubic Beziers needs 3k+1 (4, 7, 10, ...)"
         )
-    left = [ColorStop(_position(stop, w), finite_tuple(required(stop, "color", w), 3, f"{w}.color"))
-            for w, stop in _stops(item, "left", where)]
-    right = [ColorStop(_position(stop, w), finite_tuple(required(stop, "color", w), 3, f"{w}.color"))
-             for w, stop in _stops(item, "right", where)]
+    left = [_color_stop(stop, w) for w, stop in _stops(item, "left", where)]
+    right = [_color_stop(stop, w) for w, stop in _stops(item, "right", where)]
     blur = [BlurStop(_position(stop, w), finite(required(stop, "blur", w), f"{w}.blur"))
             for w, stop in _stops(item, "blur", where)]
     try:
         return DiffusionCurve(points, left, right, blur)
     except ValueError as error:  # a safety net: the checks above leave nothing for the model
         raise SchemaError(f"{where}: {error}") from None
+
+
+def _color_stop(stop: dict, where: str) -> ColorStop:
+    """A colour stop: its position, colour and optional alpha (1 when absent, as in every file before version 4)."""
+    color = finite_tuple(required(stop, "color", where), 3, f"{where}.color")
+    alpha = finite(stop.get("alpha", 1.0), f"{where}.alpha")
+    if not 0.0 <= alpha <= 1.0:
+        raise SchemaError(f"{where}.alpha is {alpha:g}; an alpha lies in [0, 1]")
+    return ColorStop(_position(stop, where), color, alpha)
 
 
 def _stops(item: dict, key: str, where: str) -> list[tuple[str, dict]]:

@@ -14,7 +14,8 @@ Conventions of an Orzan ``<curve_set>`` root
   document point ``(float(y), float(x))``.
 * Attribute ``B`` holds red and ``R`` blue; ``G`` is green.  Channels are
   0..255 (fractions accepted) and become ``value / 255`` clamped to
-  ``[0, 1]``.
+  ``[0, 1]``.  An optional ``A`` is the stop's alpha on the same scale
+  (absent: 255, opaque).
 * ``left_colors`` is the viewer's left when walking along the curve on screen,
   i.e. the model's ``left``.  (In the file's own ``(x, y)`` frame the left side
   is the tangent rotated by +90 degrees; mapping ``(x, y)`` to
@@ -269,7 +270,8 @@ def _color_stops(element: Element, path: str, where: str, convention: _Conventio
         red, green, blue = (_channel(child, attribute, label) for attribute in ("R", "G", "B"))
         if convention.swap_red_blue:
             red, blue = blue, red
-        stops.append(ColorStop(_position(child, label), (red, green, blue)))
+        alpha = _channel(child, "A", label) if child.get("A") is not None else 1.0
+        stops.append(ColorStop(_position(child, label), (red, green, blue), alpha))
     return stops
 
 

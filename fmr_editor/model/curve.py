@@ -32,10 +32,13 @@ class ColorStop:
         Position along the chain in piece units, ``0 <= position <= k``.
     color : tuple of float
         sRGB red, green, blue in ``[0, 1]``.
+    alpha : float
+        Opacity in ``[0, 1]``, 1 by default (stored and edited; the engine does not draw it yet).
     """
 
     position: float
     color: Color
+    alpha: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -60,6 +63,8 @@ def _normalised_stops(stops, piece_count: int) -> tuple:
         raise ValueError("stop positions must be finite")
     if not all((np.abs(stop.color) <= MAX_COLOR).all() for stop in stops if isinstance(stop, ColorStop)):
         raise ValueError(f"stop colours must be finite and at most {MAX_COLOR:g} in size")
+    if not all(0.0 <= float(stop.alpha) <= 1.0 for stop in stops if isinstance(stop, ColorStop)):
+        raise ValueError("stop alphas must lie in [0, 1]")
     clamped = [
         type(stop)(min(max(float(stop.position), 0.0), float(piece_count)), *_payload(stop))
         for stop in stops
@@ -69,7 +74,7 @@ def _normalised_stops(stops, piece_count: int) -> tuple:
 
 def _payload(stop) -> tuple:
     if isinstance(stop, ColorStop):
-        return (tuple(float(c) for c in stop.color),)
+        return tuple(float(c) for c in stop.color), float(stop.alpha)
     return (float(stop.blur),)
 
 

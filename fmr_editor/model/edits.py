@@ -58,7 +58,15 @@ def set_stop_color(document: Document, curve: int, side: str, stop: int, color: 
     """``document`` with stop ``stop`` on ``side`` of curve ``curve`` coloured ``color``."""
     old = document.curve(curve)
     stops = list(getattr(old, _side(side)))
-    stops[stop] = ColorStop(stops[stop].position, tuple(color))
+    stops[stop] = replace(stops[stop], color=tuple(color))
+    return replace_curve(document, curve, replace(old, **{side: tuple(stops)}))
+
+
+def set_stop_alpha(document: Document, curve: int, side: str, stop: int, alpha: float) -> Document:
+    """``document`` with stop ``stop`` on ``side`` of curve ``curve`` at opacity ``alpha`` (in ``[0, 1]``)."""
+    old = document.curve(curve)
+    stops = list(getattr(old, _side(side)))
+    stops[stop] = replace(stops[stop], alpha=float(alpha))
     return replace_curve(document, curve, replace(old, **{side: tuple(stops)}))
 
 
@@ -145,7 +153,7 @@ def move_stop(document: Document, curve: int, side: str, stop: int, position: fl
     """
     old = document.curve(curve)
     stops = list(getattr(old, _side(side)))
-    stops[stop] = ColorStop(float(position), stops[stop].color)
+    stops[stop] = replace(stops[stop], position=float(position))
     return replace_curve(document, curve, replace(old, **{side: tuple(stops)}))
 
 
