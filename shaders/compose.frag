@@ -1,6 +1,7 @@
 #version 410 core
 // One layer of a layered picture drawn over what lies below (fmr_editor/render/picture_renderer.py):
-//     out = m S(V) + (1 - m) below,  m = opacity * clamp(M, 0, 1),  M = base + luma . mask colour (or 1 - that),
+//     out = m S(V) + (1 - m) below,  m = clamp(a, 0, 1) * opacity * clamp(M, 0, 1),
+//     M = base + luma . mask colour (or 1 - that),  a = the alpha field's first channel (1 for an opaque layer),
 //     S(V) = clamp(T(clamp(V, 0, 1)), 0, 1)  (what the layer shows),
 // as fmr_editor/engine/composite.py computes it on the CPU.  V and the mask colour are the layer's and its mask's
 // evaluated window images (float, unclamped); the blend unit does the mixing (SRC_ALPHA, ONE_MINUS_SRC_ALPHA),
@@ -9,7 +10,9 @@
 
 uniform sampler2D u_image;
 uniform sampler2D u_mask;
+uniform sampler2D u_alpha;
 uniform int u_masked;          // 1: read u_mask
+uniform int u_translucent;     // 1: read u_alpha
 uniform float u_mask_base;
 uniform int u_inverted;
 uniform float u_opacity;
@@ -46,5 +49,6 @@ void main() {
         return;
     }
     vec3 shown = clamp(u_matrix * clamp(value, 0.0, 1.0) + u_offset, 0.0, 1.0);
-    colour = vec4(shown, u_opacity * clamp(m, 0.0, 1.0));
+    float a = u_translucent != 0 ? clamp(texelFetch(u_alpha, texel, 0).r, 0.0, 1.0) : 1.0;
+    colour = vec4(shown, a * u_opacity * clamp(m, 0.0, 1.0));
 }

@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 from shapes import circle_points, scattered_document, uniform_curve
 
 from fmr_editor.engine import LiveStack, rasterise
-from fmr_editor.model import DiffusionPoint, Document, Layer, Mask, edits, layer_edits
+from fmr_editor.model import ColorStop, DiffusionCurve, DiffusionPoint, Document, Layer, Mask, edits, layer_edits
+from fmr_editor.model.alpha import alpha_image
 from fmr_editor.model.color_transform import hue_rotation
 
 SIZE = 128
@@ -34,6 +37,33 @@ def three_layers() -> Document:
     return Document(SIZE, SIZE, layers=(bottom, middle, top), active=1)
 
 
+def with_alphas(curve: DiffusionCurve, left: float, right: float) -> DiffusionCurve:
+    """``curve`` with every stop on its left at alpha ``left`` and on its right at ``right`` (a side without
+    stops gets a black one)."""
+    def side(stops: tuple[ColorStop, ...], alpha: float) -> tuple[ColorStop, ...]:
+        return tuple(ColorStop(stop.position, stop.color, alpha) for stop in stops or (ColorStop(0.0, (0, 0, 0)),))
+
+    return DiffusionCurve(curve.control_points, side(curve.left, left), side(curve.right, right), id=curve.id)
+
+
+def translucent_layers() -> Document:
+    """``three_layers`` with alpha: the bottom layer opaque, the middle one's circles opaque inside and clear
+    outside, the top one's curves at alphas that vary along them; points on the middle layer."""
+    document = three_layers()
+    bottom, middle, top = document.layers
+    rng = np.random.default_rng(11)
+    middle_curves = tuple(with_alphas(curve, 1.0, 0.0) for curve in middle.curves[:-1]) + middle.curves[-1:]
+    def varying(curve: DiffusionCurve) -> DiffusionCurve:
+        left = tuple(ColorStop(s.position, s.color, float(rng.uniform(0, 1))) for s in curve.left)
+        return DiffusionCurve(curve.control_points, left, curve.right, id=curve.id)
+
+    top_curves = tuple(varying(curve) for curve in top.curves)
+    dabs = (DiffusionPoint((40.0, 90.0), 12.0, (0.9, 0.8, 0.1), 0.8),)
+    layers = (bottom, replace(middle, curves=middle_curves, points=middle.points + dabs),
+              replace(top, curves=top_curves))
+    return replace(document, layers=layers)
+
+
 def paint_over_glow() -> Document:
     """A Glow stroke (white underneath far above 1) with a Paint stroke of green across it, as the brush
     makes them: the dabs of the Paint stroke go, white, into the mask of a green fill layer."""
@@ -46,7 +76,8 @@ def paint_over_glow() -> Document:
 
 def reference(document: Document, width: int, height: int) -> np.ndarray:
     """Per-pixel composition of each layer and mask rendered by the direct sums (no FMR), by the formula
-    ``out = m clamp(T(clamp(V))) + (1 - m) below`` (docs/design.md section 5)."""
+    ``out = m clamp(T(clamp(V))) + (1 - m) below``, ``m = clamp(alpha) opacity clamp(mask)`` (docs/design.md
+    section 5)."""
     def direct(target) -> np.ndarray:
         return rasterise(LiveStack(document.flat(target)).representation, width, height, samples=1, method="direct")
 
@@ -60,6 +91,8 @@ def reference(document: Document, width: int, height: int) -> np.ndarray:
             value = layer.mask.base + (direct(layer.mask) @ luma if not layer.mask.is_constant else 0.0)
             value = 1.0 - value if layer.mask.inverted else value
         m = layer.opacity * np.minimum(np.maximum(value, 0.0), 1.0)
+        if alpha_image(layer) is not None:  # the diffusion of the stops' alphas, as a colour
+            m = m * np.minimum(np.maximum(direct(alpha_image(layer))[..., 0], 0.0), 1.0)
         shown = np.minimum(np.maximum(direct(layer), 0.0), 1.0)  # what the layer shows, clamped, ...
         shown = shown @ layer.transform.matrix.T + layer.transform.offset  # ... transformed ...
         colour = np.minimum(np.maximum(shown, 0.0), 1.0)  # ... and clamped again

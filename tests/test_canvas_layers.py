@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from canvas_oracle import CHECKER, error_levels, window_samples
-from layered import paint_over_glow, three_layers
+from layered import paint_over_glow, three_layers, translucent_layers
 
 pytest.importorskip("pytestqt", reason="pytest-qt is in the [test] extra")
 
@@ -102,3 +102,11 @@ def test_the_canvas_clamps_each_layer_before_blending_as_the_composite_does(canv
     canvas.set_representation(stack.composite, fit=False)
     canvas.set_view(VIEW)
     check(canvas, stack.composite)
+
+
+def test_the_canvas_shows_translucent_layers_as_the_composite_does(canvas):
+    stack = LiveStack(translucent_layers())  # alpha fields on two layers, one of them masked
+    canvas.set_representation(stack.composite, fit=False)
+    canvas.set_view(VIEW)
+    check(canvas, stack.composite)
+    assert {key[1] for key in canvas.renderer.renderers} >= {"alpha"}

@@ -1,10 +1,12 @@
 """What a layered picture is drawn from, and its composition sample by sample (docs/design.md section 5).
 
-``Composite`` holds each visible layer's representation with its mask's,
-opacity and colour transform; ``compose`` blends their values sample by
-sample, ``out = m S(V) + (1 - m) out_below`` with ``m = opacity * clamp(M, 0,
-1)`` and ``S(V) = clamp(T(clamp(V, 0, 1)), 0, 1)`` what the layer shows, from
-the topmost layer that covers everything (what lies below it cannot show).
+``Composite`` holds each visible layer's representation with its mask's and
+alpha's, opacity and colour transform; ``compose`` blends their values sample
+by sample, ``out = m S(V) + (1 - m) out_below`` with ``m = clamp(a, 0, 1)
+opacity clamp(M, 0, 1)`` (``a`` the layer's alpha field, 1 for an opaque
+layer) and ``S(V) = clamp(T(clamp(V, 0, 1)), 0, 1)`` what the layer shows,
+from the topmost layer that covers everything (what lies below it cannot
+show).
 Clamping each layer before blending makes the picture below a layer what the
 user saw there: a glow that shows white is (4, 2.7, 1.5) underneath, and
 blending that unclamped with green showed yellow fringes.  Composing the
@@ -27,11 +29,13 @@ from .representation import Representation
 
 
 class Role(StrEnum):
-    """What a layer's field is: its ``IMAGE``, its ``MASK``, or a clone layer's ``SOURCE`` (kept, not drawn)."""
+    """What a layer's field is: its ``IMAGE``, its ``MASK``, a clone layer's ``SOURCE`` (kept, not drawn), or its
+    ``ALPHA`` (the diffusion of its stops' alphas, ``model.alpha``)."""
 
     IMAGE = "image"
     MASK = "mask"
     SOURCE = "source"
+    ALPHA = "alpha"
 
 
 #: A layer's field: ``(layer id, role)``.
@@ -61,6 +65,9 @@ class LayerFields:
         The layer's stable id (``model.Layer.id``), by which views keep what they made of it.
     source : Representation or None
         A clone layer's source image (what a file keeps so that opening solves nothing); not drawn.
+    alpha : Representation or None
+        The layer's alpha field (its first channel, clamped to [0, 1], is the layer's coverage); None for an
+        opaque layer.
     """
 
     image: Representation
@@ -73,10 +80,13 @@ class LayerFields:
     visible: bool = True
     id: int = 0
     source: Representation | None = None
+    alpha: Representation | None = None
 
     @property
     def covers(self) -> bool:
         """True when the layer's weight is 1 everywhere, hiding all below."""
+        if self.alpha is not None:
+            return False
         if not self.mask_enabled:
             return self.opacity == 1.0
         value = self.mask_base if not self.mask_inverted else 1.0 - self.mask_base
@@ -89,17 +99,23 @@ class LayerFields:
 
     @property
     def read(self) -> tuple[tuple[Role, Representation], ...]:
-        """What drawing the layer reads: ``(Role.IMAGE, image)``, and ``(Role.MASK, mask)`` when ``masked``."""
-        return ((Role.IMAGE, self.image),) + (((Role.MASK, self.mask),) if self.masked else ())
+        """What drawing the layer reads: ``(Role.IMAGE, image)``, ``(Role.MASK, mask)`` when ``masked`` and
+        ``(Role.ALPHA, alpha)`` when it has one."""
+        return (((Role.IMAGE, self.image),) + (((Role.MASK, self.mask),) if self.masked else ())
+                + (((Role.ALPHA, self.alpha),) if self.alpha is not None else ()))
 
-    def weight(self, mask_values: np.ndarray | None) -> np.ndarray | float:
-        """``m = opacity * clamp(M, 0, 1)`` from the mask's colour values ``(..., 3)`` (None: constant)."""
-        if not self.mask_enabled:
-            return self.opacity
-        value = self.mask_base if mask_values is None else mask_values @ MASK_LUMA + self.mask_base
-        if self.mask_inverted:
-            value = 1.0 - value
-        return self.opacity * np.clip(value, 0.0, 1.0)
+    def weight(self, mask_values: np.ndarray | None, alpha_values: np.ndarray | None = None) -> np.ndarray | float:
+        """``k = clamp(a, 0, 1) * opacity * clamp(M, 0, 1)`` from the mask's colour values ``(..., 3)`` (None:
+        constant) and the alpha field's (None: opaque; its first channel is ``a``)."""
+        weight = self.opacity
+        if self.mask_enabled:
+            value = self.mask_base if mask_values is None else mask_values @ MASK_LUMA + self.mask_base
+            if self.mask_inverted:
+                value = 1.0 - value
+            weight = weight * np.clip(value, 0.0, 1.0)
+        if alpha_values is not None:
+            weight = weight * np.clip(alpha_values[..., 0], 0.0, 1.0)
+        return weight
 
 
 @dataclass(frozen=True)
@@ -142,6 +158,7 @@ def compose(composite: Composite, values: Callable[[Representation], np.ndarray]
         if layer.covers:
             out = colour
             continue
-        weight = layer.weight(values(layer.mask) if layer.masked else None)
+        weight = layer.weight(values(layer.mask) if layer.masked else None,
+                              values(layer.alpha) if layer.alpha is not None else None)
         out += np.asarray(weight)[..., None] * (colour - out)
     return out

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..model import Document
+from ..model.alpha import alpha_image
 from ..model.layer import Layer
 from ..model.limits import check_document
 from .cloning import LiveClone
@@ -61,7 +62,7 @@ class StackUpdate:
 
 def _wanted(document: Document) -> dict[FieldKey, Document]:
     """The one-image documents the engine solves for ``document``: each layer's image (a clone layer's
-    source instead), each mask with items."""
+    source instead), each mask with items, each translucent layer's alpha."""
     fields = {}
     for layer in document.layers:
         if layer.clone is not None:
@@ -70,6 +71,9 @@ def _wanted(document: Document) -> dict[FieldKey, Document]:
         fields[layer.id, Role.IMAGE] = document.flat(layer)
         if layer.mask is not None and not layer.mask.is_constant:
             fields[layer.id, Role.MASK] = document.flat(layer.mask)
+        alpha = alpha_image(layer)
+        if alpha is not None:
+            fields[layer.id, Role.ALPHA] = document.flat(alpha)
     return fields
 
 
@@ -90,10 +94,9 @@ class LiveStack:
     progress : callable, optional
         ``progress(stage, fraction)`` over all the builds.
     saved : sequence, optional
-        Per layer, ``(image, mask)`` or ``(image, mask, source)``
-        representations as saved (any may be None): taken as they are, as
-        ``LiveRepresentation`` takes one; a clone layer's image and mask
-        with its source's.
+        Per layer, its representations as saved in ``Role`` order, ``(image, mask)``, ``(image, mask,
+        source)`` or ``(image, mask, source, alpha)`` (any may be None): taken as they are, as
+        ``LiveRepresentation`` takes one; a clone layer's image and mask with its source's.
     memory : int
         Bytes the kept states of all fields may take, shared among them.
 
@@ -240,11 +243,11 @@ class LiveStack:
             del self.clones[gone], self._below[gone]
 
     def _drawn(self, layer: Layer) -> tuple[Representation | None, ...]:
-        """``layer``'s image and mask representations as drawn (and a clone layer's source)."""
+        """``layer``'s representations as drawn, in ``Role`` order: image, mask, a clone layer's source, alpha."""
         if layer.clone is not None:
             live = self.clones[layer.id]
             return live.image, live.mask, self.fields[layer.id, Role.SOURCE].representation
-        return self.image(layer), self.mask(layer)
+        return self.image(layer), self.mask(layer), None, self.alpha(layer)
 
     @property
     def approximate(self) -> bool:
@@ -271,6 +274,11 @@ class LiveStack:
         live = self.fields.get((layer.id, Role.MASK))
         return live.representation if live is not None else None
 
+    def alpha(self, layer: Layer) -> Representation | None:
+        """``layer``'s alpha field; None for an opaque layer."""
+        live = self.fields.get((layer.id, Role.ALPHA))
+        return live.representation if live is not None else None
+
     @property
     def representation(self) -> Representation:
         """The active layer's image (for a flat document, the picture itself)."""
@@ -283,10 +291,11 @@ class LiveStack:
 
 
 def layer_fields(layer: Layer, image: Representation, mask_field: Representation | None,
-                 source: Representation | None = None) -> LayerFields:
-    """How ``layer`` is drawn from its image and mask representations (a clone layer's mask: its region; its
-    ``source`` is kept with it)."""
-    shown = {"opacity": layer.opacity, "transform": layer.transform, "visible": layer.visible, "id": layer.id}
+                 source: Representation | None = None, alpha: Representation | None = None) -> LayerFields:
+    """How ``layer`` is drawn from its image, mask and alpha representations (a clone layer's mask: its region;
+    its ``source`` is kept with it)."""
+    shown = {"opacity": layer.opacity, "transform": layer.transform, "visible": layer.visible, "id": layer.id,
+             "alpha": alpha}
     if layer.clone is not None:
         return LayerFields(image, mask_field, mask_base=0.0, source=source, **shown)
     mask = layer.mask
@@ -297,8 +306,8 @@ def layer_fields(layer: Layer, image: Representation, mask_field: Representation
 
 
 def composite_of(document: Document, fields: Sequence[tuple]) -> Composite:
-    """``document``'s picture from each layer's ``(image, mask, ...)`` representations (mask None: no mask or no
-    items)."""
+    """``document``'s picture from each layer's ``(image, mask, source, alpha)`` representations (mask None: no
+    mask or no items; alpha None: opaque)."""
     layers = (layer_fields(layer, *reps) for layer, reps in zip(document.layers, fields, strict=True))
     return Composite(document.width, document.height, tuple(layers))
 

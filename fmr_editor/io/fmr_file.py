@@ -37,6 +37,7 @@ from PIL import Image
 
 from ..engine import Composite, Representation, Role, Settings, clone_points, composite_of, rasterise
 from ..model import Document, Layer
+from ..model.alpha import alpha_image
 from .atomic import write_atomically
 from .document_json import dumps_document, loads_document
 from .errors import DocumentLoadError
@@ -84,7 +85,8 @@ class FmrFile:
     document : Document
     fields : tuple
         Per layer, its image's and its mask's representations ``(image,
-        mask)``, and for a clone layer its source's ``(image, mask, source)``,
+        mask)``, for a clone layer its source's ``(image, mask, source)``,
+        and for a translucent layer its alpha's ``(image, mask, None, alpha)``,
         ready to render; None where the file has none, where they
         were not asked for, or where they cannot be used (see ``notes``).
     settings : Settings or None
@@ -110,10 +112,12 @@ class FmrFile:
         """The picture, ready to render, when the file holds every representation it needs; else None."""
         if len(self.fields) != len(self.document.layers):
             return None
-        for layer, (image, mask, *_) in zip(self.document.layers, self.fields):
+        for layer, (image, mask, *rest) in zip(self.document.layers, self.fields):
             if image is None or (layer.mask is not None and not layer.mask.is_constant and mask is None):
                 return None
             if layer.clone is not None and mask is None:
+                return None
+            if layer.translucent and (len(rest) < 2 or rest[1] is None):
                 return None
         return composite_of(self.document, self.fields)
 
@@ -197,16 +201,22 @@ def _fields(document: Document, representation: Representation | Composite | Non
             if drawn.source is None:
                 raise ValueError(f"layer {i} is a clone layer: its source's representation is saved with it")
             fields.append((field_prefix(i, Role.SOURCE), drawn.source, targets[Role.SOURCE]))
+        if (drawn.alpha is None) != (targets.get(Role.ALPHA) is None):
+            raise ValueError(f"layer {i}'s alpha does not match its document's (translucent on one side only)")
+        if drawn.alpha is not None:
+            fields.append((field_prefix(i, Role.ALPHA), drawn.alpha, targets[Role.ALPHA]))
     return fields
 
 
 def field_documents(document: Document, layer: Layer) -> dict[Role, Document | None]:
-    """The one-image documents each representation of ``layer`` is made for, by role: its image, its mask
-    (None without one), and for a clone layer its source (its image holds its placed points; its mask, the
-    region's indicator, none)."""
+    """The one-image documents each representation of ``layer`` is made for, in ``Role`` order: its image, its
+    mask (None without one), for a clone layer its source (its image holds its placed points; its mask, the
+    region's indicator, none), and for a translucent layer its alpha (``model.alpha``; source None)."""
     if layer.clone is None:
-        return {Role.IMAGE: document.flat(layer),
-                Role.MASK: document.flat(layer.mask) if layer.mask is not None else None}
+        alpha = alpha_image(layer)
+        fields = {Role.IMAGE: document.flat(layer),
+                  Role.MASK: document.flat(layer.mask) if layer.mask is not None else None}
+        return fields | ({Role.SOURCE: None, Role.ALPHA: document.flat(alpha)} if alpha is not None else {})
     placed = Document(document.width, document.height, (), clone_points(layer.clone, document.width, document.height))
     return {Role.IMAGE: placed, Role.MASK: Document(document.width, document.height), Role.SOURCE: layer.clone.source}
 

@@ -120,6 +120,11 @@ class DiffusionCurve:
         object.__setattr__(self, "id", checked_id(self.id))
 
     @property
+    def translucent(self) -> bool:
+        """True when a colour stop has an alpha below 1."""
+        return any(stop.alpha != 1.0 for stop in self.left + self.right)
+
+    @property
     def piece_count(self) -> int:
         """Number ``k`` of cubic pieces."""
         return (len(self.control_points) - 1) // 3

@@ -15,6 +15,7 @@ from __future__ import annotations
 import math
 import numbers
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 from itertools import repeat
 
 import numpy as np
@@ -162,8 +163,15 @@ class Layer:
 
     @property
     def covers(self) -> bool:
-        """True when the layer is drawn at full weight everywhere (visible, opaque, no mask, not a clone)."""
-        return self.visible and self.opacity == 1.0 and self.active_mask is None and self.clone is None
+        """True when the layer is drawn at full weight everywhere (visible, opaque, no mask, no stop with alpha
+        below 1, not a clone)."""
+        return (self.visible and self.opacity == 1.0 and self.active_mask is None and self.clone is None
+                and not self.translucent)
+
+    @cached_property
+    def translucent(self) -> bool:
+        """True when a colour stop of one of its curves has an alpha below 1 (``model.alpha``)."""
+        return any(curve.translucent for curve in self.curves)
 
     @property
     def plain(self) -> bool:

@@ -157,7 +157,7 @@ def merge_down(document: Document, index: int | None = None) -> Document:
     ------
     EditRefused
         For the bottom layer (nothing below), a clone layer, a hidden layer, an upper layer
-        with a mask or an opacity below 1 (which merged items cannot keep), or
+        with a mask, an opacity below 1 or stops with alpha below 1 (which merged items cannot keep), or
         a layer whose transform cannot be applied to its items (a colour
         offset with no curve to carry it, as a Paint layer's).
     """
@@ -173,6 +173,9 @@ def merge_down(document: Document, index: int | None = None) -> Document:
     if upper.active_mask is not None or upper.opacity < 1.0:
         raise EditRefused(f"{upper.name}'s mask and opacity cannot be kept by merging its items: "
                          "delete or disable the mask and set the opacity to 100% first")
+    if upper.translucent:
+        raise EditRefused(f"{upper.name}'s curves have colour stops with alpha below 1, which merged items "
+                         "cannot keep: make them opaque first")
     for layer in (upper, lower):
         if not layer.transform.is_identity:
             raise EditRefused(f"{layer.name}'s colour transform shifts colours but it has no curve to carry the shift "

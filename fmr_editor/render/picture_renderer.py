@@ -5,7 +5,8 @@ re-evaluates only its changed cells, so an edit to one layer costs what it
 costs in a one-layer document.  Drawing brings every shown field's image up
 to date and, when any of them or the layers' settings changed, composes them
 bottom up into a float image with ``shaders/compose.frag`` (a pass a layer,
-the blend unit doing ``m S(V) + (1 - m) below``, as ``engine.composite.compose``
+the blend unit doing ``m S(V) + (1 - m) below`` (``m`` with the alpha field's
+clamped value in it, for a translucent layer), as ``engine.composite.compose``
 on the CPU; one pass for all layers, with sampler arrays, was twice as slow
 under llvmpipe), over the whole window after a change of the layers' settings,
 else over the rectangle whose fields changed; a redraw with nothing changed
@@ -253,7 +254,7 @@ class PictureRenderer:
             GL.glClear(GL.GL_COLOR_BUFFER_BIT)
         program = self._program
         program.use()
-        program.set(u_image=0, u_mask=1, u_origin=(-view.offset_x / view.scale, -view.offset_y / view.scale),
+        program.set(u_image=0, u_mask=1, u_alpha=2, u_origin=(-view.offset_x / view.scale, -view.offset_y / view.scale),
                     u_step=1.0 / view.scale, u_window_height=view.height,
                     u_canvas=(self._picture.width, self._picture.height))
         self._vao.bind()
@@ -266,7 +267,7 @@ class PictureRenderer:
                 self._layer_pass(program, tinted, tint=True)
         GL.glBindVertexArray(0)
         GL.glUseProgram(0)
-        for unit in (1, 0):
+        for unit in (2, 1, 0):
             GL.glActiveTexture(GL.GL_TEXTURE0 + unit)
             GL.glBindTexture(GL.GL_TEXTURE_2D, 0)
         GL.glDisable(GL.GL_SCISSOR_TEST)
@@ -278,12 +279,15 @@ class PictureRenderer:
         """Blend ``layer`` over the composed image (bound); ``tint``: its mask's tint instead, enabled or not."""
         reads_mask = layer.mask is not None and (tint or layer.masked)
         enabled = tint or layer.mask_enabled
-        textures = [(0, (layer.id, Role.IMAGE))] + ([(1, (layer.id, Role.MASK))] if reads_mask else [])
+        reads_alpha = layer.alpha is not None and not tint
+        textures = ([(0, (layer.id, Role.IMAGE))] + ([(1, (layer.id, Role.MASK))] if reads_mask else [])
+                    + ([(2, (layer.id, Role.ALPHA))] if reads_alpha else []))
         for unit, key in textures:
             GL.glActiveTexture(GL.GL_TEXTURE0 + unit)
             GL.glBindTexture(GL.GL_TEXTURE_2D, self.renderers[key].image_texture)
-        program.set(u_masked=int(reads_mask), u_mask_base=layer.mask_base if enabled else 1.0,
-                    u_inverted=int(enabled and layer.mask_inverted), u_opacity=layer.opacity,
+        program.set(u_masked=int(reads_mask), u_translucent=int(reads_alpha),
+                    u_mask_base=layer.mask_base if enabled else 1.0, u_inverted=int(enabled and layer.mask_inverted),
+                    u_opacity=layer.opacity,
                     u_matrix=layer.transform.matrix, u_offset=layer.transform.offset, u_tint=int(tint))
         GL.glDrawArrays(GL.GL_TRIANGLE_STRIP, 0, 4)
 
@@ -320,4 +324,6 @@ def _fields(picture: Composite, overlay: int | None) -> dict[FieldKey, Represent
         fields[layer.id, Role.IMAGE] = layer.image
         if layer.mask is not None:
             fields[layer.id, Role.MASK] = layer.mask
+        if layer.alpha is not None:
+            fields[layer.id, Role.ALPHA] = layer.alpha
     return fields
