@@ -49,7 +49,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_engine import best_of, machine  # noqa: E402
 
-from fmr_editor.engine import LiveRepresentation, build, rasterise, setup_process  # noqa: E402
+from fmr_editor.engine import LiveRepresentation, LiveStack, build, rasterise, setup_process  # noqa: E402
 from fmr_editor.engine.fmm.lattice import Lattice  # noqa: E402
 from fmr_editor.engine.geometry import discretise  # noqa: E402
 from fmr_editor.engine.geometry.curve_cache import CurveSegments  # noqa: E402
@@ -209,7 +209,8 @@ def session(path: Path, repeat: int) -> dict:
               edits.set_stop_color(live.document, live.document.curves[k].id, "left", 0, COLOURS[run % len(COLOURS)]))
     rows["factorisations"] = field.factorisations - factorised
     final = live.document
-    rows["final"] = 255 * float(np.abs(rasterise(live.composite, samples=1) - rasterise(build(final), samples=1)).max())
+    fresh = LiveStack(final, live.settings).composite  # a composite shows each layer clamped to [0, 1]
+    rows["final"] = 255 * float(np.abs(rasterise(live.composite, samples=1) - rasterise(fresh, samples=1)).max())
     rows["preview error"] = (max(e[0] for e in errors), max(e[1] for e in errors)) if errors else (0.0, 0.0)
     rows["stale"] = (stale, previews)
     first, later = [], []

@@ -21,6 +21,10 @@ is shared and noisy):
 
 Targets: composite redraw within 1.5x the flat document's, mask dab <= 10 ms,
 hue change <= 30 ms.
+
+A second table sets the flat document beside the same curves with every right-hand stop at alpha 0.5
+(a translucent layer, which solves and draws an alpha field as well): build, CPU raster, canvas full
+evaluation and a stop colour edit (issue 28's target: alpha adds at most a third).
 """
 
 from __future__ import annotations
@@ -58,8 +62,45 @@ def layered(document):
     return Document(w, h, layers=layers, active=2)
 
 
-def gl_rows(args, flat_picture, stack, fields_count) -> list[tuple]:
-    """Redraw and full evaluation of both pictures in a S x S canvas; the edits' frames."""
+def translucent(document):
+    """``document`` with every curve's right-hand stops (a black one where it has none) at alpha 0.5."""
+    from dataclasses import replace
+
+    from fmr_editor.model import ColorStop
+
+    def half(curve):
+        right = tuple(replace(stop, alpha=0.5) for stop in curve.right or (ColorStop(0.0, (0.0, 0.0, 0.0)),))
+        return replace(curve, right=right, id=curve.id)
+
+    return replace(document, layers=(document.layers[0].with_curves(map(half, document.curves)),))
+
+
+def alpha_rows(args, opaque_document, view_size) -> list[tuple]:
+    """Build, raster, full evaluation and a stop colour edit of the opaque document and its translucent twin."""
+    from fmr_editor.engine import LiveStack, rasterise
+    from fmr_editor.model import edits
+
+    rows = {}
+    for name, document in (("opaque", opaque_document), ("translucent", translucent(opaque_document))):
+        builds, rasters, recolours = [], [], []
+        for run in range(args.repeat):
+            start = time.perf_counter()
+            stack = LiveStack(document)
+            builds.append(time.perf_counter() - start)
+            start = time.perf_counter()
+            rasterise(stack.composite, samples=1)
+            rasters.append(time.perf_counter() - start)
+            curve = stack.document.curves[run % len(stack.document.curves)]
+            start = time.perf_counter()
+            stack.update(edits.set_stop_color(stack.document, curve.id, "right", 0, (0.2, 0.4, 0.9)))
+            recolours.append(time.perf_counter() - start)
+        rows[name] = (best(builds) / 1e3, best(rasters), best(recolours), stack)
+    return rows
+
+
+def gl_rows(args, flat_picture, stack, fields_count, alpha_pictures: dict) -> tuple[list[tuple], dict]:
+    """Redraw and full evaluation of both pictures in a S x S canvas; the edits' frames; and the full
+    evaluation (ms) of each of ``alpha_pictures``, by name."""
     from OpenGL import GL
     from PySide6.QtTest import QTest
 
@@ -86,6 +127,13 @@ def gl_rows(args, flat_picture, stack, fields_count) -> list[tuple]:
         GL.glFinish()
         results[name] = (best(redraws(renderer, view, fbo, args.repeat, args.frames)),
                          best(full_evaluations(renderer, view, fbo, args.repeat)))
+    alpha_evaluations = {}
+    for name, picture in alpha_pictures.items():
+        renderer.upload(picture)
+        renderer.draw(view, fbo)
+        GL.glFinish()
+        alpha_evaluations[name] = best(full_evaluations(renderer, view, fbo, args.repeat))
+    renderer.upload(stack.composite)
     rows = [("canvas redraw, nothing changed (ms)", results["flat"][0], results["layers"][0]),
             (f"canvas full evaluation, {size}x{size} (ms)", results["flat"][1], results["layers"][1])]
 
@@ -103,7 +151,7 @@ def gl_rows(args, flat_picture, stack, fields_count) -> list[tuple]:
     rows += [("mask dab: engine update (ms)", None, dab[0]), ("mask dab: edit to frame (ms)", None, dab[1]),
              ("hue change: engine update (ms)", None, hue[0]), ("hue change: edit to frame (ms)", None, hue[1])]
     canvas.close()
-    return rows
+    return rows, alpha_evaluations
 
 
 def edit_to_frame(stack, document, renderer, view, fbo) -> tuple[float, float]:
@@ -153,11 +201,21 @@ def main() -> None:
             runs.append(time.perf_counter() - start)
         rows.append((name, best(runs)))
     raster = ("CPU raster, canvas size, 1 sample (ms)", rows[0][1], rows[1][1])
-    table = [raster, *gl_rows(args, flat, stack, fields)]
+    alpha = alpha_rows(args, flat_document, args.size)
+    layer_rows, evaluations = gl_rows(args, flat, stack, fields,
+                                      {name: alpha[name][3].composite for name in ("opaque", "translucent")})
+    table = [raster, *layer_rows]
     print("| measure | flat | layers | ratio |\n|---|---:|---:|---:|")
     for name, one, many in table:
         ratio = f"{many / one:.2f}x" if one else ""
         print(f"| {name} | {'' if one is None else f'{one:.1f}'} | {many:.1f} | {ratio} |")
+    print("\nAlpha: the flat document opaque, and with every right-hand stop at alpha 0.5 (an alpha field too)\n")
+    print("| measure | opaque | translucent | ratio |\n|---|---:|---:|---:|")
+    opaque, clear = alpha["opaque"], alpha["translucent"]
+    for name, one, many in (("build (s)", opaque[0], clear[0]), ("CPU raster, canvas size, 1 sample (ms)", opaque[1],
+                            clear[1]), (f"canvas full evaluation, {args.size}x{args.size} (ms)", evaluations["opaque"],
+                            evaluations["translucent"]), ("stop colour: engine update (ms)", opaque[2], clear[2])):
+        print(f"| {name} | {one:.2f} | {many:.2f} | {many / one:.2f}x |")
     app.quit()
     del xvfb
 

@@ -23,7 +23,7 @@ import pytest
 from cli_runs import run
 from layered import SIZE, reference, sharp_mask, soft_mask, three_layers
 from PIL import Image
-from shapes import scattered_document
+from shapes import circle_points, scattered_document
 
 from fmr_editor.engine import LiveStack, Settings, build, rasterise
 from fmr_editor.engine.cells import Cells
@@ -85,6 +85,33 @@ def inputs(tmp_path_factory) -> dict[str, Path]:
     save_fmr(paths["mask"], Document(SIZE, SIZE, mask.curves, soft_mask().points))
     save_fmr(paths["small"], scattered_document(64))
     return paths
+
+
+def orzan_disc(cx: float, cy: float, radius: float) -> bytes:
+    """An Orzan CurveSetXML file of one closed circle, orange inside (its left) and opaque there (A=255), clear
+    outside (A=0): Orzan's x is the row and y the column, B red and R blue."""
+    points = "".join(f'<control_point x="{float(y)!r}" y="{float(x)!r}" />' for x, y in circle_points(cx, cy, radius))
+    inside = '<left_color B="255" G="128" R="0" A="255" globalID="0" />'
+    outside = '<right_color B="255" G="128" R="0" A="0" globalID="0" />'
+    return (f'<!DOCTYPE CurveSetXML>\n<curve_set image_width="{SIZE}" image_height="{SIZE}"><curve>'
+            f"<control_points_set>{points}</control_points_set><left_colors_set>{inside}</left_colors_set>"
+            f"<right_colors_set>{outside}</right_colors_set></curve></curve_set>").encode()
+
+
+def test_compose_with_an_xml_whose_stops_carry_alpha_matches_per_pixel_composition(tmp_path, inputs):
+    top = tmp_path / "disc.xml"
+    top.write_bytes(orzan_disc(70.0, 60.0, 30.0))
+    out, png = tmp_path / "out.fmr", tmp_path / "out.png"
+    code, _, said = run("compose", str(inputs["bottom"]), str(top), "-o", str(out), "--opacity", "0.9")
+    assert code == 0, said
+    document = load_fmr(out).document
+    assert document.layers[1].translucent and [s.alpha for s in document.layers[1].curves[0].right] == [0.0]
+    assert run("render", str(out), "-o", str(png), "--width", str(PIXELS), "--samples", "1")[0] == 0
+    expected = to_rgb8(reference(document, PIXELS, PIXELS)).astype(int)
+    got = np.asarray(Image.open(png).convert("RGB")).astype(int)
+    assert np.abs(got - expected).max() <= 1
+    corner = to_rgb8(reference(Document(SIZE, SIZE, document.layers[0].curves), PIXELS, PIXELS))[0, 0].astype(int)
+    assert np.abs(got[0, 0] - corner).max() <= 1  # clear outside the disc: the bottom shows
 
 
 def test_compose_writes_the_reference_composition_and_render_draws_it(tmp_path, inputs):

@@ -166,3 +166,54 @@ def test_a_layer_command_refused_says_why_and_one_that_breaks_is_reported_as_a_b
     assert [(kind, str(error)) for kind, error, _ in caught] == [(IndexError, "list index out of range")]
     assert window.status_label.text().startswith("Internal error (IndexError)")
     assert editor.history.index == start and editor.document is before and len(editor.document.layers) == 1
+
+
+def test_a_closed_curve_made_clear_outside_in_the_stop_dialog_covers_only_its_inside(editor, tmp_path, qtbot):
+    from shapes import circle_points, scattered_document, uniform_curve
+
+    from fmr_editor.io import save_fmr
+    from fmr_editor.model import Layer
+    from fmr_editor.tools import Selection
+
+    disc = uniform_curve(circle_points(64, 60, 30), left=0.9, right=0.9)  # grey on both sides, inside on its left
+    below = scattered_document(128, seed=3)
+    path = tmp_path / "disc.fmr"
+    save_fmr(path, below.__class__(128, 128, layers=(below.layers[0], Layer((disc,), name="Disc")), active=1))
+    editor.open(path)
+    opaque = editor.document
+    shows_the_composite(editor)  # the disc's layer covers everything
+    panel = editor.window.stops_panel
+    opened_disc = editor.document.layers[1].curves[0].id
+    editor.context.selection = Selection.of(stops=[(opened_disc, "right", 0)])
+    panel.refresh()
+    panel.edit_color("right")
+    dialog = panel.dialog
+    clear = dialog.currentColor()
+    clear.setAlphaF(0.0)
+    dialog.setCurrentColor(clear)
+    dialog.accept()
+    editor.wait_idle()
+    assert editor.history.labels[-1] == "Change Stop Colour"
+    stop = editor.document.layers[1].curves[0].right[0]
+    assert stop.alpha == 0.0 and stop.color == pytest.approx((0.9, 0.9, 0.9), abs=1 / 255)
+    shows_the_composite(editor)  # the layer below shows outside the disc
+    picture = LiveStack(editor.document).composite
+    outside = rasterise(picture, 32, 32, samples=1)[0, 0]
+    assert np.abs(outside - rasterise(LiveStack(below).composite, 32, 32, samples=1)[0, 0]).max() < 1e-6
+    clear_document = editor.document
+    editor.window.undo()
+    assert editor.document == opaque
+    shows_the_composite(editor)
+    editor.window.redo()
+    assert editor.document == clear_document
+    shows_the_composite(editor)
+    pixels = rasterise(editor.workspace.frame.picture, 64, 64, samples=1)
+    target = tmp_path / "disc-clear.fmr"
+    editor.answers["save"] = target
+    editor.window.save_as()
+    qtbot.waitUntil(lambda: editor.window.job is None and not editor.history.modified, timeout=30_000)
+    editor.window.close_document()
+    editor.open(target)
+    assert editor.document == clear_document
+    assert np.array_equal(rasterise(editor.workspace.frame.picture, 64, 64, samples=1), pixels)  # as saved
+    shows_the_composite(editor)

@@ -33,7 +33,7 @@ class ColorStop:
     color : tuple of float
         sRGB red, green, blue in ``[0, 1]``.
     alpha : float
-        Opacity in ``[0, 1]``, 1 by default (stored and edited; the engine does not draw it yet).
+        Opacity in ``[0, 1]``, 1 by default; the stops' alphas diffuse into the layer's coverage (``alpha``).
     """
 
     position: float

@@ -241,6 +241,14 @@ def add_mask_points(document: Document, index: int, points) -> Document:
     return _changed(document, index, mask=mask.with_points(mask.points + tuple(points)))
 
 
+def _items_only(document: Document) -> bool:
+    """True for one layer that is its items alone: shown, no mask, opacity 1, no transform, no clone (its stops
+    may carry alpha, which its items keep)."""
+    layer = document.layers[0]
+    return (len(document.layers) == 1 and layer.visible and layer.opacity == 1.0 and layer.active_mask is None
+            and layer.clone is None and layer.transform.is_identity)
+
+
 def stacked(bottom: Document, top: Document, mask: Document | None = None, opacity: float = 1.0,
             transform: ColorTransform | None = None) -> Document:
     """A two-layer document: ``top`` over ``bottom``, masked by the luminance of ``mask``'s picture.
@@ -261,7 +269,7 @@ def stacked(bottom: Document, top: Document, mask: Document | None = None, opaci
         if (document.width, document.height) != (bottom.width, bottom.height):
             raise EditRefused(f"the {role} canvas is {document.width}x{document.height}, the bottom's "
                              f"{bottom.width}x{bottom.height}; compose documents of one canvas size")
-        if not document.is_flat:
+        if not _items_only(document):
             raise EditRefused(f"the {role} document has layers of its own; compose takes one-layer documents")
     layer_mask = Mask(mask.curves, mask.points, base=0.0) if mask is not None else None
     layers = (replace(bottom.layer, name="Bottom"),

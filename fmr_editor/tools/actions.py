@@ -72,19 +72,24 @@ def nudge(context: ToolContext, delta: tuple[float, float]) -> bool:
     return True
 
 
-def recolor_stops(context: ToolContext, color: Color, merge_key: Hashable | None = None) -> bool:
-    """Give every selected stop ``color`` as one step "Change Stop Colour".
+def recolor_stops(context: ToolContext, color: Color, merge_key: Hashable | None = None,
+                  alpha: float | None = None) -> bool:
+    """Give every selected stop ``color`` (and ``alpha``, when given) as one step "Change Stop Colour".
 
     Parameters
     ----------
     merge_key : hashable, optional
         Pass the same key for each change of a colour slider's drag, so that
         the drag stays one step (see ``History.apply``).
+    alpha : float, optional
+        The stops' alpha in [0, 1]; None keeps each stop's.
     """
     document = context.document
     edited = document
     for c, side, i in sorted(context.selection.stops):
         edited = edits.set_stop_color(edited, c, side, i, tuple(float(v) for v in color))
+        if alpha is not None:
+            edited = edits.set_stop_alpha(edited, c, side, i, alpha)
     if edited == document:
         return False
     n = len(context.selection.stops)

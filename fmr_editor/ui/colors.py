@@ -29,27 +29,33 @@ def new_merge_key(name: str) -> Hashable:
     return (name, object())
 
 
-def live_color_dialog(parent, history: History, current: Color, apply: Callable[[Color, Hashable], object],
-                      title: str = "Choose Colour") -> QColorDialog:
+def live_color_dialog(parent, history: History, current: Color, apply: Callable[[Color, float, Hashable], object],
+                      title: str = "Choose Colour", alpha: float | None = None) -> QColorDialog:
     """Open a colour dialog (window-modal, not blocking) whose every change is shown at once.
 
-    Each change calls ``apply(colour, merge_key)`` with the same merge key, so
-    the whole dialog is one undo step; Cancel undoes that step.
+    Each change calls ``apply(colour, alpha, merge_key)`` with the same merge
+    key, so the whole dialog is one undo step; Cancel undoes that step.  With
+    ``alpha`` (the current one) the dialog shows an alpha channel too; else the
+    alpha passed is 1.
 
     Returns
     -------
     QColorDialog
         Already open; it deletes itself when closed.
     """
-    dialog = QColorDialog(qcolor(current), parent)
+    initial = qcolor(current)
+    if alpha is not None:
+        initial.setAlphaF(alpha)
+    dialog = QColorDialog(initial, parent)
     dialog.setWindowTitle(title)
     dialog.setOption(QColorDialog.ColorDialogOption.DontUseNativeDialog)
+    dialog.setOption(QColorDialog.ColorDialogOption.ShowAlphaChannel, alpha is not None)
     key = new_merge_key(title)
     start = history.index, history.document
 
     def changed(color: QColor) -> None:
         if color.isValid():
-            apply(rgb(color), key)
+            apply(rgb(color), color.alphaF() if alpha is not None else 1.0, key)
 
     def rejected() -> None:
         if history.index == start[0] + 1 and history.document is not start[1]:

@@ -218,14 +218,15 @@ class StopsPanel(QWidget):
             chosen = [middle]
         curve = self.curve
         stops = [(curve, side, i) for i in chosen]
-        current = getattr(context.document.curve(curve), side)[chosen[0]].color
+        current = getattr(context.document.curve(curve), side)[chosen[0]]
 
-        def apply(color, key) -> None:
+        def apply(color, alpha, key) -> None:
             context.selection = Selection.of(stops=stops)
-            if recolor_stops(context, color, merge_key=key):
+            if recolor_stops(context, color, merge_key=key, alpha=alpha):
                 self._done()
 
-        self.dialog = live_color_dialog(self.window(), context.history, current, apply, "Stop Colour")
+        self.dialog = live_color_dialog(self.window(), context.history, current.color, apply, "Stop Colour",
+                                        alpha=current.alpha)
         self.dialog.finished.connect(self._dialog_closed)
 
     def _dialog_closed(self) -> None:
