@@ -10,7 +10,7 @@ from shapes import circle_points, scattered_document, uniform_curve
 
 from fmr_editor.engine import LiveStack, Role, Settings, build, evaluate_points, rasterise
 from fmr_editor.io import load_fmr, save_fmr
-from fmr_editor.model import ColorStop, DiffusionCurve, Document, EditRefused, Layer, edits, layer_edits
+from fmr_editor.model import ColorStop, DiffusionCurve, DiffusionPoint, Document, EditRefused, Layer, edits, layer_edits
 from fmr_editor.model.alpha import alpha_image
 
 PIXELS = 48
@@ -139,3 +139,15 @@ def test_a_layer_without_alpha_costs_no_alpha_field():
     document = scattered_document(SIZE)
     stack = LiveStack(document)
     assert set(stack.fields) == {(document.layer.id, Role.IMAGE)} and stack.composite.layers[0].covers
+
+
+def test_an_empty_layer_is_clear_and_a_layer_with_items_or_settings_is_not():
+    below = scattered_document(SIZE)
+    empty = layer_edits.add_layer(below)
+    assert empty.layers[1].empty
+    expected = rasterise(LiveStack(below).composite, PIXELS, PIXELS, samples=1)
+    np.testing.assert_array_equal(rasterise(LiveStack(empty).composite, PIXELS, PIXELS, samples=1), expected)
+    filled, _ = layer_edits.with_fill_layer(below, (1.0, 0.0, 0.0))  # a Paint fill layer: a mask and a colour
+    assert not filled.layers[1].empty
+    dark = layer_edits.add_layer(below, Layer(points=(DiffusionPoint((60.0, 60.0), 10.0, (1.0, 1.0, 1.0)),)))
+    assert np.abs(rasterise(LiveStack(dark).composite, PIXELS, PIXELS, samples=1) - expected).max() > 0.2

@@ -149,6 +149,48 @@ def test_pen_needs_two_anchors_and_closes_on_the_first_anchor():
     assert context.history.labels == ("", "Draw Curve") and not pen.busy
 
 
+@pytest.mark.parametrize("corners, inside_on_left", [([(10, 10), (60, 10), (60, 60)], False),
+                                                     ([(10, 10), (10, 60), (60, 60)], True)])
+def test_pen_on_a_new_layer_draws_the_foreground_colour_opaque_inside_a_closed_curve_and_clear_outside(
+        corners, inside_on_left):
+    from fmr_editor.engine import LiveStack, evaluate_points
+    from fmr_editor.model import layer_edits
+
+    picture = Document(100, 100, [line_curve(left=(ColorStop(0.0, (0.1, 0.2, 0.3)),))])
+    context = make_context(layer_edits.add_layer(picture))
+    context.options.color, context.options.secondary_color = (0.9, 0.5, 0.0), (0.0, 0.0, 1.0)
+    pen = PenTool(context)
+    for x, y in corners + [corners[0]]:  # the last click closes the curve
+        click(pen, x, y)
+    curve = context.document.layers[1].curves[0]
+    inside, outside = (curve.left, curve.right) if inside_on_left else (curve.right, curve.left)
+    assert inside == (ColorStop(0.0, (0.9, 0.5, 0.0), 1.0),) and outside == (ColorStop(0.0, (0.9, 0.5, 0.0), 0.0),)
+    middle = np.mean(corners, axis=0)  # the triangle's centroid
+    shown, below = (evaluate_points(LiveStack(document).composite, [middle, (90.0, 90.0)])
+                    for document in (context.document, picture))
+    np.testing.assert_allclose(shown[0], (0.9, 0.5, 0.0), atol=1e-3)  # the closed shape covers its inside ...
+    np.testing.assert_allclose(shown[1], below[1], atol=1e-6)  # ... and only that
+    click(pen, 20, 80)  # an open stroke on the now translucent layer: the foreground colour, opaque, both sides
+    click(pen, 80, 80)
+    pen.key("Return")
+    stroke = context.document.layers[1].curves[1]
+    assert stroke.left == stroke.right == (ColorStop(0.0, (0.9, 0.5, 0.0), 1.0),)
+
+
+def test_pen_on_the_bottom_layer_or_an_opaque_one_keeps_foreground_left_and_background_right():
+    from fmr_editor.model import Layer, layer_edits
+
+    for document in (Document(100, 100), layer_edits.add_layer(Document(100, 100, [line_curve()]),
+                                                               Layer([line_curve()]))):
+        context = make_context(document)
+        context.options.color, context.options.secondary_color = (0.9, 0.5, 0.0), (0.0, 0.0, 1.0)
+        pen = PenTool(context)
+        for x, y in [(10, 10), (60, 10), (60, 60), (10, 10)]:
+            click(pen, x, y)
+        curve = context.document.layer.curves[-1]
+        assert curve.left == (ColorStop(0.0, (0.9, 0.5, 0.0)),) and curve.right == (ColorStop(0.0, (0.0, 0.0, 1.0)),)
+
+
 def test_pen_overlay_shows_the_curve_and_the_next_piece():
     context = make_context(Document(100, 100))
     pen = PenTool(context)

@@ -217,3 +217,34 @@ def test_a_closed_curve_made_clear_outside_in_the_stop_dialog_covers_only_its_in
     assert editor.document == clear_document
     assert np.array_equal(rasterise(editor.workspace.frame.picture, 64, 64, samples=1), pixels)  # as saved
     shows_the_composite(editor)
+
+
+def test_a_new_layer_over_lady_bug_is_clear_and_a_closed_pen_curve_covers_only_its_inside(editor, shared_data,
+                                                                                           qtbot):
+    editor.open(shared_data / "orzan_xml" / "berkbavas" / "lady_bug.xml")
+    below = editor.document
+    picture = rasterise(LiveStack(below).composite, 64, 64, samples=1)
+    qtbot.mouseClick(editor.window.layers_panel.buttons["new_layer"], Qt.MouseButton.LeftButton)
+    editor.wait_idle()
+    assert len(editor.document.layers) == 2 and editor.document.layers[1].empty
+    np.testing.assert_array_equal(rasterise(LiveStack(editor.document).composite, 64, 64, samples=1), picture)
+    shows_the_composite(editor)  # clear: lady_bug as it was
+
+    editor.window.options.color = (0.1, 0.3, 0.9)
+    editor.key(Qt.Key.Key_P)
+    corners = [(150.0, 150.0), (350.0, 150.0), (350.0, 350.0), (150.0, 350.0)]
+    for x, y in corners + corners[:1]:  # the last click, on the first anchor, closes the curve
+        editor.click(x, y)
+    editor.wait_idle()
+    assert editor.history.labels[-1] == "Draw Curve"
+    curve = editor.document.layers[1].curves[0]
+    assert {stop.color for stop in curve.left + curve.right} == {(0.1, 0.3, 0.9)}
+    assert sorted(stop.alpha for stop in curve.left + curve.right) == [0.0, 1.0]
+    shows_the_composite(editor)
+    shown = rasterise(editor.workspace.frame.picture, 64, 64, samples=1)
+    centres = (np.arange(64) + 0.5) * 8  # lady_bug is 512 px: 8 px a pixel of the 64 x 64 raster
+    within = (centres > 160) & (centres < 340)  # 10 px inside the square, along one axis
+    beyond = (centres < 140) | (centres > 360)  # 10 px outside it
+    inside, outside = within[:, None] & within[None, :], beyond[:, None] | beyond[None, :]
+    np.testing.assert_allclose(shown[inside], np.broadcast_to((0.1, 0.3, 0.9), shown[inside].shape), atol=1e-3)
+    np.testing.assert_allclose(shown[outside], picture[outside], atol=1e-6)  # lady_bug untouched outside

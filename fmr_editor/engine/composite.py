@@ -61,6 +61,7 @@ class LayerFields:
     opacity : float
     transform : ColorTransform
     visible : bool
+        False for a hidden layer, and for an empty one (``model.Layer.empty``: clear).
     id : int
         The layer's stable id (``model.Layer.id``), by which views keep what they made of it.
     source : Representation or None

@@ -294,8 +294,8 @@ def layer_fields(layer: Layer, image: Representation, mask_field: Representation
                  source: Representation | None = None, alpha: Representation | None = None) -> LayerFields:
     """How ``layer`` is drawn from its image, mask and alpha representations (a clone layer's mask: its region;
     its ``source`` is kept with it)."""
-    shown = {"opacity": layer.opacity, "transform": layer.transform, "visible": layer.visible, "id": layer.id,
-             "alpha": alpha}
+    shown = {"opacity": layer.opacity, "transform": layer.transform, "visible": layer.visible and not layer.empty,
+             "id": layer.id, "alpha": alpha}  # an empty layer is clear: nothing of it is drawn
     if layer.clone is not None:
         return LayerFields(image, mask_field, mask_base=0.0, source=source, **shown)
     mask = layer.mask

@@ -84,8 +84,7 @@ def document_to_data(document: Document) -> dict:
 def _version(document: Document) -> int:
     """The oldest version that holds ``document``: 4 for stops with alpha, 3 for clone layers, else 2."""
     def translucent(target: Layer | Mask | None) -> bool:
-        return target is not None and any(stop.alpha != 1.0 for curve in target.curves
-                                           for stop in curve.left + curve.right)
+        return target is not None and any(curve.translucent for curve in target.curves)
 
     if any(translucent(layer) or translucent(layer.mask) or (layer.clone is not None and
                                                              translucent(layer.clone.source.layer))

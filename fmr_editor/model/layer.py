@@ -168,6 +168,13 @@ class Layer:
         return (self.visible and self.opacity == 1.0 and self.active_mask is None and self.clone is None
                 and not self.translucent)
 
+    @property
+    def empty(self) -> bool:
+        """True for a layer with nothing to draw (a new layer): no curves, points, mask, colour transform or clone.
+        It is clear: drawn, it shows what lies below."""
+        return (not self.curves and not self.points and self.mask is None and self.transform.is_identity
+                and self.clone is None)
+
     @cached_property
     def translucent(self) -> bool:
         """True when a colour stop of one of its curves has an alpha below 1 (``model.alpha``)."""

@@ -11,8 +11,11 @@
   again adds no anchor: dragging from it pulls out its outgoing handle.  Esc drops the curve being
   drawn; BackSpace or Delete removes its last anchor.
 - The finished curve is one undo step "Draw Curve" and gets the foreground
-  colour on its left side and the background colour on its right; it is
-  then selected.  Nothing reaches the document before it is finished.
+  colour on its left side and the background colour on its right; on a clear
+  layer above the bottom one (a new, empty layer, or one with alpha) the
+  foreground colour on both sides, and a closed curve is opaque inside and
+  clear outside.  It is then selected.  Nothing reaches the document before it
+  is finished.
 """
 
 from __future__ import annotations
@@ -25,7 +28,7 @@ from ..model import ColorStop, DiffusionCurve, edits
 from .base import Tool
 from .context import Selection, ToolContext
 from .events import BACKSPACE, DELETE, ENTER, ESCAPE, RETURN, PointerEvent
-from .hit import polyline
+from .hit import is_closed, polyline
 from .moving import constrain
 from .overlay import Markers, Polyline, Segments
 
@@ -53,6 +56,23 @@ def control_points(anchors: list[Anchor]) -> np.ndarray:
         second = b.handle_in if b.handle_in is not None else b.position + (far_b - b.position) / 3
         out += [first, second, b.position]
     return np.array(out, dtype=np.float64)
+
+
+def _colour_stops(context: ToolContext, curve: DiffusionCurve) -> tuple[tuple[ColorStop], tuple[ColorStop]]:
+    """The new curve's left and right stops: the foreground colour on the left and the background colour on the
+    right; on a clear layer above the bottom one (empty, or with alpha already), the foreground colour on both
+    sides, and a closed curve opaque inside and clear outside, so that it covers exactly its inside."""
+    options, document = context.options, context.document
+    foreground = tuple(float(v) for v in options.color)
+    layer = document.layer
+    if document.editing_mask or document.active == 0 or not (layer.empty or layer.translucent):
+        return (ColorStop(0.0, foreground),), (ColorStop(0.0, tuple(float(v) for v in options.secondary_color)),)
+    left = right = 1.0
+    if is_closed(curve):
+        x, y = polyline(curve).T
+        inside_on_left = float(np.dot(x[:-1], y[1:]) - np.dot(x[1:], y[:-1])) < 0  # anticlockwise as seen (y down)
+        left, right = (1.0, 0.0) if inside_on_left else (0.0, 1.0)
+    return (ColorStop(0.0, foreground, left),), (ColorStop(0.0, foreground, right),)
 
 
 class PenTool(Tool):
@@ -153,12 +173,9 @@ class PenTool(Tool):
         if len(anchors) < 2:
             return
         context = self.context
-        options = context.options
-        curve = DiffusionCurve(
-            control_points(anchors),
-            left=(ColorStop(0.0, tuple(float(v) for v in options.color)),),
-            right=(ColorStop(0.0, tuple(float(v) for v in options.secondary_color)),),
-        )
+        curve = DiffusionCurve(control_points(anchors))
+        left, right = _colour_stops(context, curve)
+        curve = DiffusionCurve(curve.control_points, left=left, right=right)
         context.history.apply(edits.add_curve(context.document, curve), "Draw Curve")
         context.selection = Selection.of(curves=[context.document.curves[-1].id])
 
