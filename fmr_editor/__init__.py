@@ -23,8 +23,10 @@ def load(path):
     return load_document(path)
 
 
-def render_image(document, width=None, height=None, samples=3, *, order=None, method="fmr", progress=None):
-    """Render ``document`` (all its layers composed) to a float32 ``(height, width, 3)`` array in [0, 1].
+def render_image(document, width=None, height=None, samples=3, *, order=None, method="fmr", progress=None,
+                 coverage=False):
+    """Render ``document`` (all its layers composed) to a float32 ``(height, width, 3)`` array in [0, 1]: the
+    picture over black (``(height, width, 4)`` with its coverage after it, when ``coverage``).
 
     Parameters
     ----------
@@ -39,6 +41,8 @@ def render_image(document, width=None, height=None, samples=3, *, order=None, me
         ``"direct"`` sums over every segment instead (slow, for checking).
     progress : callable, optional
         Called as ``progress(stage, fraction)``.
+    coverage : bool
+        Add the picture's coverage (1 where it is opaque; ``io.png.save_png`` writes RGBA where it is not).
     """
     import numpy as np
 
@@ -48,5 +52,5 @@ def render_image(document, width=None, height=None, samples=3, *, order=None, me
     settings = (Settings() if order is None
                 else Settings(order=order, propagation_order=max(order, Settings().propagation_order)))
     picture = LiveStack(document, settings, progress).composite
-    image = rasterise(picture, width, height, samples=samples, method=method, progress=progress)
+    image = rasterise(picture, width, height, samples=samples, method=method, progress=progress, coverage=coverage)
     return np.clip(image, 0.0, 1.0).astype(np.float32)

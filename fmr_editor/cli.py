@@ -164,11 +164,12 @@ def render_one(source: str, output: str, args: argparse.Namespace) -> int:
             picture = saved.composite  # every representation saved: no solve
             if picture is None:
                 picture = LiveStack(document, saved.settings or Settings(), progress, saved.fields).composite
-            image = rasterise(picture, args.width, args.height, samples=args.samples, progress=progress)
+            image = rasterise(picture, args.width, args.height, samples=args.samples, progress=progress,
+                              coverage=True)
             image = image.clip(0.0, 1.0)
         else:
             image = render_image(document, args.width, args.height, samples=args.samples,
-                           order=args.order, method=args.method, progress=progress)
+                                 order=args.order, method=args.method, progress=progress, coverage=True)
     except (ValueError, MemoryError) as error:
         print(f"fmr-editor: cannot render {source}: {error}", file=sys.stderr)
         return 2

@@ -7,6 +7,8 @@
 // evaluated window images (float, unclamped); the blend unit does the mixing (SRC_ALPHA, ONE_MINUS_SRC_ALPHA),
 // so this writes (S(V), m).  Outside the canvas the images hold the checkerboard, which is kept as it is.
 // u_tint = 1 draws the tint of a mask being edited over the result: red, half strength where it hides all.
+// u_base = 1 draws the checkerboard under the layers when the bottom one does not cover the canvas: where the
+// picture is not opaque, it shows through (the colour over black plus (1 - coverage) checkerboard).
 
 uniform sampler2D u_image;
 uniform sampler2D u_mask;
@@ -23,6 +25,8 @@ uniform double u_step;
 uniform float u_window_height;
 uniform vec2 u_canvas;
 uniform int u_tint;            // 1: instead, tint red what the mask hides (the mask being edited)
+uniform int u_base;            // 1: instead, the checkerboard that a picture not opaque everywhere is drawn over
+uniform float u_checker;       // its square, window pixels (as canvas.frag's outside the canvas)
 
 const vec3 LUMA = vec3(0.2126, 0.7152, 0.0722);
 
@@ -32,6 +36,11 @@ void main() {
     ivec2 texel = ivec2(gl_FragCoord.xy);
     vec3 value = texelFetch(u_image, texel, 0).rgb;
     vec2 window = vec2(gl_FragCoord.x, u_window_height - gl_FragCoord.y);
+    if (u_base != 0) {
+        ivec2 square = ivec2(floor(window / u_checker));
+        colour = vec4(vec3(((square.x + square.y) & 1) == 0 ? 0.8 : 0.6), 1.0);
+        return;
+    }
     dvec2 position = u_origin + dvec2(window) * u_step;
     if (position.x < 0.0 || position.y < 0.0 || position.x > double(u_canvas.x) || position.y > double(u_canvas.y)) {
         colour = vec4(value, 1.0);

@@ -18,6 +18,20 @@ def window_samples(view: View) -> np.ndarray:
     return np.stack(np.broadcast_arrays(xs[None, :], ys[:, None]), axis=-1).reshape(-1, 2)
 
 
+def checkerboard(view: View, square: float = 8.0) -> np.ndarray:
+    """The checkerboard's grey at every window pixel, ``(height * width,)`` (shaders/canvas.frag, compose.frag)."""
+    columns = np.floor((np.arange(view.width) + 0.5) / square).astype(int)
+    rows = np.floor((np.arange(view.height) + 0.5) / square).astype(int)
+    return np.where((rows[:, None] + columns[None, :]) % 2 == 0, 0.8, 0.6).ravel()
+
+
+def shown_colours(rep: Representation | Composite, view: View, inside: np.ndarray) -> np.ndarray:
+    """What the canvas shows at the window pixels ``inside`` the canvas (a mask of ``window_samples``): the
+    picture's colour over black plus the checkerboard where it is not opaque, ``(count, 3)``."""
+    values = evaluate_points(rep, window_samples(view)[inside], coverage=True)
+    return values[:, :3] + (1.0 - values[:, 3:]) * checkerboard(view)[inside, None]
+
+
 def error_levels(shown: np.ndarray, expected: np.ndarray) -> float:
     """Largest difference of an 8-bit image from a float one, in 8-bit levels."""
     return float(np.abs(shown.astype(np.float64) - np.clip(expected, 0, 1) * 255).max(initial=0.0))
@@ -51,12 +65,12 @@ def mismatches(shown: np.ndarray, rep: Representation | Composite, view: View, l
     samples = window_samples(view)
     flat = shown.reshape(-1, 3)
     inside = ((samples >= 0) & (samples <= [rep.width, rep.height])).all(axis=1)
-    expected = np.clip(evaluate_points(rep, samples[inside]), 0, 1) * 255
+    expected = np.clip(shown_colours(rep, view, inside), 0, 1) * 255
     off = np.abs(flat[inside].astype(np.float64) - expected).max(axis=1) > levels
     suspects = samples[inside][off]
     sources = rep.representations if isinstance(rep, Composite) else (rep,)
-    p = np.concatenate([source.segments.p for source in sources])
-    q = np.concatenate([source.segments.q for source in sources])
+    p = np.concatenate([source.segments.p for source in sources] or [np.zeros((0, 2))])  # none: nothing shows
+    q = np.concatenate([source.segments.q for source in sources] or [np.zeros((0, 2))])
     on_curves = distance_to_segments(suspects, p, q) < 1e-9 if len(suspects) else off[:0]
     outside = flat[~inside]
     checker = np.isin(outside, list(CHECKER)).all(axis=1)

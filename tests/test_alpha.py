@@ -151,3 +151,23 @@ def test_an_empty_layer_is_clear_and_a_layer_with_items_or_settings_is_not():
     assert not filled.layers[1].empty
     dark = layer_edits.add_layer(below, Layer(points=(DiffusionPoint((60.0, 60.0), 10.0, (1.0, 1.0, 1.0)),)))
     assert np.abs(rasterise(LiveStack(dark).composite, PIXELS, PIXELS, samples=1) - expected).max() > 0.2
+
+
+def test_render_writes_rgba_where_the_picture_is_clear_and_rgb_where_it_is_opaque(tmp_path):
+    from cli_runs import run
+    from PIL import Image
+
+    disc = with_alphas(uniform_curve(circle_points(64, 60, 30), left=0.4, right=0.4), left=1.0, right=0.0)
+    clear, opaque = tmp_path / "clear.fmr", tmp_path / "opaque.fmr"
+    save_fmr(clear, Document(SIZE, SIZE, [disc]))
+    save_fmr(opaque, Document(SIZE, SIZE, [uniform_curve(circle_points(64, 60, 30), left=0.4, right=0.4)]))
+    for path in (clear, opaque):
+        assert run("render", str(path), "-o", str(path.with_suffix(".png")))[0] == 0  # 3 x 3 samples a pixel
+    with Image.open(clear.with_suffix(".png")) as image:
+        assert image.mode == "RGBA"
+        pixels = np.asarray(image).astype(int)
+    assert tuple(pixels[60, 64]) == (102, 102, 102, 255) and pixels[2, 2, 3] == 0  # 0.4 inside, clear outside
+    edge = pixels[(pixels[..., 3] > 0) & (pixels[..., 3] < 255)]  # pixels the circle crosses: partly covered,
+    assert len(edge) > 50 and np.abs(edge[:, :3] - 102).max() <= 1  # their colour the disc's (straight alpha)
+    with Image.open(opaque.with_suffix(".png")) as image:
+        assert image.mode == "RGB"

@@ -2,22 +2,23 @@
 
 The canvas composes each layer's and mask's evaluated window image
 (``render.PictureRenderer``); what it shows must be ``engine.evaluate_points``
-of the composite at the pixel centres to one 8-bit level, after edits to one
-layer, a mask dab and a hue change as well, and each of those must redraw only
-what it changed.
+of the composite at the pixel centres (over the checkerboard where it is not
+opaque) to one 8-bit level, after edits to one layer, a mask dab and a hue
+change as well, and each of those must redraw only what it changed.
 """
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
-from canvas_oracle import CHECKER, error_levels, window_samples
-from layered import paint_over_glow, three_layers, translucent_layers
+from canvas_oracle import CHECKER, error_levels, shown_colours, window_samples
+from layered import paint_over_glow, three_layers, translucent_layers, with_alphas
+from shapes import circle_points, uniform_curve
 
 pytest.importorskip("pytestqt", reason="pytest-qt is in the [test] extra")
 
 from fmr_editor.engine import LiveStack, evaluate_points  # noqa: E402
-from fmr_editor.model import DiffusionPoint, edits, layer_edits  # noqa: E402
+from fmr_editor.model import DiffusionPoint, Document, edits, layer_edits  # noqa: E402
 from fmr_editor.model.color_transform import hue_rotation  # noqa: E402
 from fmr_editor.render import View  # noqa: E402
 
@@ -45,7 +46,7 @@ def check(canvas, picture) -> None:
         pytest.skip(f"no usable OpenGL context: {canvas.error or 'the widget did not initialise'}")
     samples = window_samples(VIEW)
     inside = ((samples >= 0) & (samples <= [picture.width, picture.height])).all(axis=1)
-    expected = evaluate_points(picture, samples[inside])
+    expected = shown_colours(picture, VIEW, inside)
     assert error_levels(shown.reshape(-1, 3)[inside], expected) <= 1.0
     assert set(np.unique(shown.reshape(-1, 3)[~inside])) == CHECKER
     canvas.makeCurrent()
@@ -110,3 +111,14 @@ def test_the_canvas_shows_translucent_layers_as_the_composite_does(canvas):
     canvas.set_view(VIEW)
     check(canvas, stack.composite)
     assert {key[1] for key in canvas.renderer.renderers} >= {"alpha"}
+
+
+def test_where_the_picture_is_clear_the_canvas_shows_the_checkerboard(canvas):
+    disc = with_alphas(uniform_curve(circle_points(64, 60, 30), left=0.9, right=0.9), left=1.0, right=0.0)
+    picture = LiveStack(Document(128, 128, [disc])).composite  # one layer, opaque inside the disc only
+    canvas.set_representation(picture, fit=False)
+    canvas.set_view(VIEW)
+    check(canvas, picture)
+    samples = window_samples(VIEW)
+    clear = (samples >= 0).all(axis=1) & (samples <= 128).all(axis=1) & (np.hypot(*(samples - (64, 60)).T) > 34)
+    assert set(np.unique(canvas.grab_image().reshape(-1, 3)[clear])) == CHECKER  # inside the canvas, too

@@ -275,7 +275,19 @@ def test_save_png_writes_rounded_levels_and_no_temporary_file(tmp_path):
     assert [p.name for p in (tmp_path / "deep").iterdir()] == ["image.png"]
 
 
-@pytest.mark.parametrize("shape", [(4, 5), (4, 5, 2), (4, 5, 4), (0, 5, 3)])
+def test_save_png_writes_straight_rgba_where_the_coverage_is_below_1_and_rgb_where_it_is_not(tmp_path):
+    over_black = np.array([[[0.2, 0.1, 0.0, 0.5], [0.3, 0.6, 0.9, 1.0], [0.0, 0.0, 0.0, 0.0]]])
+    with Image.open(save_png(over_black, tmp_path / "clear.png")) as image:
+        assert image.mode == "RGBA"
+        np.testing.assert_array_equal(np.asarray(image), [[[102, 51, 0, 128], [76, 153, 230, 255], [0, 0, 0, 0]]])
+    opaque = over_black.copy()
+    opaque[..., 3] = 1.0
+    with Image.open(save_png(opaque, tmp_path / "opaque.png")) as image:
+        assert image.mode == "RGB"
+        np.testing.assert_array_equal(np.asarray(image), np.round(opaque[..., :3] * 255))
+
+
+@pytest.mark.parametrize("shape", [(4, 5), (4, 5, 2), (4, 5, 5), (0, 5, 3)])
 def test_failed_save_leaves_no_temporary_file_and_keeps_the_old_png(tmp_path, shape):
     target = tmp_path / "image.png"
     save_png(np.full((2, 3, 3), 0.5), target)

@@ -148,18 +148,23 @@ def shown_colour(layer: LayerFields, colour: np.ndarray) -> np.ndarray:
     return np.clip(layer.transform.apply(colour), 0.0, 1.0)
 
 
-def compose(composite: Composite, values: Callable[[Representation], np.ndarray], shape: tuple[int, ...]) -> np.ndarray:
+def compose(composite: Composite, values: Callable[[Representation], np.ndarray], shape: tuple[int, ...],
+            coverage: bool = False) -> np.ndarray:
     """The composite's colours, of ``shape`` ``(..., 3)``, given ``values(rep)`` of each representation there.
 
-    In [0, 1] (each layer is clamped before it is blended); zero where no layer shows (all hidden).
+    In [0, 1] (each layer is clamped before it is blended): the picture over black, which is its colour
+    premultiplied by its coverage.  With ``coverage``, ``(..., 4)``: the coverage ``a`` after the colour,
+    ``a <- m + (1 - m) a`` from 0 up the layers (1 where a layer covers, 0 where nothing shows).
     """
     out = np.zeros(shape)
+    alpha = np.zeros(shape[:-1])
     for layer in composite.shown:
         colour = shown_colour(layer, values(layer.image))
         if layer.covers:
-            out = colour
+            out, alpha = colour, np.ones(shape[:-1])
             continue
-        weight = layer.weight(values(layer.mask) if layer.masked else None,
-                              values(layer.alpha) if layer.alpha is not None else None)
-        out += np.asarray(weight)[..., None] * (colour - out)
-    return out
+        weight = np.asarray(layer.weight(values(layer.mask) if layer.masked else None,
+                                         values(layer.alpha) if layer.alpha is not None else None))
+        out += weight[..., None] * (colour - out)
+        alpha += weight * (1.0 - alpha)
+    return np.concatenate([out, alpha[..., None]], axis=-1) if coverage else out

@@ -115,12 +115,12 @@ def far_field_reference(poly: np.ndarray, xs: np.ndarray, ys: np.ndarray, cell_s
 
 def _average_blocks(values: np.ndarray, samples: int) -> np.ndarray:
     """Means of ``samples x samples`` blocks, by whole-row additions (``mean`` over two axes is slow)."""
-    rows, cols = values.shape[0] // samples, values.shape[1] // samples
-    by_rows = values.reshape(rows, samples, cols * samples * 3)
+    rows, cols, channels = values.shape[0] // samples, values.shape[1] // samples, values.shape[2]
+    by_rows = values.reshape(rows, samples, cols * samples * channels)
     row_sum = by_rows[:, 0].copy()
     for a in range(1, samples):
         row_sum += by_rows[:, a]
-    by_columns = row_sum.reshape(rows, cols, samples, 3)
+    by_columns = row_sum.reshape(rows, cols, samples, channels)
     total = by_columns[:, :, 0].copy()
     for b in range(1, samples):
         total += by_columns[:, :, b]
@@ -136,6 +136,7 @@ def rasterise(
     method: str = "fmr",
     order: int | None = None,
     progress: Callable[[str, float], None] | None = None,
+    coverage: bool = False,
 ) -> np.ndarray:
     """Render ``rep`` to an image.
 
@@ -154,11 +155,14 @@ def rasterise(
         Polynomial degree for the far field; defaults to ``rep.order``.
     progress : callable, optional
         Called as ``progress("rasterise", fraction)``.
+    coverage : bool
+        Add a fourth channel: the picture's coverage (``composite.compose``; 1 for a representation).
 
     Returns
     -------
     numpy.ndarray
-        ``(height, width, 3)`` float64: a representation's values not clamped, a composite's in [0, 1].
+        ``(height, width, 3)`` float64: a representation's values not clamped, a composite's in [0, 1] (its
+        colour over black); ``(height, width, 4)`` with ``coverage``.
     """
     width, height = output_size(rep.width, rep.height, width, height)
     if samples < 1:
@@ -168,9 +172,10 @@ def rasterise(
     xs = sample_coordinates(width, rep.width, samples)
     ys = sample_coordinates(height, rep.height, samples)
     density = min(len(xs) / rep.width, len(ys) / rep.height)  # samples a document pixel
-    image = np.empty((height, width, 3))
+    channels = 4 if coverage else 3
+    image = np.empty((height, width, channels))
     band = max(1, BAND_SAMPLES // (len(xs) * samples))
-    buffer = None if samples == 1 else np.empty((band * samples, len(xs), 3))
+    buffer = None if samples == 1 else np.empty((band * samples, len(xs), channels))
     for row in range(0, height, band):
         rows = slice(row, min(row + band, height))
         band_ys = ys[rows.start * samples : rows.stop * samples]
@@ -185,7 +190,10 @@ def rasterise(
             return out
 
         if isinstance(rep, Composite):
-            target[...] = compose(rep, field, target.shape)
+            target[...] = compose(rep, field, target.shape[:-1] + (3,), coverage)
+        elif coverage:
+            target[..., :3] = field(rep)
+            target[..., 3] = 1.0
         else:
             field(rep, target)
         if samples > 1:
@@ -234,15 +242,16 @@ def output_size(canvas_width: int, canvas_height: int, width: int | None, height
     return int(width), int(height)
 
 
-def evaluate_points(rep: Representation | Composite, points: np.ndarray, order: int | None = None) -> np.ndarray:
+def evaluate_points(rep: Representation | Composite, points: np.ndarray, order: int | None = None,
+                    coverage: bool = False) -> np.ndarray:
     """The FMR colour at arbitrary ``points (m, 2)``, ``(m, 3)`` (not clamped); of a composite, its layers composed
-    (``composite.compose``: in [0, 1]).
+    (``composite.compose``: in [0, 1]); with ``coverage``, ``(m, 4)``, the picture's coverage after the colour.
 
     Zero outside the canvas.
     """
     points = np.asarray(points, dtype=np.float64).reshape(-1, 2)
     if isinstance(rep, Composite):
-        values = compose(rep, lambda source: evaluate_points(source, points, order), (len(points), 3))
+        values = compose(rep, lambda source: evaluate_points(source, points, order), (len(points), 3), coverage)
         inside = (points >= 0).all(axis=1) & (points[:, 0] <= rep.width) & (points[:, 1] <= rep.height)
         return np.where(inside[:, None], values, 0.0)  # transforms and mask bases make no colour out there
     lattice, seg = rep.lattice, rep.segments
@@ -258,4 +267,5 @@ def evaluate_points(rep: Representation | Composite, points: np.ndarray, order: 
     if rep.points is not None:
         near += near_at(rep.points.near, points)
     inside = (points >= 0).all(axis=1) & (points[:, 0] <= rep.width) & (points[:, 1] <= rep.height)
-    return np.where(inside[:, None], far + near, 0.0)
+    values = np.concatenate([far + near, np.ones((len(points), 1))], axis=1) if coverage else far + near
+    return np.where(inside[:, None], values, 0.0)

@@ -16,8 +16,18 @@ def to_rgb8(image: np.ndarray) -> np.ndarray:
     return np.round(np.clip(image, 0.0, 1.0) * 255.0).astype(np.uint8)
 
 
+def to_rgba8(image: np.ndarray) -> np.ndarray:
+    """Float colour over black with its coverage, ``(H, W, 4)`` in [0, 1], to 8-bit RGBA of straight alpha
+    (the colour divided by the coverage; black where nothing covers)."""
+    image = np.clip(image, 0.0, 1.0)
+    colour, alpha = image[..., :3], image[..., 3:]
+    straight = np.divide(colour, alpha, out=np.zeros_like(colour), where=alpha > 0)
+    return np.round(np.concatenate([np.clip(straight, 0.0, 1.0), alpha], axis=-1) * 255.0).astype(np.uint8)
+
+
 def save_png(image: np.ndarray, path: str | os.PathLike) -> Path:
-    """Write ``image`` (float RGB) to ``path`` as an 8-bit PNG.
+    """Write ``image`` (float RGB, or RGB over black with its coverage) to ``path`` as an 8-bit PNG: RGBA when
+    the coverage is below 1 somewhere (in 8 bits), else RGB.
 
     The file is written beside the target and renamed into place, so a
     failure never leaves a half-written PNG.
@@ -27,6 +37,12 @@ def save_png(image: np.ndarray, path: str | os.PathLike) -> Path:
     pathlib.Path
         The absolute path written.
     """
+    if image.ndim != 3 or image.shape[-1] not in (3, 4):
+        raise ValueError(f"a PNG is written from an (H, W, 3) or (H, W, 4) image, not one of shape {image.shape}")
     path = Path(path).absolute()
     path.parent.mkdir(parents=True, exist_ok=True)
-    return write_atomically(path, lambda stream: Image.fromarray(to_rgb8(image), mode="RGB").save(stream, format="PNG"))
+    pixels = to_rgba8(image) if image.shape[-1] == 4 else to_rgb8(image)
+    if pixels.shape[-1] == 4 and (pixels[..., 3] == 255).all():
+        pixels = pixels[..., :3]  # opaque: the colour over black is the colour
+    mode = "RGBA" if pixels.shape[-1] == 4 else "RGB"
+    return write_atomically(path, lambda stream: Image.fromarray(pixels, mode=mode).save(stream, format="PNG"))

@@ -220,7 +220,8 @@ class PictureRenderer:
     def _evaluate(self, view: View) -> str:
         if not self._pending and self._composed_view == view:  # a redraw: the composed image is current
             return "none"
-        # With every layer hidden the picture is black; a layer at opacity 0 still gives the checkerboard around it.
+        # With every layer hidden the picture is clear (the checkerboard); drawing the bottom layer at opacity 0
+        # composes that.
         shown = self._picture.shown or (replace(self._picture.layers[0], opacity=0.0),)
         tinted = next((layer for layer in self._picture.layers if layer.id == self._overlay), None)
         keys = {(layer.id, kind) for layer in shown for kind, _ in layer.read}
@@ -249,17 +250,18 @@ class PictureRenderer:
             GL.glEnable(GL.GL_SCISSOR_TEST)
             GL.glScissor(x0, y0, max(x1 - x0, 0), max(y1 - y0, 0))
         covering = bool(shown) and shown[0].covers  # the bottom layer is drawn as it is: no clear, no blending
-        if not covering:
-            GL.glClearColor(0.0, 0.0, 0.0, 1.0)
-            GL.glClear(GL.GL_COLOR_BUFFER_BIT)
         program = self._program
         program.use()
         program.set(u_image=0, u_mask=1, u_alpha=2, u_origin=(-view.offset_x / view.scale, -view.offset_y / view.scale),
                     u_step=1.0 / view.scale, u_window_height=view.height,
-                    u_canvas=(self._picture.width, self._picture.height))
+                    u_canvas=(self._picture.width, self._picture.height), u_checker=self._options[1], u_base=0)
         self._vao.bind()
         if covering:
             self._layer_pass(program, shown[0])
+        else:  # where the layers leave the picture clear, the checkerboard shows
+            program.set(u_base=1)
+            GL.glDrawArrays(GL.GL_TRIANGLE_STRIP, 0, 4)
+            program.set(u_base=0)
         with over():
             for layer in shown[covering:]:
                 self._layer_pass(program, layer)

@@ -60,7 +60,8 @@ def export_png(options: ExportOptions, document: Document, picture: Composite | 
     check_image_memory(options.width, options.height)
     if picture is None:
         picture = LiveStack(document, settings, progress).composite
-    image = rasterise(picture, options.width, options.height, samples=options.samples, progress=progress)
+    image = rasterise(picture, options.width, options.height, samples=options.samples, progress=progress,
+                      coverage=True)  # RGBA where the picture is not opaque
     if progress:
         progress("write", 1.0)
     return save_png(image.clip(0.0, 1.0), options.path)
