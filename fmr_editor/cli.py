@@ -20,6 +20,15 @@ from pathlib import Path
 from . import __version__
 
 
+def _colour(text: str) -> tuple[float, float, float]:
+    from .io.png import parse_hex_colour
+
+    try:
+        return parse_hex_colour(text)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+
+
 def _positive(text: str) -> int:
     value = int(text)
     if value < 1:
@@ -69,6 +78,8 @@ def _parser() -> argparse.ArgumentParser:
     render.add_argument("--order", type=int, help="degree of the cell polynomials (default 8)")
     render.add_argument("--method", choices=("fmr", "direct"), default="fmr",
                         help="fmr (default) or direct summation (slow, for checking)")
+    render.add_argument("--background", type=_colour, metavar="RRGGBB",
+                        help="lay a picture that is not opaque on this colour (default: an RGBA PNG)")
     compose = commands.add_parser("compose", help="layer TOP over BOTTOM into a two-layer .fmr document")
     compose.add_argument("bottom", metavar="BOTTOM", help="the lower layer's document (.fmr or .xml)")
     compose.add_argument("top", metavar="TOP", help="the upper layer's document, on the same canvas size")
@@ -149,7 +160,7 @@ def render_one(source: str, output: str, args: argparse.Namespace) -> int:
     from . import load, render_image
     from .engine import LiveStack, Settings, check_image_memory, output_size, rasterise
     from .io import DocumentLoadError, load_fmr
-    from .io.png import save_png
+    from .io.png import flattened, save_png
 
     try:
         saved = load_fmr(source) if Path(source).suffix.lower() == ".fmr" else None
@@ -173,6 +184,8 @@ def render_one(source: str, output: str, args: argparse.Namespace) -> int:
     except (ValueError, MemoryError) as error:
         print(f"fmr-editor: cannot render {source}: {error}", file=sys.stderr)
         return 2
+    if args.background is not None:
+        image = flattened(image, args.background)
     try:
         written = save_png(image, output)
     except OSError as error:

@@ -171,3 +171,10 @@ def test_render_writes_rgba_where_the_picture_is_clear_and_rgb_where_it_is_opaqu
     assert len(edge) > 50 and np.abs(edge[:, :3] - 102).max() <= 1  # their colour the disc's (straight alpha)
     with Image.open(opaque.with_suffix(".png")) as image:
         assert image.mode == "RGB"
+    flat = tmp_path / "flat.png"
+    assert run("render", str(clear), "-o", str(flat), "--background", "#ff8800")[0] == 0
+    with Image.open(flat) as image:
+        assert image.mode == "RGB" and image.getpixel((2, 2)) == (255, 136, 0) and image.getpixel((64, 60)) == (
+            102, 102, 102)
+    code, _, said = run("render", str(clear), "-o", str(flat), "--background", "orange")
+    assert code == 2 and "six hexadecimal digits" in said

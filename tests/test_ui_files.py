@@ -238,6 +238,8 @@ def test_export_and_new_document_dialogs(gl_display, qtbot, tmp_path):
     dialog.height_box.setValue(77)
     dialog.samples_box.setValue(4)
     assert dialog.options() == ExportOptions(tmp_path / "picture.png", 100, 77, 4)
+    dialog.flatten.setChecked(True)
+    assert dialog.options().background == (1.0, 1.0, 1.0)
 
     new = NewDocumentDialog(None, 300, 200)
     qtbot.addWidget(new)

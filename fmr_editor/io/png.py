@@ -25,6 +25,19 @@ def to_rgba8(image: np.ndarray) -> np.ndarray:
     return np.round(np.concatenate([np.clip(straight, 0.0, 1.0), alpha], axis=-1) * 255.0).astype(np.uint8)
 
 
+def flattened(image: np.ndarray, background: tuple[float, float, float]) -> np.ndarray:
+    """The picture over black with its coverage ``(H, W, 4)`` laid on the opaque ``background``, ``(H, W, 3)``."""
+    return image[..., :3] + (1.0 - image[..., 3:]) * np.asarray(background, dtype=np.float64)
+
+
+def parse_hex_colour(text: str) -> tuple[float, float, float]:
+    """``"rrggbb"`` or ``"#rrggbb"`` as sRGB floats; ``ValueError`` for anything else."""
+    digits = text.strip().removeprefix("#")
+    if len(digits) != 6 or any(c not in "0123456789abcdefABCDEF" for c in digits):
+        raise ValueError(f"a colour is six hexadecimal digits, as ffffff or #ff8800, not {text!r:.40}")
+    return tuple(int(digits[i : i + 2], 16) / 255.0 for i in (0, 2, 4))
+
+
 def save_png(image: np.ndarray, path: str | os.PathLike) -> Path:
     """Write ``image`` (float RGB, or RGB over black with its coverage) to ``path`` as an 8-bit PNG: RGBA when
     the coverage is below 1 somewhere (in 8 bits), else RGB.

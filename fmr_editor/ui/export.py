@@ -25,7 +25,7 @@ from PySide6.QtWidgets import (
 )
 
 from ..engine import Composite, LiveStack, Representation, Settings, check_image_memory, rasterise
-from ..io.png import save_png
+from ..io.png import flattened, save_png
 from ..model import Document
 from .files import ask_png_path
 
@@ -46,12 +46,15 @@ class ExportOptions:
         Output size in pixels.
     samples : int
         ``samples x samples`` supersampling per pixel (1: none).
+    background : tuple of float, optional
+        Lay a picture that is not opaque on this colour; None writes RGBA where it is not.
     """
 
     path: Path
     width: int
     height: int
     samples: int = 3
+    background: tuple[float, float, float] | None = None
 
 
 def export_png(options: ExportOptions, document: Document, picture: Composite | Representation | None,
@@ -62,6 +65,8 @@ def export_png(options: ExportOptions, document: Document, picture: Composite | 
         picture = LiveStack(document, settings, progress).composite
     image = rasterise(picture, options.width, options.height, samples=options.samples, progress=progress,
                       coverage=True)  # RGBA where the picture is not opaque
+    if options.background is not None:
+        image = flattened(image, options.background)
     if progress:
         progress("write", 1.0)
     return save_png(image.clip(0.0, 1.0), options.path)
@@ -102,6 +107,8 @@ class ExportDialog(QDialog):
         self.samples_box.setRange(1, MAX_SAMPLES)
         self.samples_box.setValue(3)
         self.samples_box.setToolTip("Antialiasing: N x N samples per pixel (1: none)")
+        self.flatten = QCheckBox("Lay it on white where it is not opaque", self)
+        self.flatten.setToolTip("Unchecked, a picture that is not opaque everywhere is written with transparency")
         buttons = QDialogButtonBox(QDialogButtonBox.StandardButton.Ok | QDialogButtonBox.StandardButton.Cancel)
         buttons.button(QDialogButtonBox.StandardButton.Ok).setText("Export")
         buttons.accepted.connect(self.accept)
@@ -114,6 +121,7 @@ class ExportDialog(QDialog):
         form.addRow("Height", self.height_box)
         form.addRow("", self.keep_aspect)
         form.addRow("Antialiasing (samples per side)", self.samples_box)
+        form.addRow("", self.flatten)
         form.addRow(buttons)
 
     def _follow(self, box: QSpinBox, value: float) -> None:
@@ -132,7 +140,8 @@ class ExportDialog(QDialog):
         path = Path(os.path.expanduser(self.path_edit.text().strip() or "export.png"))
         if path.suffix.lower() != ".png":
             path = path.with_name(path.name + ".png")
-        return ExportOptions(path, self.width_box.value(), self.height_box.value(), self.samples_box.value())
+        return ExportOptions(path, self.width_box.value(), self.height_box.value(), self.samples_box.value(),
+                             (1.0, 1.0, 1.0) if self.flatten.isChecked() else None)
 
     @staticmethod
     def get_options(canvas: tuple[int, int], path: Path, parent=None) -> ExportOptions | None:
