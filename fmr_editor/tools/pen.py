@@ -20,7 +20,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -175,8 +175,7 @@ class PenTool(Tool):
         context = self.context
         curve = DiffusionCurve(control_points(anchors))
         left, right = _colour_stops(context, curve)
-        curve = DiffusionCurve(curve.control_points, left=left, right=right)
-        context.history.apply(edits.add_curve(context.document, curve), "Draw Curve")
+        context.history.apply(edits.add_curve(context.document, replace(curve, left=left, right=right)), "Draw Curve")
         context.selection = Selection.of(curves=[context.document.curves[-1].id])
 
     # -- drawing -----------------------------------------------------------------------------
