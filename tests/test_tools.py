@@ -175,6 +175,12 @@ def test_pen_on_a_new_layer_draws_the_foreground_colour_opaque_inside_a_closed_c
     pen.key("Return")
     stroke = context.document.layers[1].curves[1]
     assert stroke.left == stroke.right == (ColorStop(0.0, (0.9, 0.5, 0.0), 1.0),)
+    context.options.stroke_left_alpha, context.options.stroke_right_alpha = 1.0, 0.25  # or as the options say
+    click(pen, 20, 90)
+    click(pen, 80, 90)
+    pen.key("Return")
+    stroke = context.document.layers[1].curves[2]
+    assert [s.alpha for s in stroke.left + stroke.right] == [1.0, 0.25]
 
 
 def test_pen_on_the_bottom_layer_or_an_opaque_one_keeps_foreground_left_and_background_right():

@@ -151,6 +151,8 @@ def test_tool_options_panel_sets_the_options(two_stops, qtbot):
     panel.spins["brush_radius"].setValue(33.0)
     panel.spins["brush_spacing"].setValue(4.5)
     assert window.options.brush_radius == 33.0 and window.options.brush_spacing == 4.5
+    panel.spins["stroke_right_alpha"].setValue(0.3)
+    assert window.options.stroke_right_alpha == 0.3 and window.options.stroke_left_alpha == 1.0
     editor.answers["color"] = QColor(255, 0, 0)
     qtbot.mouseClick(panel.foreground, Qt.MouseButton.LeftButton)
     assert window.options.color == (1.0, 0.0, 0.0)

@@ -44,6 +44,9 @@ class ToolOptions:
     brush_mode : str
         ``"paint"`` (dabs cover, through a fill layer's mask; see ``brush``)
         or ``"glow"`` (dabs add colour).
+    stroke_left_alpha, stroke_right_alpha : float
+        The alpha of an open curve's left and right side, drawn by the pen on a
+        clear layer (a closed one is opaque inside and clear outside).
     """
 
     color: Color = (0.0, 0.0, 0.0)
@@ -53,6 +56,8 @@ class ToolOptions:
     brush_amplitude: float = 0.3
     brush_spacing: float = 10.0
     brush_mode: str = "paint"
+    stroke_left_alpha: float = 1.0
+    stroke_right_alpha: float = 1.0
 
 
 def _set(items) -> frozenset:

@@ -61,13 +61,14 @@ def control_points(anchors: list[Anchor]) -> np.ndarray:
 def _colour_stops(context: ToolContext, curve: DiffusionCurve) -> tuple[tuple[ColorStop], tuple[ColorStop]]:
     """The new curve's left and right stops: the foreground colour on the left and the background colour on the
     right; on a clear layer above the bottom one (empty, or with alpha already), the foreground colour on both
-    sides, and a closed curve opaque inside and clear outside, so that it covers exactly its inside."""
+    sides, a closed curve opaque inside and clear outside, so that it covers exactly its inside, and an open
+    one with the options' stroke alphas."""
     options, document = context.options, context.document
     foreground = tuple(float(v) for v in options.color)
     layer = document.layer
     if document.editing_mask or document.active == 0 or not (layer.empty or layer.translucent):
         return (ColorStop(0.0, foreground),), (ColorStop(0.0, tuple(float(v) for v in options.secondary_color)),)
-    left = right = 1.0
+    left, right = options.stroke_left_alpha, options.stroke_right_alpha
     if is_closed(curve):
         x, y = polyline(curve).T
         inside_on_left = float(np.dot(x[:-1], y[1:]) - np.dot(x[1:], y[:-1])) < 0  # anticlockwise as seen (y down)

@@ -99,10 +99,22 @@ class OptionsPanel(QWidget):
             form.addRow(label, spin)
             self.spins[name] = spin
 
+        pen = QGroupBox("Pen on a clear layer")
+        pen.setToolTip("A closed curve covers its inside; an open one's sides take these alphas (0 clear, 1 opaque)")
+        pen_form = QFormLayout(pen)
+        for name, label in (("stroke_left_alpha", "Open: left alpha"), ("stroke_right_alpha", "Open: right alpha")):
+            spin = QDoubleSpinBox(self)
+            spin.setRange(0.0, 1.0)
+            spin.setSingleStep(0.1)
+            spin.setValue(float(getattr(options, name)))
+            spin.valueChanged.connect(lambda value, name=name: self._set(name, value))
+            pen_form.addRow(label, spin)
+            self.spins[name] = spin
+
         colours_box = QGroupBox("Colours")
         colours_box.setLayout(colours)
         layout = QVBoxLayout(self)
-        for box in (colours_box, brush):
+        for box in (colours_box, brush, pen):
             layout.addWidget(box)
         layout.addStretch(1)
         self.refresh()
