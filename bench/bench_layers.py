@@ -75,7 +75,7 @@ def translucent(document):
     return replace(document, layers=(document.layers[0].with_curves(map(half, document.curves)),))
 
 
-def alpha_rows(args, opaque_document, view_size) -> list[tuple]:
+def alpha_rows(args, opaque_document) -> dict:
     """Build, raster, full evaluation and a stop colour edit of the opaque document and its translucent twin."""
     from fmr_editor.engine import LiveStack, rasterise
     from fmr_editor.model import edits
@@ -201,7 +201,7 @@ def main() -> None:
             runs.append(time.perf_counter() - start)
         rows.append((name, best(runs)))
     raster = ("CPU raster, canvas size, 1 sample (ms)", rows[0][1], rows[1][1])
-    alpha = alpha_rows(args, flat_document, args.size)
+    alpha = alpha_rows(args, flat_document)
     layer_rows, evaluations = gl_rows(args, flat, stack, fields,
                                       {name: alpha[name][3].composite for name in ("opaque", "translucent")})
     table = [raster, *layer_rows]

@@ -3,6 +3,8 @@ against per-pixel composition, edits, merging and files."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from layered import SIZE, reference, translucent_layers, with_alphas
@@ -61,26 +63,17 @@ def test_the_composite_with_alpha_equals_per_pixel_composition_of_the_layers():
     expected = reference(document, PIXELS, PIXELS)
     error = np.abs(rasterise(stack.composite, PIXELS, PIXELS, samples=1) - expected) / LEVEL
     assert error.mean() <= 1.0 and np.percentile(error, 99) <= 3.0
-    opaque = replace_layers(document, [layer_edits.baked(layer) for layer in document.layers])
-    assert np.abs(reference(opaque_alphas(opaque), PIXELS, PIXELS) - expected).max() > 20 * LEVEL  # alpha shows
-
-
-def replace_layers(document: Document, layers: list[Layer]) -> Document:
-    from dataclasses import replace
-
-    return replace(document, layers=tuple(layers))
+    assert np.abs(reference(opaque_alphas(document), PIXELS, PIXELS) - expected).max() > 20 * LEVEL  # alpha shows
 
 
 def opaque_alphas(document: Document) -> Document:
     """``document`` with every stop opaque."""
-    from dataclasses import replace
-
     def opaque(curve: DiffusionCurve) -> DiffusionCurve:
         return replace(curve, left=tuple(replace(s, alpha=1.0) for s in curve.left),
                        right=tuple(replace(s, alpha=1.0) for s in curve.right))
 
-    return replace_layers(document, [replace(layer, curves=tuple(map(opaque, layer.curves)))
-                                     for layer in document.layers])
+    return replace(document, layers=tuple(replace(layer, curves=tuple(map(opaque, layer.curves)))
+                                          for layer in document.layers))
 
 
 def test_edits_keep_the_alpha_field_equal_to_a_fresh_build_and_an_opaque_layer_drops_it():

@@ -26,7 +26,7 @@ def alpha_curve(curve: DiffusionCurve) -> DiffusionCurve:
         def greys(side: tuple[ColorStop, ...]) -> tuple[ColorStop, ...]:
             return tuple(ColorStop(stop.position, (stop.alpha,) * 3) for stop in side) if side else OPAQUE
 
-        memo["_alpha_curve"] = replace(curve, left=greys(curve.left), right=greys(curve.right), blur=(), id=curve.id)
+        memo["_alpha_curve"] = replace(curve, left=greys(curve.left), right=greys(curve.right), blur=())
     return memo["_alpha_curve"]
 
 
