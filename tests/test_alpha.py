@@ -146,6 +146,15 @@ def test_an_empty_layer_is_clear_and_a_layer_with_items_or_settings_is_not():
     assert np.abs(rasterise(LiveStack(dark).composite, PIXELS, PIXELS, samples=1) - expected).max() > 0.2
 
 
+def test_an_empty_bottom_layer_is_opaque_black_so_a_new_clear_layer_changes_nothing():
+    blank = Document(SIZE, SIZE)  # one empty layer: black, as a new document has always been
+    expected = rasterise(build(blank), PIXELS, PIXELS, samples=1, coverage=True)
+    np.testing.assert_array_equal(expected, np.tile([0.0, 0.0, 0.0, 1.0], (PIXELS, PIXELS, 1)))
+    layered = layer_edits.add_layer(blank)
+    shown = rasterise(LiveStack(layered).composite, PIXELS, PIXELS, samples=1, coverage=True)
+    np.testing.assert_array_equal(shown, expected)
+
+
 def test_render_writes_rgba_where_the_picture_is_clear_and_rgb_where_it_is_opaque(tmp_path):
     from cli_runs import run
     from PIL import Image

@@ -7,7 +7,7 @@ import pytest
 from selections import by_index
 from shapes import straight_chain
 
-from fmr_editor.model import ColorStop, DiffusionCurve, DiffusionPoint, Document
+from fmr_editor.model import ColorStop, DiffusionCurve, DiffusionPoint, Document, Layer
 from fmr_editor.model.history import History
 from fmr_editor.tools import (
     TOOLS,
@@ -184,7 +184,7 @@ def test_pen_on_a_new_layer_draws_the_foreground_colour_opaque_inside_a_closed_c
 
 
 def test_pen_on_the_bottom_layer_or_an_opaque_one_keeps_foreground_left_and_background_right():
-    from fmr_editor.model import Layer, layer_edits
+    from fmr_editor.model import layer_edits
 
     for document in (Document(100, 100), layer_edits.add_layer(Document(100, 100, [line_curve()]),
                                                                Layer([line_curve()]))):
@@ -517,6 +517,27 @@ def test_paint_is_the_brush_s_default_mode():
     click(BrushTool(context), 40, 60)
     assert len(context.document.layers) == 2 and context.document.layers[1].mask.points
     assert context.history.labels == ("", "Paint Stroke")
+
+
+def test_glow_on_a_clear_layer_paints_and_glows_elsewhere():
+    from fmr_editor.model import layer_edits
+
+    picture = Document(100, 100, [line_curve()])
+    clear = layer_edits.add_layer(picture)  # empty, above the bottom layer: no picture to add light to
+    bottom = Document(100, 100)  # the bottom layer starts opaque, as before
+    drawn = layer_edits.add_layer(picture, Layer(curves=(line_curve(),)))
+    for document, paints in ((clear, True), (bottom, False), (drawn, False)):
+        context = make_context(document)
+        context.options.brush_mode, context.options.brush_color = "glow", BLUE
+        click(BrushTool(context), 40, 60)
+        after = context.document
+        if paints:
+            assert context.history.labels == ("", "Paint Stroke")
+            assert len(after.layers) == 3 and after.layers[1].empty
+            assert layer_edits.fill_color(after.layers[2]) == BLUE and len(after.layers[2].mask.points) == 1
+        else:
+            assert context.history.labels == ("", "Glow Stroke")
+            assert len(after.layers) == len(document.layers) and len(after.layer.points) == 1
 
 
 def test_a_stroke_that_reaches_no_canvas_pixel_or_erases_nothing_makes_no_step():

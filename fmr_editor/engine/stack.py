@@ -229,7 +229,8 @@ class LiveStack:
             start = time.perf_counter()
             live = live or LiveClone(layer.clone)
             picture = Composite(document.width, document.height,
-                                tuple(layer_fields(each, *self._drawn(each)) for each in document.layers[:index]))
+                                tuple(layer_fields(each, *self._drawn(each), bottom=at == 0)
+                                      for at, each in enumerate(document.layers[:index])))
             source = self.fields[layer.id, Role.SOURCE].representation
             changed = live.follow(layer.clone, source, picture, self.settings, layer.id)
             self.clones[layer.id], self._below[layer.id] = live, below
@@ -291,11 +292,13 @@ class LiveStack:
 
 
 def layer_fields(layer: Layer, image: Representation, mask_field: Representation | None,
-                 source: Representation | None = None, alpha: Representation | None = None) -> LayerFields:
+                 source: Representation | None = None, alpha: Representation | None = None, *,
+                 bottom: bool = False) -> LayerFields:
     """How ``layer`` is drawn from its image, mask and alpha representations (a clone layer's mask: its region;
-    its ``source`` is kept with it)."""
-    shown = {"opacity": layer.opacity, "transform": layer.transform, "visible": layer.visible and not layer.empty,
-             "id": layer.id, "alpha": alpha}  # an empty layer is clear: nothing of it is drawn
+    its ``source`` is kept with it).  An empty layer is clear, nothing of it drawn, unless it is the ``bottom``
+    one, which starts opaque (black) as a new document does."""
+    shown = {"opacity": layer.opacity, "transform": layer.transform,
+             "visible": layer.visible and (bottom or not layer.empty), "id": layer.id, "alpha": alpha}
     if layer.clone is not None:
         return LayerFields(image, mask_field, mask_base=0.0, source=source, **shown)
     mask = layer.mask
@@ -308,7 +311,8 @@ def layer_fields(layer: Layer, image: Representation, mask_field: Representation
 def composite_of(document: Document, fields: Sequence[tuple]) -> Composite:
     """``document``'s picture from each layer's ``(image, mask, source, alpha)`` representations (mask None: no
     mask or no items; alpha None: opaque)."""
-    layers = (layer_fields(layer, *reps) for layer, reps in zip(document.layers, fields, strict=True))
+    layers = (layer_fields(layer, *reps, bottom=index == 0)
+              for index, (layer, reps) in enumerate(zip(document.layers, fields, strict=True)))
     return Composite(document.width, document.height, tuple(layers))
 
 

@@ -11,7 +11,9 @@ the press.  What a dab does depends on the mode:
   (``layer_edits.with_fill_layer``, made on demand), so the colour covers what
   lies below, as paint does;
 - **Glow** (``"glow"``): the dab adds ``amplitude x colour`` to the active
-  layer, so overlapping dabs add up towards white;
+  layer, so overlapping dabs add up towards white; on an empty layer above the
+  bottom one (clear: there is no picture to add light to, and points would
+  make it an opaque black one) it paints as Paint does;
 - while the active layer's **mask** is edited, a dab adds to the mask (a light
   brush colour) or subtracts from it (a dark one), and with Alt the stroke
   erases the mask's dabs under it.
@@ -51,7 +53,7 @@ class Stroke(EditDrag):
             label = "Erase Mask" if self.erasing else "Paint Mask"
             sign = 1.0 if float(MASK_LUMA @ color) >= 0.5 else -1.0
             color, amplitude = (1.0, 1.0, 1.0), sign * abs(amplitude)
-        elif options.brush_mode == "paint":
+        elif options.brush_mode == "paint" or (document.active > 0 and document.layers[document.active].empty):
             label = "Paint Stroke"
             self.base_document, self.fill = layer_edits.with_fill_layer(document, color)
             color, amplitude = (1.0, 1.0, 1.0), abs(amplitude)
