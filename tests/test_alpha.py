@@ -128,6 +128,21 @@ def test_a_translucent_layer_saves_its_alpha_field_and_reopens_without_a_solve(t
                                   rasterise(stack.composite, PIXELS, PIXELS, samples=1))
 
 
+def test_a_file_saved_before_alpha_opens_looking_as_it_did_without_a_solve(monkeypatch):
+    from pathlib import Path
+
+    from fmr_editor.session import Session
+
+    made = Path(__file__).parent / "data" / "before_alpha"  # made by the code of that time: see its make.py
+    import fmr_editor.engine.live as live
+
+    monkeypatch.setattr(live.LiveRepresentation, "_rebuild", lambda *a, **k: pytest.fail("solved on opening"))
+    session = Session.open(made / "layers.fmr")
+    assert [layer.name for layer in session.document.layers] == ["Layer 1", "Inverted", "Off", "Paint #e6cc1a"]
+    assert not any(layer.translucent for layer in session.document.layers)
+    np.testing.assert_allclose(session.image(48, 48, samples=1), np.load(made / "layers.npy"), atol=1e-6)
+
+
 def test_a_layer_without_alpha_costs_no_alpha_field():
     document = scattered_document(SIZE)
     stack = LiveStack(document)
