@@ -149,6 +149,22 @@ def test_a_layer_without_alpha_costs_no_alpha_field():
     assert set(stack.fields) == {(document.layer.id, Role.IMAGE)} and stack.composite.layers[0].covers
 
 
+def test_the_alpha_field_takes_its_layer_s_factorisation_and_edits_keep_sharing_it():
+    document = translucent_layers()
+    layer = document.layers[2]
+    stack = LiveStack(document)
+    image, alpha = stack.fields[layer.id, Role.IMAGE], stack.fields[layer.id, Role.ALPHA]
+    assert (image.factorisations, alpha.factorisations) == (1, 0) and alpha.solver is image.solver
+    moved = edits.translate(layer_edits.select_layer(document, 2), (4.0, -3.0),
+                            curves=[layer.curves[0].id])  # geometry: an update of the factorisation
+    stack.update(moved)
+    image, alpha = stack.fields[layer.id, Role.IMAGE], stack.fields[layer.id, Role.ALPHA]
+    assert alpha.factorisations == 0 and alpha.solver.base is image.solver.base
+    expected = build(Document(SIZE, SIZE, alpha_image(moved.layers[2]).curves))
+    np.testing.assert_allclose(rasterise(stack.alpha(moved.layers[2]), PIXELS, PIXELS, samples=1),
+                               rasterise(expected, PIXELS, PIXELS, samples=1), atol=1e-6)
+
+
 def test_an_empty_layer_is_clear_and_a_layer_with_items_or_settings_is_not():
     below = scattered_document(SIZE)
     empty = layer_edits.add_layer(below)

@@ -50,7 +50,7 @@ from .points.field import (
 from .representation import SOLVE_SEGMENTS_PER_CELL, Representation, Settings, choose_levels
 from .solve.preview import GLOBAL_STEP_SEGMENTS, Previews
 from .solve.solver import BoundarySolver
-from .solve.system_solvers import SystemSolvers
+from .solve.system_solvers import SharedFactorisations, SystemSolvers
 from .solve.updated import UpdatedSolver, carried_unknowns
 
 Progress = Callable[[str, float], None]
@@ -105,6 +105,9 @@ class LiveRepresentation:
 
     memory : int
         Bytes the states of recent steps may take (``kept_states``).
+    shared : SharedFactorisations, optional
+        Where factorisations of other representations are found by their geometry (a layer's image and
+        alpha field share theirs); None: this one's own only.
 
     Attributes
     ----------
@@ -118,7 +121,7 @@ class LiveRepresentation:
         True while approximate and the representation is the last exact one (``Update.stale``).
     factorisations : int
         Boundary systems factorised so far (the work a geometry edit should not repeat: it is solved
-        through the kept factorisation, ``solve.updated``).
+        through the kept factorisation, ``solve.updated``); one found in ``shared`` does not count.
     origin : str
         Where its first state came from: ``"built"`` (solved), ``"resumed"`` (``saved`` taken as it is)
         or ``"twin"`` (another representation's, ``twin``).
@@ -127,8 +130,10 @@ class LiveRepresentation:
     """
 
     def __init__(self, document: Document, settings: Settings = Settings(), progress: Progress | None = None,
-                 saved: Representation | None = None, memory: int = DEFAULT_MEMORY) -> None:
+                 saved: Representation | None = None, memory: int = DEFAULT_MEMORY,
+                 shared: SharedFactorisations | None = None) -> None:
         self.settings = settings
+        self._shared = shared
         self.approximate = False
         self.factorisations = 0
         self.origin = "built"
@@ -277,8 +282,15 @@ class LiveRepresentation:
 
     def _new_solver(self, boundary: Segments, progress: Callable[[float], None] | None = None) -> BoundarySolver:
         solve_lattice = Lattice(choose_levels(self._curves, self._side, SOLVE_SEGMENTS_PER_CELL), self._side)
-        self.factorisations += 1
-        return BoundarySolver(boundary, solve_lattice, progress)
+        shared = self._shared
+        key = shared.key(boundary, solve_lattice.levels, solve_lattice.side) if shared is not None else b""
+        solver = shared.get(key) if shared is not None else None
+        if solver is None:
+            self.factorisations += 1
+            solver = BoundarySolver(boundary, solve_lattice, progress)
+            if shared is not None:
+                shared.keep(key, solver)
+        return solver
 
     @property
     def representation(self) -> Representation:

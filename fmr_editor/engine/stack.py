@@ -27,6 +27,7 @@ from .composite import Composite, FieldKey, LayerFields, Role
 from .kept_states import DEFAULT_MEMORY
 from .live import LiveRepresentation, Progress, Update
 from .representation import Representation, Settings
+from .solve.system_solvers import SharedFactorisations
 
 #: Fields of removed layers kept for an undo.
 RETIRED = 4
@@ -123,6 +124,7 @@ class LiveStack:
         self._memory = memory
         self.document = document
         self.fields: dict[FieldKey, LiveRepresentation] = {}
+        self._factorisations = SharedFactorisations()  # a translucent layer's image and alpha share theirs
         self._retired: OrderedDict[FieldKey, LiveRepresentation] = OrderedDict()
         self.clones: dict[int, LiveClone] = {}
         self._below: dict[int, tuple] = {}  # per clone layer id, what lay below it when it was blended
@@ -162,7 +164,7 @@ class LiveStack:
                 start = time.perf_counter()
                 twin = None if key in saved else self._same_items(flat)
                 live = twin.twin(flat) if twin else LiveRepresentation(flat, self.settings, lap, saved.get(key),
-                                                                       memory=share)
+                                                                       memory=share, shared=self._factorisations)
                 n = live.lattice.cells_per_side
                 updates[key] = Update("rebuild", np.ones((n, n), bool), time.perf_counter() - start)
             elif _items_changed(live.document, flat):

@@ -10,6 +10,8 @@ that becomes the base.
 
 from __future__ import annotations
 
+import hashlib
+import weakref
 from collections.abc import Callable
 
 import numpy as np
@@ -20,6 +22,34 @@ from .updated import UpdatedSolver, updated_solver
 
 Solver = BoundarySolver | UpdatedSolver
 Factorise = Callable[[Segments], BoundarySolver]
+
+
+class SharedFactorisations:
+    """Factorisations held by any representation, found again by their geometry.
+
+    A translucent layer's image and alpha field are diffusions on the same curves: their boundary systems
+    are one matrix (``BoundarySolver`` reads the geometry, never the colours), so the second field takes the
+    first one's factorisation instead of repeating it.  A factorisation is kept here only while some
+    ``SystemSolvers`` holds it (weakly: this costs no memory).
+    """
+
+    def __init__(self) -> None:
+        self._held: weakref.WeakValueDictionary[bytes, BoundarySolver] = weakref.WeakValueDictionary()
+
+    @staticmethod
+    def key(boundary: Segments, lattice_levels: int, side: float) -> bytes:
+        """What the system depends on: the segments' end points and border flags, and the products' lattice."""
+        digest = hashlib.blake2b(digest_size=20)
+        for array in (boundary.p, boundary.q, boundary.on_border):
+            digest.update(np.ascontiguousarray(array).tobytes())
+        digest.update(np.array([lattice_levels, side]).tobytes())
+        return digest.digest()
+
+    def get(self, key: bytes) -> BoundarySolver | None:
+        return self._held.get(key)
+
+    def keep(self, key: bytes, solver: BoundarySolver) -> None:
+        self._held[key] = solver
 
 
 class SystemSolvers:
