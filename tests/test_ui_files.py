@@ -239,7 +239,11 @@ def test_export_and_new_document_dialogs(gl_display, qtbot, tmp_path):
     dialog.samples_box.setValue(4)
     assert dialog.options() == ExportOptions(tmp_path / "picture.png", 100, 77, 4)
     dialog.flatten.setChecked(True)
-    assert dialog.options().background == (1.0, 1.0, 1.0)
+    assert dialog.options().background == (1.0, 1.0, 1.0)  # white unless another colour is chosen
+    dialog.set_background((0.2, 0.4, 0.6))
+    assert dialog.options().background == (0.2, 0.4, 0.6)
+    icon = dialog.background_button.icon().pixmap(20, 20).toImage()
+    assert icon.pixelColor(10, 10).getRgb()[:3] == (51, 102, 153)  # the swatch shows it
 
     new = NewDocumentDialog(None, 300, 200)
     qtbot.addWidget(new)

@@ -45,15 +45,14 @@ def test_layers_panel_mask_hue_undo_redo_save_and_reopen(line, tmp_path, qtbot):
     step("New Layer")
     assert len(editor.document.layers) == 2 and editor.document.active == 1 and panel.list.count() == 2
 
+    window.actions["add_mask"].trigger()  # with a mask the layer is no longer empty (clear): Glow adds to it
+    step("Add Mask")
     editor.key(Qt.Key.Key_B)  # Glow dabs on the new layer
     window.options.brush_color, window.options.brush_radius, window.options.brush_amplitude = (0.2, 0.9, 0.3), 14, 0.8
     window.options.brush_mode = "glow"
     editor.drag([(30, 30), (90, 40)])
     step("Glow Stroke")
     assert editor.document.layers[0].points == () and len(editor.document.layers[1].points) > 3
-
-    window.actions["add_mask"].trigger()
-    step("Add Mask")
     editor.key(Qt.Key.Key_M, Qt.KeyboardModifier.ControlModifier | Qt.KeyboardModifier.ShiftModifier)
     assert editor.document.editing_mask and editor.history.index == len(steps) - 1  # no step
     steps[-1] = editor.document

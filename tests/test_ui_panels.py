@@ -253,3 +253,20 @@ def test_the_history_and_layers_panels_follow_the_document_they_show_and_only_it
     assert history_panel.list.count() == 1 and layers_panel.list.count() == 1
     second.apply(layer_edits.add_layer(second.document), "New Layer")
     assert history_panel.list.count() == 2 and layers_panel.list.count() == 2
+
+
+def test_a_gradient_bar_shows_the_checkerboard_through_stops_that_are_not_opaque(gl_display, qtbot):
+    from fmr_editor.ui.gradient_bar import MARGIN, GradientBar
+
+    bar = GradientBar()
+    qtbot.addWidget(bar)
+    bar.resize(220, 40)
+    bar.set_stops((ColorStop(0.0, RED, alpha=0.0), ColorStop(0.5, RED, alpha=0.0), ColorStop(1.0, RED)), 1.0)
+    image = bar.grab().toImage()
+    clear = {image.pixelColor(MARGIN + 2 + dx, 4).getRgb()[:3] for dx in range(12)}
+    assert clear == {(204, 204, 204), (153, 153, 153)}  # the canvas's checkerboard, unmixed at alpha 0
+    opaque = {image.pixelColor(bar.width() - MARGIN - 3 - dx, 4).getRgb()[:3] for dx in range(12)}
+    assert all(r > 240 and g < 30 and b < 30 for r, g, b in opaque)  # red, no checkerboard
+    bar.set_stops((ColorStop(0.0, RED), ColorStop(1.0, RED)), 1.0)
+    image = bar.grab().toImage()
+    assert {image.pixelColor(MARGIN + 2 + dx, 4).getRgb()[:3] for dx in range(12)} == {(255, 0, 0)}

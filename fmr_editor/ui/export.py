@@ -21,13 +21,17 @@ from PySide6.QtWidgets import (
     QLineEdit,
     QPushButton,
     QSpinBox,
+    QToolButton,
     QWidget,
 )
 
 from ..engine import Composite, LiveStack, Representation, Settings, check_image_memory, rasterise
 from ..io.png import flattened, save_png
 from ..model import Document
+from .colors import pick_color
 from .files import ask_png_path
+from .gradient_bar import qcolor
+from .stops_panel import swatch
 
 #: Largest output side, pixels.
 MAX_SIDE = 32768
@@ -107,8 +111,16 @@ class ExportDialog(QDialog):
         self.samples_box.setRange(1, MAX_SAMPLES)
         self.samples_box.setValue(3)
         self.samples_box.setToolTip("Antialiasing: N x N samples per pixel (1: none)")
-        self.flatten = QCheckBox("Lay it on white where it is not opaque", self)
+        self.flatten = QCheckBox("Lay it on a colour where it is not opaque", self)
         self.flatten.setToolTip("Unchecked, a picture that is not opaque everywhere is written with transparency")
+        self.background_button = QToolButton(self)
+        self.background_button.setToolTip("The colour to lay the picture on")
+        self.background_button.clicked.connect(self._choose_background)
+        self.set_background((1.0, 1.0, 1.0))
+        flatten_row = QHBoxLayout()
+        flatten_row.addWidget(self.flatten)
+        flatten_row.addWidget(self.background_button)
+        flatten_row.addStretch(1)
         buttons = QDialogButtonBox(QDialogButtonBox.StandardButton.Ok | QDialogButtonBox.StandardButton.Cancel)
         buttons.button(QDialogButtonBox.StandardButton.Ok).setText("Export")
         buttons.accepted.connect(self.accept)
@@ -121,7 +133,9 @@ class ExportDialog(QDialog):
         form.addRow("Height", self.height_box)
         form.addRow("", self.keep_aspect)
         form.addRow("Antialiasing (samples per side)", self.samples_box)
-        form.addRow("", self.flatten)
+        flatten_holder = QWidget(self)
+        flatten_holder.setLayout(flatten_row)
+        form.addRow("", flatten_holder)
         form.addRow(buttons)
 
     def _follow(self, box: QSpinBox, value: float) -> None:
@@ -129,6 +143,17 @@ class ExportDialog(QDialog):
             box.blockSignals(True)
             box.setValue(max(1, round(value)))
             box.blockSignals(False)
+
+    def set_background(self, color: tuple[float, float, float]) -> None:
+        """Lay the picture on ``color`` (when ``flatten`` is checked)."""
+        self.background = tuple(float(v) for v in color)
+        self.background_button.setIcon(swatch(qcolor(self.background), 20))
+
+    def _choose_background(self) -> None:
+        chosen = pick_color(self, self.background, "Background Colour")
+        if chosen is not None:
+            self.set_background(chosen)
+            self.flatten.setChecked(True)
 
     def _browse(self) -> None:
         chosen = ask_png_path(self, self.path_edit.text())
@@ -141,7 +166,7 @@ class ExportDialog(QDialog):
         if path.suffix.lower() != ".png":
             path = path.with_name(path.name + ".png")
         return ExportOptions(path, self.width_box.value(), self.height_box.value(), self.samples_box.value(),
-                             (1.0, 1.0, 1.0) if self.flatten.isChecked() else None)
+                             self.background if self.flatten.isChecked() else None)
 
     @staticmethod
     def get_options(canvas: tuple[int, int], path: Path, parent=None) -> ExportOptions | None:

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from PySide6.QtCore import QPointF, QRectF, QSize, Qt, Signal
-from PySide6.QtGui import QBrush, QColor, QLinearGradient, QPainter, QPen, QPolygonF
+from PySide6.QtGui import QBrush, QColor, QLinearGradient, QPainter, QPen, QPixmap, QPolygonF
 from PySide6.QtWidgets import QSizePolicy, QWidget
 
 from ..model import ColorStop
@@ -16,10 +16,21 @@ HANDLE = 12
 DRAG_THRESHOLD = 3
 
 
-def qcolor(rgb) -> QColor:
-    """An sRGB float triple as a QColor."""
-    r, g, b = (int(round(min(max(float(v), 0.0), 1.0) * 255)) for v in rgb)
-    return QColor(r, g, b)
+def qcolor(rgb, alpha: float = 1.0) -> QColor:
+    """An sRGB float triple (and an alpha) as a QColor."""
+    r, g, b, a = (int(round(min(max(float(v), 0.0), 1.0) * 255)) for v in (*rgb, alpha))
+    return QColor(r, g, b, a)
+
+
+def checkerboard(square: int = 5) -> QBrush:
+    """The grey checkerboard that shows through what is not opaque, as on the canvas."""
+    tile = QPixmap(2 * square, 2 * square)
+    tile.fill(QColor(204, 204, 204))
+    painter = QPainter(tile)
+    for x, y in ((0, 0), (square, square)):
+        painter.fillRect(x, y, square, square, QColor(153, 153, 153))
+    painter.end()
+    return QBrush(tile)
 
 
 class GradientBar(QWidget):
@@ -97,9 +108,11 @@ class GradientBar(QWidget):
         if not self.isEnabled():
             painter.fillRect(bar, self.palette().window())  # no curve shown: an empty bar, not a black side
         elif self.stops:
+            if any(stop.alpha < 1.0 for stop in self.stops):
+                painter.fillRect(bar, checkerboard())  # showing through where the side is not opaque
             gradient = QLinearGradient(bar.left(), 0, bar.right(), 0)
             for stop in self.stops:
-                gradient.setColorAt(min(max(stop.position / self.length, 0.0), 1.0), qcolor(stop.color))
+                gradient.setColorAt(min(max(stop.position / self.length, 0.0), 1.0), qcolor(stop.color, stop.alpha))
             painter.fillRect(bar, QBrush(gradient))
         else:
             painter.fillRect(bar, QColor(0, 0, 0))  # a side without stops is black
