@@ -7,6 +7,8 @@ reopen give the same document and the same pixels.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from canvas_oracle import mismatches
@@ -24,11 +26,16 @@ pytestmark = pytest.mark.gui
 
 
 def shows_the_composite(editor) -> None:
-    """The canvas shows, to one 8-bit level, the composite of a fresh build of the current document."""
+    """The canvas shows, to one 8-bit level, the composite of a fresh build of the current document, and is
+    opaque (the window composes it by its alpha: a grab of the window blended what was not)."""
     editor.wait_idle()
     shown = editor.canvas.grab_image()
     off = mismatches(shown, LiveStack(editor.document).composite, editor.canvas.device_view(), 1.0)
     assert off["inside"] == 0 and off["outside"] == 0, off
+    editor.canvas.makeCurrent()
+    alpha = editor.canvas.renderer.read()[..., 3]  # what the window composes the canvas by
+    editor.canvas.doneCurrent()
+    assert alpha.min() == 1.0, f"{(alpha < 1).sum()} pixels of the canvas are not opaque"
 
 
 def test_layers_panel_mask_hue_undo_redo_save_and_reopen(line, tmp_path, qtbot):
@@ -247,3 +254,14 @@ def test_a_new_layer_over_lady_bug_is_clear_and_a_closed_pen_curve_covers_only_i
     inside, outside = within[:, None] & within[None, :], beyond[:, None] | beyond[None, :]
     np.testing.assert_allclose(shown[inside], np.broadcast_to((0.1, 0.3, 0.9), shown[inside].shape), atol=1e-3)
     np.testing.assert_allclose(shown[outside], picture[outside], atol=1e-6)  # lady_bug untouched outside
+
+
+def test_a_stop_made_clear_on_an_open_picture_shows_as_the_cpu_composes_it(editor):
+    from fmr_editor.model import edits
+
+    editor.open(Path(__file__).parents[1] / "resources" / "samples" / "ribbon.xml")
+    shows_the_composite(editor)
+    curve = editor.document.curves[1]
+    clear = edits.set_stop_alpha(editor.document, curve.id, "left", 0, 0.0)
+    editor.history.apply(edits.set_stop_alpha(clear, curve.id, "left", 1, 0.3), "Change Stop Alpha")
+    shows_the_composite(editor)

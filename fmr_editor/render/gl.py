@@ -101,10 +101,12 @@ def in_plain_state(method):
 
 @contextmanager
 def over() -> Iterator[None]:
-    """Blend the body's fragments over the target by their alpha (``SRC_ALPHA, ONE_MINUS_SRC_ALPHA``)."""
+    """Blend the body's fragments over the target by their alpha (``SRC_ALPHA, ONE_MINUS_SRC_ALPHA``); the
+    target's alpha becomes the coverage, ``a + (1 - a) below`` (over an opaque target it stays 1: the window
+    system composes the canvas by it)."""
     GL.glEnable(GL.GL_BLEND)
     GL.glBlendEquation(GL.GL_FUNC_ADD)
-    GL.glBlendFuncSeparate(GL.GL_SRC_ALPHA, GL.GL_ONE_MINUS_SRC_ALPHA, GL.GL_ONE, GL.GL_ZERO)
+    GL.glBlendFuncSeparate(GL.GL_SRC_ALPHA, GL.GL_ONE_MINUS_SRC_ALPHA, GL.GL_ONE, GL.GL_ONE_MINUS_SRC_ALPHA)
     try:
         yield
     finally:
