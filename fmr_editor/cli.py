@@ -66,11 +66,12 @@ def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="fmr-editor",
                                      description="Diffusion-curve images on the fast multipole representation.")
     commands = parser.add_subparsers(dest="command", required=True)
-    render = commands.add_parser("render", help="render documents to PNG")
+    render = commands.add_parser("render", help="render documents to PNG, or SVG (an .svg output)")
     render.add_argument("inputs", nargs="+", metavar="INPUT",
                         help="documents to render (.fmr, or Orzan CurveSetXML .xml)")
     render.add_argument("-o", "--output", required=True,
-                        help="PNG file to write, or with several inputs a folder (made if missing) for NAME.png each")
+                        help="PNG file to write (an .svg file: the PNG embedded, the curves as hidden paths), or "
+                             "with several inputs a folder (made if missing) for NAME.png each")
     render.add_argument("--width", type=_positive, help="output width (default: canvas width)")
     render.add_argument("--height", type=_positive, help="output height (default: canvas height)")
     render.add_argument("--samples", type=_positive, default=3,
@@ -152,7 +153,8 @@ class StderrProgress:
 
 
 def render_one(source: str, output: str, args: argparse.Namespace) -> int:
-    """Render ``source`` to the PNG ``output``; 0, or 2 after one line on stderr.
+    """Render ``source`` to ``output``, a PNG, or an SVG by its suffix (the PNG embedded, the curves kept as
+    hidden paths); 0, or 2 after one line on stderr.
 
     A ``.fmr`` file's saved representation is rendered as it is (no solve),
     unless ``--order`` or ``--method direct`` ask for another.
@@ -161,6 +163,7 @@ def render_one(source: str, output: str, args: argparse.Namespace) -> int:
     from .engine import LiveStack, Settings, check_image_memory, output_size, rasterise
     from .io import DocumentLoadError, load_fmr
     from .io.png import flattened, save_png
+    from .io.svg_export import save_svg
 
     try:
         saved = load_fmr(source) if Path(source).suffix.lower() == ".fmr" else None
@@ -187,7 +190,8 @@ def render_one(source: str, output: str, args: argparse.Namespace) -> int:
     if args.background is not None:
         image = flattened(image, args.background)
     try:
-        written = save_png(image, output)
+        svg = Path(output).suffix.lower() == ".svg"
+        written = save_svg(document, image, output) if svg else save_png(image, output)
     except OSError as error:
         print(f"fmr-editor: cannot write {output}: {error.strerror or error}", file=sys.stderr)
         return 2

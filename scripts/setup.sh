@@ -34,7 +34,8 @@ find_python() {
 # Libraries for Qt (xcb platform), OpenGL and a virtual X server for the editor and its GUI tests.
 SYSTEM_PACKAGES=(xvfb libegl1 libgl1 libglib2.0-0 libxkbcommon-x11-0 libxcb-cursor0 libxcb-icccm4
     libxcb-keysyms1 libxcb-shape0 libfontconfig1 libdbus-1-3
-    libgomp1)  # OpenMP for numba: its fallback thread pool aborts when two threads run kernels at once
+    libgomp1     # OpenMP for numba: its fallback thread pool aborts when two threads run kernels at once
+    librsvg2-bin)  # rsvg-convert: the tests render exported SVG with a third-party renderer
 if ! find_python >/dev/null; then
     # No usable Python (e.g. pyenv's) on PATH: take Debian's.
     SYSTEM_PACKAGES=(python3 python3-venv python3-pip "${SYSTEM_PACKAGES[@]}")

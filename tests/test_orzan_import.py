@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fmr_editor.io import DocumentLoadError, load_document, load_orzan, orzan, parse_orzan
+from fmr_editor.io import DocumentLoadError, load_document, load_orzan, parse_orzan, safe_xml
 from fmr_editor.model import BlurStop
 
 SAMPLE = Path(__file__).resolve().parents[1] / "resources" / "samples" / "ribbon.xml"
@@ -444,7 +444,7 @@ def test_unreadable_path_is_an_error(tmp_path: Path) -> None:
 def test_huge_file_is_refused_before_reading(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     huge = tmp_path / "huge.xml"
     with open(huge, "wb") as stream:
-        stream.truncate(orzan.MAX_FILE_BYTES + 1)  # sparse: no data written
+        stream.truncate(safe_xml.MAX_FILE_BYTES + 1)  # sparse: no data written
 
     def no_reading(*args, **kwargs):
         raise AssertionError("the file must not be opened")
@@ -455,7 +455,7 @@ def test_huge_file_is_refused_before_reading(tmp_path: Path, monkeypatch: pytest
 
 
 def test_huge_bytes_are_refused(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(orzan, "MAX_FILE_BYTES", 16)
+    monkeypatch.setattr(safe_xml, "MAX_FILE_BYTES", 16)
     assert "larger than" in str(_load_error(_orzan(_curve())))
 
 
@@ -478,10 +478,14 @@ def test_load_document_dispatches_on_suffix(tmp_path: Path) -> None:
     upper = tmp_path / "CURVES.XML"
     upper.write_bytes(_orzan(_curve()))
     assert len(load_document(upper).curves) == 1
-    other = tmp_path / "drawing.svg"
+    other = tmp_path / "drawing.svg"  # read as SVG, by its suffix: an Orzan root is not SVG
     other.write_bytes(_orzan(_curve()))
-    with pytest.raises(DocumentLoadError, match="drawing.svg: unsupported file type '.svg'"):
+    with pytest.raises(DocumentLoadError, match="drawing.svg: not an SVG file"):
         load_document(other)
+    unknown = tmp_path / "drawing.ai"
+    unknown.write_bytes(_orzan(_curve()))
+    with pytest.raises(DocumentLoadError, match="drawing.ai: unsupported file type '.ai'"):
+        load_document(unknown)
 
 
 def test_document_load_error_pickles() -> None:

@@ -192,6 +192,51 @@ def test_export_png_renders_with_the_cpu_rasteriser(ribbon, tmp_path, qtbot):
     assert editor.history.modified  # exporting is not saving
 
 
+def test_export_svg_embeds_the_png_export_and_keeps_every_curve(ribbon, tmp_path, qtbot):
+    import base64
+    import io
+
+    import defusedxml.ElementTree as SafeTree
+
+    editor = ribbon
+    recolour(editor)
+    editor.wait_idle()
+    expected = to_rgb8(rasterise(editor.workspace.frame.representation, 40, 30, samples=2))
+    target = tmp_path / "ribbon.svg"
+    editor.answers["export"] = ExportOptions(target, 40, 30, 2)
+    editor.key(Qt.Key.Key_E, Qt.KeyboardModifier.ControlModifier | Qt.KeyboardModifier.ShiftModifier)
+    qtbot.waitUntil(lambda: editor.window.job is None and target.exists(), timeout=30_000)
+    root = SafeTree.parse(target).getroot()
+    svg = "{http://www.w3.org/2000/svg}"
+    href = root.find(f"{svg}image").get("{http://www.w3.org/1999/xlink}href")
+    with Image.open(io.BytesIO(base64.b64decode(href.removeprefix("data:image/png;base64,")))) as image:
+        assert np.array_equal(np.asarray(image.convert("RGB")), expected)
+    assert len(root.findall(f".//{svg}path")) == len(editor.document.curves)
+    assert editor.window.status_label.text().startswith("Exported ribbon.svg")
+
+
+def test_import_svg_opens_its_shapes_as_curves_and_says_what_it_left_out(editor, tmp_path, qtbot):
+    from canvas_oracle import mismatches
+
+    from fmr_editor.engine import LiveStack
+    from fmr_editor.io import load_svg
+
+    drawing = tmp_path / "drawing.svg"
+    drawing.write_text('<svg xmlns="http://www.w3.org/2000/svg" width="160" height="120">'
+                       '<circle cx="60" cy="60" r="30" fill="#2060ff"/><path d="M 10 100 C 60 70 100 130 150 100"'
+                       ' stroke="#ff8000" fill="none"/><text x="5" y="15">title</text></svg>')
+    editor.answers["open"] = drawing
+    editor.key(Qt.Key.Key_I, Qt.KeyboardModifier.ControlModifier)
+    qtbot.waitUntil(lambda: editor.window.job is None and editor.workspace is not None
+                    and editor.workspace.path == drawing.absolute(), timeout=60_000)
+    editor.wait_idle()
+    assert editor.document == load_svg(drawing) and len(editor.document.curves) == 2
+    assert "not imported (only paths and shapes are): 1 text elements" in editor.window.status_label.text()
+    off = mismatches(editor.canvas.grab_image(), LiveStack(editor.document).composite, editor.canvas.device_view(),
+                     1.0)
+    assert off["inside"] == 0 and off["outside"] == 0, off
+
+
 def test_new_asks_for_the_size_and_dropping_a_file_opens_it(ribbon, tmp_path, qtbot):
     editor = ribbon
     editor.answers["size"] = (300, 200)

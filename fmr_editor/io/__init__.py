@@ -10,9 +10,11 @@ from ..model import Document
 from .errors import DocumentLoadError
 from .fmr_file import FmrFile, load_fmr, save_fmr
 from .orzan import load_orzan, parse_orzan
+from .svg_import import load_svg
 
 __all__ = [
-    "DocumentLoadError", "FmrFile", "load_document", "load_fmr", "load_orzan", "open_live", "parse_orzan", "save_fmr",
+    "DocumentLoadError", "FmrFile", "load_document", "load_fmr", "load_orzan", "load_svg", "open_live", "parse_orzan",
+    "save_fmr",
 ]
 
 
@@ -24,7 +26,8 @@ def load_document(path: str | os.PathLike) -> Document:
     path : str or os.PathLike
         ``.fmr`` (any case) is read as the native format (its document only;
         use :func:`load_fmr` for the representation too); ``.xml`` as Orzan
-        CurveSetXML or usvg SceneXML.
+        CurveSetXML or usvg SceneXML; ``.svg`` as SVG (:func:`load_svg`: its
+        paths and shapes become curves).
 
     Returns
     -------
@@ -41,8 +44,10 @@ def load_document(path: str | os.PathLike) -> Document:
         return load_fmr(path, representation=False).document
     if suffix == ".xml":
         return load_orzan(path)
+    if suffix == ".svg":
+        return load_svg(path)
     name = Path(path).name or os.fspath(path)
-    raise DocumentLoadError(name, f"unsupported file type {suffix or '(no suffix)'!r}; supported: .fmr, .xml")
+    raise DocumentLoadError(name, f"unsupported file type {suffix or '(no suffix)'!r}; supported: .fmr, .xml, .svg")
 
 
 def open_live(path: str | os.PathLike, settings: Settings | None = None, progress: Progress | None = None,
@@ -53,7 +58,8 @@ def open_live(path: str | os.PathLike, settings: Settings | None = None, progres
     with the settings they were built with, when they check out against the
     document; a representation that does not (damaged, of another document,
     of a newer engine) is rebuilt, and ``notes`` (a list, when given) gets a
-    line saying so.  Anything else is built with ``settings`` (default
+    line saying so (as it gets one for what an SVG file held that was not
+    imported).  Anything else is built with ``settings`` (default
     ``Settings()``).
 
     Raises
@@ -62,8 +68,10 @@ def open_live(path: str | os.PathLike, settings: Settings | None = None, progres
         When the file cannot be read.
     """
     settings = settings or Settings()
-    if Path(path).suffix.lower() != ".fmr":
-        return LiveStack(load_document(path), settings, progress)
+    suffix = Path(path).suffix.lower()
+    if suffix != ".fmr":
+        document = load_svg(path, notes) if suffix == ".svg" else load_document(path)
+        return LiveStack(document, settings, progress)
     saved = load_fmr(path)
     live = LiveStack(saved.document, saved.settings or settings, progress, saved.fields)
     found = list(saved.notes)

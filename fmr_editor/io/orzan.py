@@ -70,17 +70,12 @@ import math
 import os
 from dataclasses import dataclass
 from pathlib import Path
-from xml.etree.ElementTree import Element, ParseError
-
-import defusedxml.ElementTree as defused_et
-from defusedxml import DefusedXmlException, EntitiesForbidden
+from xml.etree.ElementTree import Element
 
 from ..model import BlurStop, ColorStop, DiffusionCurve, Document, limits
 from ..model.limits import shortened
 from .errors import DocumentLoadError
-
-MAX_FILE_BYTES = 256 * 1024 * 1024
-"""Larger files are refused before anything is read."""
+from .safe_xml import XmlRefused, parse_xml, read_bounded
 
 MAX_CANVAS_SIZE = limits.MAX_CANVAS_SIDE
 """Largest accepted ``image_width`` / ``image_height``."""
@@ -130,7 +125,7 @@ def load_orzan(path: str | os.PathLike) -> Document:
         malformed; the message names the file.
     """
     name = Path(path).name or os.fspath(path)
-    return parse_orzan(_read_bounded(path, name), name)
+    return parse_orzan(read_bounded(path, name), name)
 
 
 def parse_orzan(data: bytes, name: str) -> Document:
@@ -154,40 +149,9 @@ def parse_orzan(data: bytes, name: str) -> Document:
         If ``data`` is malformed; see the module docstring.
     """
     try:
-        if len(data) > MAX_FILE_BYTES:
-            raise _FormatError(f"the file is larger than {MAX_FILE_BYTES // 2**20} MiB")
-        return _document_from_root(_parse_xml(data))
-    except _FormatError as error:
+        return _document_from_root(parse_xml(data))
+    except (_FormatError, XmlRefused) as error:
         raise DocumentLoadError(name, str(error)) from None
-
-
-def _read_bounded(path: str | os.PathLike, name: str) -> bytes:
-    """The bytes of ``path``, refusing files above ``MAX_FILE_BYTES`` before reading."""
-    try:
-        if os.stat(path).st_size > MAX_FILE_BYTES:
-            raise DocumentLoadError(name, f"the file is larger than {MAX_FILE_BYTES // 2**20} MiB")
-        with open(path, "rb") as stream:
-            data = stream.read(MAX_FILE_BYTES + 1)
-    except FileNotFoundError:
-        raise DocumentLoadError(name, "file not found") from None
-    except (OSError, ValueError) as error:
-        reason = getattr(error, "strerror", None) or str(error)
-        raise DocumentLoadError(name, f"cannot read the file ({reason})") from None
-    if len(data) > MAX_FILE_BYTES:
-        raise DocumentLoadError(name, f"the file is larger than {MAX_FILE_BYTES // 2**20} MiB")
-    return data
-
-
-def _parse_xml(data: bytes) -> Element:
-    """The root element, parsed without DTD entities or external references."""
-    try:
-        return defused_et.fromstring(data, forbid_dtd=False, forbid_entities=True, forbid_external=True)
-    except EntitiesForbidden:
-        raise _FormatError("the file declares XML entities, which are refused for safety") from None
-    except DefusedXmlException as error:
-        raise _FormatError(f"the file uses an XML feature refused for safety ({error})") from None
-    except (ParseError, ValueError, LookupError) as error:
-        raise _FormatError(f"not a well-formed XML file ({error})") from None
 
 
 def _document_from_root(root: Element) -> Document:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import io
 import os
 from pathlib import Path
 
@@ -38,9 +39,21 @@ def parse_hex_colour(text: str) -> tuple[float, float, float]:
     return tuple(int(digits[i : i + 2], 16) / 255.0 for i in (0, 2, 4))
 
 
+def png_bytes(image: np.ndarray) -> bytes:
+    """``image`` (float RGB, or RGB over black with its coverage) as an 8-bit PNG: RGBA when the coverage is below
+    1 somewhere (in 8 bits), else RGB."""
+    if image.ndim != 3 or image.shape[-1] not in (3, 4):
+        raise ValueError(f"a PNG is written from an (H, W, 3) or (H, W, 4) image, not one of shape {image.shape}")
+    pixels = to_rgba8(image) if image.shape[-1] == 4 else to_rgb8(image)
+    if pixels.shape[-1] == 4 and (pixels[..., 3] == 255).all():
+        pixels = pixels[..., :3]  # opaque: the colour over black is the colour
+    stream = io.BytesIO()
+    Image.fromarray(pixels, mode="RGBA" if pixels.shape[-1] == 4 else "RGB").save(stream, format="PNG")
+    return stream.getvalue()
+
+
 def save_png(image: np.ndarray, path: str | os.PathLike) -> Path:
-    """Write ``image`` (float RGB, or RGB over black with its coverage) to ``path`` as an 8-bit PNG: RGBA when
-    the coverage is below 1 somewhere (in 8 bits), else RGB.
+    """Write ``image`` to ``path`` as ``png_bytes`` makes it.
 
     The file is written beside the target and renamed into place, so a
     failure never leaves a half-written PNG.
@@ -50,12 +63,7 @@ def save_png(image: np.ndarray, path: str | os.PathLike) -> Path:
     pathlib.Path
         The absolute path written.
     """
-    if image.ndim != 3 or image.shape[-1] not in (3, 4):
-        raise ValueError(f"a PNG is written from an (H, W, 3) or (H, W, 4) image, not one of shape {image.shape}")
+    data = png_bytes(image)
     path = Path(path).absolute()
     path.parent.mkdir(parents=True, exist_ok=True)
-    pixels = to_rgba8(image) if image.shape[-1] == 4 else to_rgb8(image)
-    if pixels.shape[-1] == 4 and (pixels[..., 3] == 255).all():
-        pixels = pixels[..., :3]  # opaque: the colour over black is the colour
-    mode = "RGBA" if pixels.shape[-1] == 4 else "RGB"
-    return write_atomically(path, lambda stream: Image.fromarray(pixels, mode=mode).save(stream, format="PNG"))
+    return write_atomically(path, lambda stream: stream.write(data))

@@ -144,6 +144,11 @@ class DiffusionCurve:
         u = 1.0 - t
         return u**3 * p0 + 3 * u * u * t * p1 + 3 * u * t * t * p2 + t**3 * p3
 
+    def inside_on_left(self) -> bool:
+        """True when the curve, taken as closed, turns anticlockwise as seen (y down): its inside on its left."""
+        x, y = self.point_at(np.linspace(0.0, self.piece_count, 24 * self.piece_count + 1)).T
+        return float(np.dot(x[:-1], y[1:]) - np.dot(x[1:], y[:-1])) < 0  # the shoelace sum, y down
+
     def left_colors_at(self, s: np.ndarray) -> np.ndarray:
         """Left-side colours at positions ``s``, shape ``(n, 3)``."""
         return interpolate_stops(self.left, s)

@@ -70,9 +70,7 @@ def _colour_stops(context: ToolContext, curve: DiffusionCurve) -> tuple[tuple[Co
         return (ColorStop(0.0, foreground),), (ColorStop(0.0, tuple(float(v) for v in options.secondary_color)),)
     left, right = options.stroke_left_alpha, options.stroke_right_alpha
     if is_closed(curve):
-        x, y = polyline(curve).T
-        inside_on_left = float(np.dot(x[:-1], y[1:]) - np.dot(x[1:], y[:-1])) < 0  # anticlockwise as seen (y down)
-        left, right = (1.0, 0.0) if inside_on_left else (0.0, 1.0)
+        left, right = (1.0, 0.0) if curve.inside_on_left() else (0.0, 1.0)
     return (ColorStop(0.0, foreground, left),), (ColorStop(0.0, foreground, right),)
 
 

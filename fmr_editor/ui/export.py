@@ -1,8 +1,9 @@
-"""Export PNG: the size and antialiasing dialog, and the export itself (CPU rasteriser).
+"""Export PNG and SVG: the size and antialiasing dialog, and the export itself (CPU rasteriser).
 
-The export runs on a ``jobs.Job``: ``export_png`` rasterises the
+The export runs on a ``jobs.Job``: ``export_picture`` rasterises the
 representation the engine built (``engine.rasterise``, the same pixels as
-``fmr-editor render``) with progress, and writes the file atomically.
+``fmr-editor render``) with progress, and writes the file atomically: a PNG,
+or an SVG of that PNG with the curves kept as hidden paths (``io.svg_export``).
 """
 
 from __future__ import annotations
@@ -27,9 +28,10 @@ from PySide6.QtWidgets import (
 
 from ..engine import Composite, LiveStack, Representation, Settings, check_image_memory, rasterise
 from ..io.png import flattened, save_png
+from ..io.svg_export import save_svg
 from ..model import Document
 from .colors import pick_color
-from .files import ask_png_path
+from .files import EXPORTS, ask_export_path
 from .gradient_bar import qcolor
 from .stops_panel import swatch
 
@@ -46,6 +48,7 @@ class ExportOptions:
     Attributes
     ----------
     path : pathlib.Path
+        A ``.svg`` path writes an SVG, any other a PNG.
     width, height : int
         Output size in pixels.
     samples : int
@@ -61,9 +64,10 @@ class ExportOptions:
     background: tuple[float, float, float] | None = None
 
 
-def export_png(options: ExportOptions, document: Document, picture: Composite | Representation | None,
-               settings: Settings = Settings(), progress: Callable[[str, float], None] | None = None) -> Path:
-    """Rasterise ``picture`` (``document``'s, built first if None) and write the PNG; returns the path written."""
+def export_picture(options: ExportOptions, document: Document, picture: Composite | Representation | None,
+                   settings: Settings = Settings(), progress: Callable[[str, float], None] | None = None) -> Path:
+    """Rasterise ``picture`` (``document``'s, built first if None) and write the PNG or SVG; returns the path
+    written."""
     check_image_memory(options.width, options.height)
     if picture is None:
         picture = LiveStack(document, settings, progress).composite
@@ -73,24 +77,28 @@ def export_png(options: ExportOptions, document: Document, picture: Composite | 
         image = flattened(image, options.background)
     if progress:
         progress("write", 1.0)
-    return save_png(image.clip(0.0, 1.0), options.path)
+    image = image.clip(0.0, 1.0)
+    if options.path.suffix.lower() == ".svg":
+        return save_svg(document, image, options.path)
+    return save_png(image, options.path)
 
 
 class ExportDialog(QDialog):
-    """Asks for the PNG's file, size (aspect kept on request) and antialiasing.
+    """Asks for the PNG's (or SVG's) file, size (aspect kept on request) and antialiasing.
 
     Parameters
     ----------
     canvas : tuple of int
         The document's canvas size (the default output size).
     path : pathlib.Path
-        The suggested file.
+        The suggested file; its suffix, ``.png`` or ``.svg``, is the kind exported.
     parent : QWidget, optional
     """
 
     def __init__(self, canvas: tuple[int, int], path: Path, parent=None) -> None:
         super().__init__(parent)
-        self.setWindowTitle("Export PNG")
+        self.suffix = path.suffix.lower() if path.suffix.lower() in EXPORTS else ".png"
+        self.setWindowTitle(EXPORTS[self.suffix][0])
         self.canvas = canvas
         self.path_edit = QLineEdit(str(path), self)
         browse = QPushButton("Browse\u2026", self)
@@ -156,15 +164,15 @@ class ExportDialog(QDialog):
             self.flatten.setChecked(True)
 
     def _browse(self) -> None:
-        chosen = ask_png_path(self, self.path_edit.text())
+        chosen = ask_export_path(self, self.path_edit.text(), self.suffix)
         if chosen is not None:
             self.path_edit.setText(str(chosen))
 
     def options(self) -> ExportOptions:
         """What the dialog shows now."""
-        path = Path(os.path.expanduser(self.path_edit.text().strip() or "export.png"))
-        if path.suffix.lower() != ".png":
-            path = path.with_name(path.name + ".png")
+        path = Path(os.path.expanduser(self.path_edit.text().strip() or f"export{self.suffix}"))
+        if path.suffix.lower() != self.suffix:
+            path = path.with_name(path.name + self.suffix)
         return ExportOptions(path, self.width_box.value(), self.height_box.value(), self.samples_box.value(),
                              self.background if self.flatten.isChecked() else None)
 

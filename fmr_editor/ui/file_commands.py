@@ -18,8 +18,8 @@ from PySide6.QtCore import QTimer
 
 from ..io import DocumentLoadError, save_fmr
 from .autosave import RecoveryDialog
-from .export import ExportDialog, ExportOptions, export_png
-from .files import NewDocumentDialog, ask_open_path, ask_save_path, openable, show_error
+from .export import ExportDialog, ExportOptions, export_picture
+from .files import IMPORT_SVG_FILTER, NewDocumentDialog, ask_open_path, ask_save_path, openable, show_error
 from .workspace import DEFAULT_SIZE, new_document, open_file, recover
 
 
@@ -51,6 +51,12 @@ class FileCommands:
     def open_document(self) -> None:
         """Ask for a document and open it."""
         path = ask_open_path(self, self._folder())
+        if path is not None:
+            self.open_path(path)
+
+    def import_svg(self) -> None:
+        """Ask for an SVG file and open its paths and shapes as a new document's curves (``io.load_svg``)."""
+        path = ask_open_path(self, self._folder(), "Import SVG", IMPORT_SVG_FILTER)
         if path is not None:
             self.open_path(path)
 
@@ -168,6 +174,14 @@ class FileCommands:
 
     def export_png(self, options: ExportOptions | None = None) -> None:
         """Export the image to PNG (asks for file, size and antialiasing unless ``options`` are given)."""
+        self._export(".png", options)
+
+    def export_svg(self, options: ExportOptions | None = None) -> None:
+        """Export the image to SVG, the picture embedded and every curve kept as a hidden path (asks as
+        ``export_png`` does)."""
+        self._export(".svg", options)
+
+    def _export(self, suffix: str, options: ExportOptions | None) -> None:
         workspace = self.workspace
         if workspace is None or self.busy:
             return
@@ -175,7 +189,7 @@ class FileCommands:
         if options is None:
             stem = workspace.path.stem if workspace.path is not None else "Untitled"
             options = ExportDialog.get_options((document.width, document.height),
-                                               Path(self._folder()) / f"{stem}.png", self)
+                                               Path(self._folder()) / f"{stem}{suffix}", self)
             if options is None:
                 return
         if self.tool is not None:
@@ -192,7 +206,7 @@ class FileCommands:
         def start(frame) -> None:
             picture = frame.picture if frame is not None and frame.document is document else None
             self._start(workspace, f"Exporting {options.path.name}",
-                        lambda progress: export_png(options, document, picture, workspace.settings, progress),
+                        lambda progress: export_picture(options, document, picture, workspace.settings, progress),
                         done, failed)
 
         workspace.when_current(start)

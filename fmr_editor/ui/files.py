@@ -16,10 +16,13 @@ from PySide6.QtWidgets import QDialog, QDialogButtonBox, QFileDialog, QFormLayou
 from ..model.limits import MAX_CANVAS_SIDE
 
 #: Suffixes the editor opens.
-OPENABLE = (".fmr", ".xml")
-OPEN_FILTER = "Documents (*.fmr *.xml);;FMR documents (*.fmr);;Orzan curve sets (*.xml);;All files (*)"
+OPENABLE = (".fmr", ".xml", ".svg")
+OPEN_FILTER = ("Documents (*.fmr *.xml *.svg);;FMR documents (*.fmr);;Orzan curve sets (*.xml);;SVG images (*.svg);;"
+               "All files (*)")
+IMPORT_SVG_FILTER = "SVG images (*.svg)"
 SAVE_FILTER = "FMR documents (*.fmr)"
-PNG_FILTER = "PNG images (*.png)"
+#: What each export writes: its dialog's title and file filter, by suffix.
+EXPORTS = {".png": ("Export PNG", "PNG images (*.png)"), ".svg": ("Export SVG", "SVG images (*.svg)")}
 #: Largest canvas side the new-canvas dialog offers, pixels.
 MAX_CANVAS = MAX_CANVAS_SIDE
 
@@ -29,9 +32,9 @@ def openable(path: str | os.PathLike) -> bool:
     return Path(path).suffix.lower() in OPENABLE
 
 
-def ask_open_path(parent, folder: str = "") -> Path | None:
+def ask_open_path(parent, folder: str = "", title: str = "Open Document", filters: str = OPEN_FILTER) -> Path | None:
     """Ask for a document to open; None when cancelled."""
-    path, _ = QFileDialog.getOpenFileName(parent, "Open Document", folder, OPEN_FILTER)
+    path, _ = QFileDialog.getOpenFileName(parent, title, folder, filters)
     return Path(path) if path else None
 
 
@@ -40,9 +43,10 @@ def ask_save_path(parent, suggested: str | os.PathLike) -> Path | None:
     return _ask_target(parent, "Save Document As", suggested, SAVE_FILTER, ".fmr")
 
 
-def ask_png_path(parent, suggested: str | os.PathLike) -> Path | None:
-    """Ask where to export a PNG (the suffix is added when missing); None when cancelled."""
-    return _ask_target(parent, "Export PNG", suggested, PNG_FILTER, ".png")
+def ask_export_path(parent, suggested: str | os.PathLike, suffix: str = ".png") -> Path | None:
+    """Ask where to export a PNG or an SVG (``suffix``, added when missing); None when cancelled."""
+    title, filters = EXPORTS[suffix]
+    return _ask_target(parent, title, suggested, filters, suffix)
 
 
 def _ask_target(parent, title: str, suggested: str | os.PathLike, filters: str, suffix: str) -> Path | None:

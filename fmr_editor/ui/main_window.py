@@ -421,7 +421,7 @@ class MainWindow(FileCommands, DocumentCommands, QMainWindow):
         gesture = self.tool is not None and self.tool.busy  # Undo drops it
         actions["undo"].setEnabled(free and (undo is not None or gesture))
         actions["redo"].setEnabled(free and redo is not None)
-        for name in ("save", "save_as", "export", "delete", "select_all", "deselect"):
+        for name in ("save", "save_as", "export", "export_svg", "delete", "select_all", "deselect"):
             actions[name].setEnabled(free and workspace is not None)
         actions["close"].setEnabled(self.shown is not None)
         for name in ("next_document", "previous_document"):

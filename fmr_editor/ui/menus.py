@@ -15,10 +15,14 @@ from ..tools import TOOLS
 #: name: (text, shortcuts, window method (or ``"part.method"`` of one of its command objects), status tip)
 ACTIONS = {
     "new": ("&New\u2026", ["Ctrl+N"], "new_document", "Start a new document (asks for the canvas size)"),
-    "open": ("&Open\u2026", ["Ctrl+O"], "open_document", "Open a .fmr document or an Orzan .xml curve set"),
+    "open": ("&Open\u2026", ["Ctrl+O"], "open_document", "Open a .fmr document, an Orzan .xml curve set or an SVG"),
+    "import_svg": ("&Import SVG\u2026", ["Ctrl+I"], "import_svg",
+                   "Open an SVG's paths and shapes as diffusion curves (stroke colour on both sides, fill inside)"),
     "save": ("&Save", ["Ctrl+S"], "save", "Save the document as .fmr"),
     "save_as": ("Save &As\u2026", ["Ctrl+Shift+S"], "save_as", "Save the document under another name"),
     "export": ("&Export PNG\u2026", ["Ctrl+E"], "export_png", "Render the image to a PNG file"),
+    "export_svg": ("Export S&VG\u2026", ["Ctrl+Shift+E"], "export_svg",
+                   "Render the image to an SVG file: the picture embedded, every curve kept as a hidden path"),
     "close": ("&Close", ["Ctrl+W"], "close_document", "Close the document (asks first about unsaved changes)"),
     "quit": ("&Quit", ["Ctrl+Q"], "close", "Close the editor"),
     "undo": ("Undo", ["Ctrl+Z"], "undo", "Undo the last step"),
@@ -74,7 +78,8 @@ LAYER_ACTIONS = ("new_layer", "duplicate_layer", "delete_layer", "merge_down", "
                  "add_hiding_mask", "delete_mask", "invert_mask", "disable_mask", "edit_mask", "adjust_colors")
 
 MENUS = (
-    ("&File", ("new", "open", "recent", None, "save", "save_as", "export", None, "close", "quit")),
+    ("&File", ("new", "open", "import_svg", "recent", None, "save", "save_as", "export", "export_svg", None, "close",
+               "quit")),
     ("&Edit", ("undo", "redo", None, "copy", "paste", "paste_seamless", None, "delete", None, "select_all",
                "deselect", None, "preferences")),
     ("&View", ("zoom_in", "zoom_out", "actual_size", "fit", None, "next_document", "previous_document", None,

@@ -1,0 +1,96 @@
+"""SVG import (issue 29): paths, lines, quadratic and cubic Beziers, arcs, shapes, transforms, viewBox sizes and
+fills become the expected curves and colours; bad SVG is refused with one clear message."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import fmr_editor
+from fmr_editor.engine import LiveStack, evaluate_points
+from fmr_editor.io import DocumentLoadError, load_svg
+from fmr_editor.model import Document
+
+RED, BLUE = (1.0, 0.0, 0.0), (0.0, 0.0, 1.0)
+
+
+def svg_file(tmp_path, body: str, size: str = 'width="100" height="80"', name: str = "drawing.svg"):
+    path = tmp_path / name
+    path.write_text(f'<svg xmlns="http://www.w3.org/2000/svg" {size}>{body}</svg>')
+    return path
+
+
+def test_lines_become_cubic_pieces_with_the_stroke_colour_on_both_sides(tmp_path):
+    document = load_svg(svg_file(tmp_path, '<path d="M 10 10 L 50 10 L 50 40" stroke="#ff0000" fill="none"/>'))
+    assert (document.width, document.height) == (100, 80) and len(document.curves) == 1
+    curve = document.curves[0]
+    third = 40 / 3
+    np.testing.assert_allclose(curve.control_points, [(10, 10), (10 + third, 10), (10 + 2 * third, 10), (50, 10),
+                                                      (50, 20), (50, 30), (50, 40)], atol=1e-12)
+    assert [(s.position, s.color, s.alpha) for s in curve.left + curve.right] == [(0.0, RED, 1.0)] * 2
+
+
+def test_a_quadratic_bezier_is_the_cubic_it_equals_and_a_cubic_is_kept(tmp_path):
+    document = load_svg(svg_file(tmp_path, '<path d="M 0 0 Q 30 60 60 0 C 70 10 80 10 90 0" stroke="blue"/>'))
+    curve = document.curves[0]
+    t = np.linspace(0, 1, 9)[:, None]
+    quadratic = (1 - t) ** 2 * [0, 0] + 2 * (1 - t) * t * [30, 60] + t**2 * [60, 0]
+    np.testing.assert_allclose(curve.point_at(t[:, 0]), quadratic, atol=1e-12)
+    np.testing.assert_allclose(curve.control_points[3:], [(60, 0), (70, 10), (80, 10), (90, 0)], atol=1e-12)
+
+
+def test_transforms_and_the_view_box_are_applied(tmp_path):
+    body = '<g transform="translate(5,7) scale(2)"><path d="M 0 0 L 10 0" stroke="black"/></g>'
+    document = load_svg(svg_file(tmp_path, body, size='width="100" height="50" viewBox="0 0 200 100"'))
+    assert (document.width, document.height) == (100, 50)  # the SVG's size in pixels; the view box is halved
+    np.testing.assert_allclose(document.curves[0].control_points[[0, -1]], [(2.5, 3.5), (12.5, 3.5)], atol=1e-12)
+    sized_by_its_box = load_svg(svg_file(tmp_path, body, size='viewBox="0 0 64 48"', name="box.svg"))
+    assert (sized_by_its_box.width, sized_by_its_box.height) == (64, 48)
+
+
+def test_a_filled_circle_covers_exactly_its_inside_and_an_arc_stays_on_its_circle(tmp_path):
+    body = ('<circle cx="50" cy="40" r="20" fill="#0000ff"/>'
+            '<path d="M 10 70 A 30 30 0 0 1 70 70" stroke="red" fill="none"/>')
+    document = load_svg(svg_file(tmp_path, body))
+    disc, arc = document.curves
+    s = np.linspace(0, disc.piece_count, 200)
+    np.testing.assert_allclose(np.hypot(*(disc.point_at(s) - (50, 40)).T), 20, atol=0.01)
+    np.testing.assert_allclose(np.hypot(*(arc.point_at(np.linspace(0, arc.piece_count, 50)) - (40, 70)).T), 30,
+                               atol=0.05)
+    inside = disc.left if disc.inside_on_left() else disc.right
+    outside = disc.right if disc.inside_on_left() else disc.left
+    assert [(s.color, s.alpha) for s in inside] == [(BLUE, 1.0)] and [s.alpha for s in outside] == [0.0]
+    # Drawn, the disc alone: blue and opaque inside, clear outside.
+    only_disc = Document(100, 80, [disc])
+    shown = evaluate_points(LiveStack(only_disc).composite, [(50, 40), (52, 45), (95, 5), (5, 75)], coverage=True)
+    np.testing.assert_allclose(shown[:2], [(*BLUE, 1.0)] * 2, atol=1e-6)
+    np.testing.assert_allclose(shown[2:, 3], 0.0, atol=1e-6)
+
+
+def test_shapes_without_paint_and_text_are_left_out_and_said(tmp_path):
+    body = ('<rect x="10" y="10" width="30" height="20" fill="none" stroke="green"/>'
+            '<path d="M 0 0 L 5 5" fill="none" stroke="none"/><text x="5" y="5">hi</text>')
+    notes = []
+    document = load_svg(svg_file(tmp_path, body), notes)
+    assert len(document.curves) == 1 and document.curves[0].piece_count == 4  # the rectangle, closed, 4 sides
+    assert notes == ["not imported (only paths and shapes are): 1 paths without stroke or fill, 1 text elements"]
+    assert fmr_editor.load(svg_file(tmp_path, body)) == document  # the Python API reads SVG by its suffix
+
+
+@pytest.mark.parametrize("content, message", [
+    ('<svg xmlns="http://www.w3.org/2000/svg" width="10" height="10"><path d="M 0 0 L 5 5"',
+     "not a well-formed XML file"),
+    ('<?xml version="1.0"?><!DOCTYPE svg [<!ENTITY a "aaaaaaaaaa">]>'
+     '<svg xmlns="http://www.w3.org/2000/svg">&a;</svg>', "XML entities, which are refused"),
+    ('<curve_set image_width="10" image_height="10"/>', "not an SVG file"),
+    ('<svg xmlns="http://www.w3.org/2000/svg" width="10" height="10"><text>hi</text></svg>',
+     "no path or shape with a stroke or a fill"),
+    ('<svg xmlns="http://www.w3.org/2000/svg" width="100000" height="10"><path d="M 0 0 L 5 5" stroke="red"/></svg>',
+     "canvas width must be 1 to"),
+])
+def test_bad_svg_is_refused_with_one_clear_message(tmp_path, content, message):
+    path = tmp_path / "bad.svg"
+    path.write_text(content)
+    with pytest.raises(DocumentLoadError, match=message) as caught:
+        load_svg(path)
+    assert str(caught.value).startswith("bad.svg: ")
