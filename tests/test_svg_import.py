@@ -119,3 +119,25 @@ def test_bad_svg_is_refused_with_one_clear_message(tmp_path, content, message):
     with pytest.raises(DocumentLoadError, match=message) as caught:
         load_svg(path)
     assert str(caught.value).startswith("bad.svg: ")
+
+
+@pytest.mark.parametrize("rule, inner", [("nonzero", "M 30 30 L 30 70 L 70 70 L 70 30 Z"),  # turning against
+                                         ("evenodd", "M 30 30 L 70 30 L 70 70 L 30 70 Z")])  # turning along
+def test_a_hole_stays_clear(tmp_path, rule, inner):
+    body = f'<path fill-rule="{rule}" fill="#ff0000" d="M 10 10 L 90 10 L 90 90 L 10 90 Z {inner}"/>'
+    document = load_svg(svg_file(tmp_path, body, size='width="100" height="100"'))
+    assert len(document.layers) == 1 and len(document.curves) == 2
+    shown = evaluate_points(LiveStack(document).composite, [(50, 50), (20, 50), (50, 80), (95, 95)], coverage=True)
+    np.testing.assert_allclose(shown[:, 3], [0.0, 1.0, 1.0, 0.0], atol=1e-6)  # hole, ring, ring, outside
+    np.testing.assert_allclose(shown[1:3, :3], [RED, RED], atol=1e-6)
+
+
+def test_shapes_apart_share_a_layer_and_overlapping_ones_stack_in_painting_order(tmp_path):
+    body = ('<circle id="a" cx="20" cy="20" r="10" fill="red"/><circle id="b" cx="70" cy="20" r="10" fill="blue"/>'
+            '<circle id="c" cx="28" cy="20" r="10" fill="#00ff00"/><circle id="d" cx="70" cy="60" r="10" fill="red"/>')
+    document = load_svg(svg_file(tmp_path, body))
+    assert [layer.name for layer in document.layers] == ["a and 2 more", "c"]  # d overlaps nothing: at the bottom
+    assert [len(layer.curves) for layer in document.layers] == [3, 1]
+    shown = evaluate_points(LiveStack(document).composite, [(24, 20), (70, 20), (70, 60), (45, 45)], coverage=True)
+    # Shapes of other colours in one layer reach each other through its far field: a quarter of a level here.
+    np.testing.assert_allclose(shown, [(0, 1, 0, 1), (*BLUE, 1), (*RED, 1), (0, 0, 0, 0)], atol=1e-3)

@@ -6,19 +6,20 @@ polylines, polygons) into paths and arcs into cubic Beziers.  Each subpath becom
 pieces: a line as a cubic with its handles at a third and two thirds, a quadratic Bezier raised to the
 cubic it is.  Its colours, and where it goes:
 
-- an element with a fill is a layer of its own, in the SVG's painting order: each of its subpaths,
-  closed as SVG closes them to fill, has the fill inside, opaque, and outside the stroke's colour (the
-  fill's where there is no stroke) at alpha 0, so that the shape covers exactly its inside, over the
-  shapes painted before it;
+- an element with a fill is a layer over the shapes painted before it: each of its subpaths, closed as
+  SVG closes them to fill, has the fill inside, opaque, and outside the stroke's colour (the fill's where
+  there is no stroke) at alpha 0, so that the shape covers exactly its inside;
 - an element with a stroke only (line art) has the stroke's colour on both sides of each subpath, at the
   colour's own alpha: these diffuse together into the bottom layer, "Lines";
 - one with neither stroke nor fill is left out (it shows nothing).
 
-A filled shape that covers the whole canvas (a background) becomes a layer of its one colour
-(``T(v) = fill``, at the fill's alpha as its opacity) instead: the canvas border owns lines along it,
-so its outline, on or beyond the border, would leave no curve to give the colour.
-
-Past ``MAX_SHAPE_LAYERS`` filled shapes, the rest share the last layer (``notes`` says so).
+Filled shapes apart from every earlier one they do not overlap share a layer (``Shapes``: the same
+picture, each being clear outside), so that a drawing of many shapes makes few layers.  Which side of an
+outline is filled is read off the region its element fills (even-odd, or nonzero as holes usually make
+it), so that holes stay clear.  A filled shape that covers the whole canvas (a background) becomes a layer
+of its one colour (``T(v) = fill``, at the fill's alpha as its opacity) instead: the canvas border owns
+lines along it, so its outline, on or beyond the border, would leave no curve to give the colour.  Past
+``MAX_SHAPE_LAYERS`` layers of shapes, the rest share the last (``notes`` says so).
 
 The canvas is the SVG's ``width`` x ``height`` in pixels (from the ``viewBox`` when they are absent),
 rounded up.  Text, images and anything else that is not a path is left out, and ``notes`` says so; a file
@@ -71,27 +72,22 @@ def parse_svg(data: bytes, name: str, notes: list[str] | None = None) -> Documen
         svg = svgelements.SVG.parse(io.BytesIO(data))
         width, height = _canvas(svg)
         limits.check_canvas(width, height)
-        lines, shapes, left_out = [], [], {}
+        lines, shapes, left_out = [], Shapes(width, height), {}
         for element in svg.elements():
             if isinstance(element, svgelements.Shape):
-                made, filled = _curves(element)
-                if not made:
+                stroke, fill = _colour(element.stroke), _colour(element.fill)
+                if stroke is None and fill is None:
                     left_out["paths without stroke or fill"] = left_out.get("paths without stroke or fill", 0) + 1
-                elif filled:
-                    name_ = element.id or f"{type(element).__name__} {len(shapes) + 1}"
-                    shapes.append(_background(made[0], name_) if _covers(made, width, height)
-                                  else Layer(tuple(made), name=name_))
+                elif fill is None:
+                    lines += _lines(element, stroke)
                 else:
-                    lines += made
+                    shapes.add(element, fill, stroke or fill)
             elif isinstance(element, (svgelements.Text, svgelements.Image)):
                 kind = f"{type(element).__name__.lower()} elements"
                 left_out[kind] = left_out.get(kind, 0) + 1
-        if len(shapes) > MAX_SHAPE_LAYERS:
-            surplus = shapes[MAX_SHAPE_LAYERS - 1 :]
-            shapes[MAX_SHAPE_LAYERS - 1 :] = [Layer(tuple(c for layer in surplus for c in layer.curves),
-                                                    name=f"Shapes {MAX_SHAPE_LAYERS}-{len(shapes)}")]
-            left_out[f"separate layers past {MAX_SHAPE_LAYERS} (the rest share the last)"] = len(surplus) - 1
-        layers = ((Layer(tuple(lines), name="Lines"),) if lines else ()) + tuple(shapes)
+        layers = ((Layer(tuple(lines), name="Lines"),) if lines else ()) + shapes.layers()
+        if shapes.merged:
+            left_out[f"separate layers past {MAX_SHAPE_LAYERS} (the rest share the last)"] = shapes.merged
         if not layers:
             raise DocumentLoadError(name, "no path or shape with a stroke or a fill to import")
         document = Document(width, height, layers=layers, active=len(layers) - 1)
@@ -122,42 +118,100 @@ def _colour(paint) -> tuple[tuple[float, float, float], float] | None:
     return (paint.red / 255.0, paint.green / 255.0, paint.blue / 255.0), paint.alpha / 255.0
 
 
-def _curves(element: svgelements.Shape) -> tuple[list[DiffusionCurve], bool]:
-    """The curves of ``element``'s subpaths, coloured as the module says, and whether it is filled."""
-    stroke, fill = _colour(element.stroke), _colour(element.fill)
-    line = stroke or fill
-    if line is None:
-        return [], False
+def _subpaths(element: svgelements.Shape, close: bool) -> list[np.ndarray]:
+    """The control points of ``element``'s subpaths as cubic chains (closed, when ``close``, as SVG closes
+    them to fill)."""
     path = svgelements.Path(element.segments())  # with its transform (``Path(shape)`` drops a shape's)
     path.approximate_arcs_with_cubics()
-    curves = []
-    for subpath in path.as_subpaths():
-        control = _cubic_chain(list(subpath), close=fill is not None)
-        if control is None:
-            continue
-        if fill is not None:
-            inside = (ColorStop(0.0, fill[0], fill[1]),)
-            outside = (ColorStop(0.0, line[0], 0.0),)
-            left, right = (inside, outside) if DiffusionCurve(control).inside_on_left() else (outside, inside)
-        else:
-            left = right = (ColorStop(0.0, line[0], line[1]),)
-        curves.append(DiffusionCurve(control, left, right))
-    return curves, fill is not None
+    chains = (_cubic_chain(list(subpath), close) for subpath in path.as_subpaths())
+    return [chain for chain in chains if chain is not None]
 
 
-def _covers(curves: list[DiffusionCurve], width: int, height: int) -> bool:
-    """True when ``curves`` are one closed outline around the whole canvas."""
-    if len(curves) != 1:
-        return False
-    curve = curves[0]
-    outline = shapely.Polygon(curve.point_at(np.linspace(0.0, curve.piece_count, 16 * curve.piece_count + 1)))
-    return outline.is_valid and outline.buffer(1e-6 * max(width, height)).covers(shapely.box(0, 0, width, height))
+def _lines(element: svgelements.Shape, stroke: tuple) -> list[DiffusionCurve]:
+    """Line art: each subpath with the stroke's colour on both sides."""
+    stops = (ColorStop(0.0, stroke[0], stroke[1]),)
+    return [DiffusionCurve(control, stops, stops) for control in _subpaths(element, close=False)]
 
 
-def _background(curve: DiffusionCurve, name: str) -> Layer:
-    """A layer of the one colour inside ``curve``, at its alpha."""
-    inside = (curve.left if curve.left[0].alpha > 0 else curve.right)[0]
-    return Layer(name=name, transform=ColorTransform(np.zeros((3, 3)), inside.color), opacity=inside.alpha)
+def _sampled(curve: DiffusionCurve, per_piece: int = 16) -> np.ndarray:
+    return curve.point_at(np.linspace(0.0, curve.piece_count, per_piece * curve.piece_count + 1))
+
+
+def filled_region(outlines: list[DiffusionCurve], even_odd: bool):
+    """The region a fill paints inside closed ``outlines`` (a shapely geometry): even-odd, or by the nonzero
+    rule as holes usually make it (outlines turning against the largest one cut it, the others add)."""
+    polygons = [shapely.make_valid(shapely.Polygon(_sampled(curve))) for curve in outlines]
+    if even_odd:
+        region = polygons[0]
+        for polygon in polygons[1:]:
+            region = region.symmetric_difference(polygon)
+        return region
+    turns = [curve.inside_on_left() for curve in outlines]
+    main = turns[int(np.argmax([polygon.area for polygon in polygons]))]
+    added = shapely.union_all([p for p, turn in zip(polygons, turns) if turn == main])
+    return added.difference(shapely.union_all([p for p, turn in zip(polygons, turns) if turn != main]))
+
+
+def fill_on_left(curve: DiffusionCurve, region, probe: float = 0.05) -> bool:
+    """True when ``region`` lies on ``curve``'s left: most of a few points ``probe`` px to its left are in it."""
+    s = (np.arange(5) + 0.5) / 5 * curve.piece_count
+    points, ahead = curve.point_at(s), curve.point_at(np.minimum(s + 1e-3, curve.piece_count))
+    direction = ahead - points
+    left = np.stack([direction[:, 1], -direction[:, 0]], axis=1)  # the left as seen, y down
+    left /= np.maximum(np.hypot(*left.T), 1e-300)[:, None]
+    return int(shapely.contains_xy(region, *(points + probe * left).T).sum()) >= 3
+
+
+class Shapes:
+    """Filled shapes, each on the lowest layer above every earlier shape it overlaps: shapes apart from one
+    another share a layer (the same picture, each being clear outside), and painting order holds where
+    they overlap; a shape covering the canvas is a layer of its colour.
+
+    Attributes
+    ----------
+    merged : int
+        Shapes that went into the last layer because there were ``MAX_SHAPE_LAYERS`` already.
+    """
+
+    def __init__(self, width: int, height: int) -> None:
+        self.canvas = shapely.box(0, 0, width, height)
+        self.levels: list[list[tuple[str, DiffusionCurve | Layer]]] = []
+        self.footprints: list[tuple[int, object]] = []  # (level, region) of each shape so far
+        self.merged = 0
+
+    def add(self, element: svgelements.Shape, fill: tuple, outside: tuple) -> None:
+        """Place ``element``, of ``fill`` inside and the colour ``outside`` (at alpha 0) outside."""
+        outlines = [DiffusionCurve(control) for control in _subpaths(element, close=True)]
+        if not outlines:
+            return
+        region = filled_region(outlines, str(element.values.get("fill-rule", "")).lower() == "evenodd")
+        level = 1 + max((at for at, other in self.footprints if other.intersects(region)), default=-1)
+        if level >= MAX_SHAPE_LAYERS:
+            level, self.merged = MAX_SHAPE_LAYERS - 1, self.merged + 1
+        self.footprints.append((level, region))
+        while len(self.levels) <= level:
+            self.levels.append([])
+        name = element.id or f"{type(element).__name__} {len(self.footprints)}"
+        if region.buffer(1e-6 * self.canvas.length).covers(self.canvas):  # a background: see the module
+            background = Layer(name=name, transform=ColorTransform(np.zeros((3, 3)), fill[0]), opacity=fill[1])
+            self.levels[level].append((name, background))
+            return
+        inside, clear = (ColorStop(0.0, fill[0], fill[1]),), (ColorStop(0.0, outside[0], 0.0),)
+        for curve in outlines:
+            left, right = (inside, clear) if fill_on_left(curve, region) else (clear, inside)
+            self.levels[level].append((name, DiffusionCurve(curve.control_points, left, right)))
+
+    def layers(self) -> tuple[Layer, ...]:
+        """The layers, bottom first: per level its background, or its shapes' curves."""
+        made = []
+        for items in self.levels:
+            made += [item for _, item in items if isinstance(item, Layer)]
+            curves = tuple(item for _, item in items if isinstance(item, DiffusionCurve))
+            names = list(dict.fromkeys(name for name, item in items if isinstance(item, DiffusionCurve)))
+            if curves:
+                name = names[0] if len(names) == 1 else f"{names[0]} and {len(names) - 1} more"
+                made.append(Layer(curves, name=name))
+        return tuple(made)
 
 
 def _cubic_chain(segments: list, close: bool) -> np.ndarray | None:
