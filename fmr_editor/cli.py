@@ -79,6 +79,8 @@ def _parser() -> argparse.ArgumentParser:
     render.add_argument("--order", type=int, help="degree of the cell polynomials (default 8)")
     render.add_argument("--method", choices=("fmr", "direct"), default="fmr",
                         help="fmr (default) or direct summation (slow, for checking)")
+    render.add_argument("--blur", action="store_true",
+                        help="soften the picture by its curves' blur stops (not yet shown by the editor)")
     render.add_argument("--background", type=_colour, metavar="RRGGBB",
                         help="lay a picture that is not opaque on this colour (default: an RGBA PNG)")
     compose = commands.add_parser("compose", help="layer TOP over BOTTOM into a two-layer .fmr document")
@@ -174,7 +176,7 @@ def render_one(source: str, output: str, args: argparse.Namespace) -> int:
     progress = StderrProgress()
     try:
         check_image_memory(*output_size(document.width, document.height, args.width, args.height))
-        if saved is not None and args.order is None and args.method == "fmr":
+        if saved is not None and args.order is None and args.method == "fmr" and not args.blur:
             picture = saved.composite  # every representation saved: no solve
             if picture is None:
                 picture = LiveStack(document, saved.settings or Settings(), progress, saved.fields).composite
@@ -182,8 +184,8 @@ def render_one(source: str, output: str, args: argparse.Namespace) -> int:
                               coverage=True)
             image = image.clip(0.0, 1.0)
         else:
-            image = render_image(document, args.width, args.height, samples=args.samples,
-                                 order=args.order, method=args.method, progress=progress, coverage=True)
+            image = render_image(document, args.width, args.height, samples=args.samples, order=args.order,
+                                 method=args.method, progress=progress, coverage=True, blur=args.blur)
     except (ValueError, MemoryError) as error:
         print(f"fmr-editor: cannot render {source}: {error}", file=sys.stderr)
         return 2

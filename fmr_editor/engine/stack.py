@@ -20,6 +20,7 @@ import numpy as np
 
 from ..model import Document
 from ..model.alpha import alpha_image
+from ..model.blur import blur_image
 from ..model.layer import Layer
 from ..model.limits import check_document
 from .cloning import LiveClone
@@ -125,6 +126,7 @@ class LiveStack:
         self.document = document
         self.fields: dict[FieldKey, LiveRepresentation] = {}
         self._factorisations = SharedFactorisations()  # a translucent layer's image and alpha share theirs
+        self._blurs: dict[int, LiveRepresentation] = {}  # blur fields by layer id, solved when first asked for
         self._retired: OrderedDict[FieldKey, LiveRepresentation] = OrderedDict()
         self.clones: dict[int, LiveClone] = {}
         self._below: dict[int, tuple] = {}  # per clone layer id, what lay below it when it was blended
@@ -281,6 +283,20 @@ class LiveStack:
         """``layer``'s alpha field; None for an opaque layer."""
         live = self.fields.get((layer.id, Role.ALPHA))
         return live.representation if live is not None else None
+
+    def blur(self, layer: Layer) -> Representation | None:
+        """``layer``'s blur field (``model.blur``; None when nothing of it is blurred): solved when first asked
+        for, with the layer image's factorisation, and brought up to date when asked for again."""
+        image = blur_image(layer)
+        if image is None:
+            return None
+        flat = self.document.flat(image)
+        live = self._blurs.get(layer.id)
+        if live is None:
+            live = self._blurs[layer.id] = LiveRepresentation(flat, self.settings, shared=self._factorisations)
+        elif _items_changed(live.document, flat):
+            live.update(flat)
+        return live.representation
 
     @property
     def representation(self) -> Representation:

@@ -43,14 +43,15 @@ class ColorStop:
 
 @dataclass(frozen=True)
 class BlurStop:
-    """A blur amount at a position along a curve (kept, not yet rendered).
+    """A blur amount at a position along a curve (``model.blur``; drawn by ``engine.blur`` on request).
 
     Parameters
     ----------
     position : float
         Position along the chain in piece units.
     blur : float
-        Blur scale (Orzan's ``best_scale``, in pixels).
+        The deviation of the Gaussian that softens the picture there, in document pixels (Orzan's
+        ``best_scale`` read as it is: its conversion is not checked yet).
     """
 
     position: float
