@@ -141,3 +141,12 @@ def test_shapes_apart_share_a_layer_and_overlapping_ones_stack_in_painting_order
     shown = evaluate_points(LiveStack(document).composite, [(24, 20), (70, 20), (70, 60), (45, 45)], coverage=True)
     # Shapes of other colours in one layer reach each other through its far field: a quarter of a level here.
     np.testing.assert_allclose(shown, [(0, 1, 0, 1), (*BLUE, 1), (*RED, 1), (0, 0, 0, 0)], atol=1e-3)
+
+
+def test_too_many_curves_are_refused_while_importing(tmp_path, monkeypatch):
+    from fmr_editor.model import limits
+
+    monkeypatch.setattr(limits, "MAX_CURVES", 3)
+    body = "".join(f'<path d="M 0 {y} L 50 {y}" stroke="red" fill="none"/>' for y in range(10, 60, 10))
+    with pytest.raises(DocumentLoadError, match="drawing.svg: more than 3 curves to import"):
+        load_svg(svg_file(tmp_path, body))

@@ -82,6 +82,8 @@ def parse_svg(data: bytes, name: str, notes: list[str] | None = None) -> Documen
                     lines += _lines(element, stroke)
                 else:
                     shapes.add(element, fill, stroke or fill)
+                if len(lines) + shapes.curves > limits.MAX_CURVES:  # before the work grows further
+                    raise DocumentLoadError(name, f"more than {limits.MAX_CURVES:,} curves to import")
             elif isinstance(element, (svgelements.Text, svgelements.Image)):
                 kind = f"{type(element).__name__.lower()} elements"
                 left_out[kind] = left_out.get(kind, 0) + 1
@@ -171,13 +173,17 @@ class Shapes:
     ----------
     merged : int
         Shapes that went into the last layer because there were ``MAX_SHAPE_LAYERS`` already.
+    curves : int
+        Curves made so far.
     """
 
     def __init__(self, width: int, height: int) -> None:
         self.canvas = shapely.box(0, 0, width, height)
         self.levels: list[list[tuple[str, DiffusionCurve | Layer]]] = []
         self.footprints: list[tuple[int, object]] = []  # (level, region) of each shape so far
-        self.merged = 0
+        self.boxes = np.empty((64, 4))  # their bounding boxes (the first len(footprints) rows), to find the
+        # ones that may overlap at once
+        self.merged = self.curves = 0
 
     def add(self, element: svgelements.Shape, fill: tuple, outside: tuple) -> None:
         """Place ``element``, of ``fill`` inside and the colour ``outside`` (at alpha 0) outside."""
@@ -185,10 +191,17 @@ class Shapes:
         if not outlines:
             return
         region = filled_region(outlines, str(element.values.get("fill-rule", "")).lower() == "evenodd")
-        level = 1 + max((at for at, other in self.footprints if other.intersects(region)), default=-1)
+        box, boxes = np.array(region.bounds), self.boxes[: len(self.footprints)]
+        near = np.flatnonzero((boxes[:, 0] <= box[2]) & (box[0] <= boxes[:, 2])
+                              & (boxes[:, 1] <= box[3]) & (box[1] <= boxes[:, 3]))
+        level = 1 + max((self.footprints[k][0] for k in near if self.footprints[k][1].intersects(region)), default=-1)
         if level >= MAX_SHAPE_LAYERS:
             level, self.merged = MAX_SHAPE_LAYERS - 1, self.merged + 1
+        if len(self.footprints) == len(self.boxes):
+            self.boxes = np.concatenate([self.boxes, np.empty_like(self.boxes)])
+        self.boxes[len(self.footprints)] = box
         self.footprints.append((level, region))
+        self.curves += len(outlines)
         while len(self.levels) <= level:
             self.levels.append([])
         name = element.id or f"{type(element).__name__} {len(self.footprints)}"
@@ -198,7 +211,8 @@ class Shapes:
             return
         inside, clear = (ColorStop(0.0, fill[0], fill[1]),), (ColorStop(0.0, outside[0], 0.0),)
         for curve in outlines:
-            left, right = (inside, clear) if fill_on_left(curve, region) else (clear, inside)
+            filled_left = curve.inside_on_left() if len(outlines) == 1 else fill_on_left(curve, region)
+            left, right = (inside, clear) if filled_left else (clear, inside)
             self.levels[level].append((name, DiffusionCurve(curve.control_points, left, right)))
 
     def layers(self) -> tuple[Layer, ...]:
