@@ -6,10 +6,11 @@ layer at ``x`` is its picture convolved with that Gaussian centred at ``x``, the
 (as it does for the colours).  Its image and alpha fields are blurred so; its mask is not.
 
 ``blurred`` is the fast path on a raster: the image prefiltered at a ladder of standard deviations
-(``LEVEL_RATIO`` apart, reflecting), each pixel interpolating linearly in the deviation between the two
-levels about its own.  A raster's pixel is the mean of the picture over it, so each level's kernel is the
-Gaussian integrated over each pixel (``pixel_kernel``), not sampled at its centre: a picture constant on
-each pixel is blurred exactly (a sampled kernel misses an edge's normal CDF by a level at 1.5 px).
+(``LEVEL_RATIO`` apart, reflecting, in single precision), each pixel interpolating linearly in the
+deviation between the two levels about its own.  A raster's pixel is the mean of the picture over it, so
+each level's kernel is the Gaussian integrated over each pixel (``pixel_kernel``), not sampled at its
+centre: a picture constant on each pixel is blurred exactly (a sampled kernel misses an edge's normal CDF
+by a level at 1.5 px).
 ``blurred_reference`` is the plain sum, pixel by pixel, of a finely sampled picture under each pixel's
 own Gaussian, averaged over the pixel.  Being in document pixels, the blur scales with the output: a
 raster twice as large is blurred by twice as many of its pixels.
@@ -28,9 +29,10 @@ from .composite import Composite, Role, compose
 from .raster import output_size, rasterise
 from .representation import Representation
 
-#: Successive prefiltered deviations differ by this factor: the interpolation's error, about
-#: ``(ratio - 1)^2 / 8`` of an edge's contrast, stays below half an 8-bit level.
-LEVEL_RATIO = 1.08
+#: Successive prefiltered deviations differ by this factor: interpolating between them, an edge under any
+#: blur from 0.3 to 12 px is off its normal CDF by 0.35 of an 8-bit level at most (1.08: 0.06, at twice the
+#: levels).
+LEVEL_RATIO = 1.2
 #: The smallest deviation prefiltered (pixels); below it, pixels interpolate from the sharp image (an edge's
 #: blur is flat there: Phi(-0.5 / 0.1) = 3e-7, so halfway the interpolation is off by half Phi(-2.5), 0.003).
 FIRST_LEVEL = 0.2
@@ -67,6 +69,7 @@ def blurred(image: np.ndarray, sigma: np.ndarray) -> np.ndarray:
     sigma = np.maximum(sigma, 0.0)
     ladder = levels(float(sigma.max()))
     out = image.copy()
+    image = image.astype(np.float32)  # filtered in single precision: 1e-7 of a colour, twice as fast
     lower = image
     for k in range(1, len(ladder)):
         low, high = ladder[k - 1], ladder[k]
