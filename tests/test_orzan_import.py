@@ -214,10 +214,12 @@ def test_extension_tags_are_ignored() -> None:
     assert extended == plain
 
 
-def test_blur_values_are_kept() -> None:
+def test_blur_values_are_kept_as_deviations() -> None:
+    from fmr_editor.io.orzan import BEST_SCALE_DEVIATION
+
     blur = '<best_scale value="3.5" globalID="10" /><best_scale value="0" globalID="0" />'
     curve = parse_orzan(_orzan(_curve(blur=blur)), NAME).curves[0]
-    assert curve.blur == (BlurStop(0.0, 0.0), BlurStop(1.0, 3.5))
+    assert curve.blur == (BlurStop(0.0, 0.0), BlurStop(1.0, 3.5 * BEST_SCALE_DEVIATION))
 
 
 @pytest.mark.parametrize(

@@ -51,7 +51,7 @@ class BlurStop:
         Position along the chain in piece units.
     blur : float
         The deviation of the Gaussian that softens the picture there, in document pixels (Orzan's
-        ``best_scale`` read as it is: its conversion is not checked yet).
+        ``best_scale`` times ``io.orzan.BEST_SCALE_DEVIATION``).
     """
 
     position: float
