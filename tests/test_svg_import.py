@@ -112,6 +112,12 @@ def test_shapes_without_paint_and_text_are_left_out_and_said(tmp_path):
      "no path or shape with a stroke or a fill"),
     ('<svg xmlns="http://www.w3.org/2000/svg" width="100000" height="10"><path d="M 0 0 L 5 5" stroke="red"/></svg>',
      "canvas width must be 1 to"),
+    ('<svg xmlns="http://www.w3.org/2000/svg" width="10" height="10"><path d="M 0 0 L 1e308 1e308 L 5 5" '
+     'stroke="red"/></svg>', "control points must be finite"),
+    ('<svg xmlns="http://www.w3.org/2000/svg" width="10" height="10">' + "<g>" * 5000
+     + '<path d="M 0 0 L 5 5" stroke="red"/>' + "</g>" * 5000 + "</svg>", "nests too deeply"),
+    ('<svg xmlns="http://www.w3.org/2000/svg" xmlns:xlink="http://www.w3.org/1999/xlink" width="10" height="10">'
+     '<g id="a"><use xlink:href="#a"/></g><path d="M 0 0 L 5 5" stroke="red"/></svg>', "nests too deeply"),
 ])
 def test_bad_svg_is_refused_with_one_clear_message(tmp_path, content, message):
     path = tmp_path / "bad.svg"

@@ -96,6 +96,8 @@ def parse_svg(data: bytes, name: str, notes: list[str] | None = None) -> Documen
         limits.check_document(document)
     except DocumentLoadError:
         raise
+    except RecursionError:  # svgelements follows groups and uses by recursion
+        raise DocumentLoadError(name, "the SVG nests too deeply (groups or uses within one another)") from None
     except (ValueError, TypeError, ZeroDivisionError, OverflowError) as error:  # the model's refusals among them
         raise DocumentLoadError(name, f"cannot import the SVG ({error})") from None
     if notes is not None and left_out:
