@@ -160,8 +160,8 @@ FMR_MUTATIONS = [flip_bytes, truncate, member_bytes, member_array, json_value]
 
 
 def mutated(data: bytes, suffix: str, seed: int, slow: bool = False) -> tuple[str, bytes]:
-    """The mutation ``seed`` chooses for a file of ``suffix`` (``.xml`` or ``.fmr``), from the slow ones too if
-    ``slow``: its name and its bytes."""
+    """The mutation ``seed`` chooses for a file of ``suffix`` (``.xml``, ``.svg`` or ``.fmr``; an SVG is
+    mutated as XML is), from the slow ones too if ``slow``: its name and its bytes."""
     rng = np.random.default_rng(seed)
     kinds = FMR_MUTATIONS if suffix == ".fmr" else XML_MUTATIONS + (SLOW_XML_MUTATIONS if slow else [])
     kind = kinds[int(rng.integers(0, len(kinds)))]

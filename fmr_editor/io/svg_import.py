@@ -98,8 +98,10 @@ def parse_svg(data: bytes, name: str, notes: list[str] | None = None) -> Documen
         raise
     except RecursionError:  # svgelements follows groups and uses by recursion
         raise DocumentLoadError(name, "the SVG nests too deeply (groups or uses within one another)") from None
-    except (ValueError, TypeError, ZeroDivisionError, OverflowError) as error:  # the model's refusals among them
+    except ValueError as error:  # the model's refusals among them
         raise DocumentLoadError(name, f"cannot import the SVG ({error})") from None
+    except Exception as error:  # svgelements meets malformed input with whatever error comes (found by fuzzing)
+        raise DocumentLoadError(name, f"cannot import the SVG ({type(error).__name__}: {error})") from None
     if notes is not None and left_out:
         notes.append("not imported (only paths and shapes are): "
                      + ", ".join(f"{count} {kind}" for kind, count in left_out.items()))
