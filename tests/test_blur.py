@@ -14,7 +14,7 @@ from shapes import straight_chain
 from fmr_editor import render_image
 from fmr_editor.engine import LiveStack, build, rasterise
 from fmr_editor.engine.blur import blurred, blurred_reference
-from fmr_editor.model import BlurStop, ColorStop, DiffusionCurve, Document
+from fmr_editor.model import BlurStop, ColorStop, DiffusionCurve, Document, Layer, edits, layer_edits
 
 LEVEL = 1 / 255
 WHITE, BLACK = (1.0, 1.0, 1.0), (0.0, 0.0, 0.0)
@@ -75,6 +75,14 @@ def test_the_blur_field_is_the_colour_field_of_the_blur_values():
     np.testing.assert_allclose(field, expected, atol=1e-9)
     assert stack.fields[document.layer.id, "image"].factorisations == 1
     assert stack._blurs[document.layer.id].factorisations == 0  # the image's factorisation, shared
+    moved = edits.translate(document, (3.0, 2.0), curves=[curve.id])
+    stack.update(moved)
+    expected = rasterise(build(Document(128, 64, [replace(greys[0], control_points=moved.curves[0].control_points),
+                                                  greys[1]])), 64, 32, samples=1)
+    np.testing.assert_allclose(rasterise(stack.blur(moved.layer), 64, 32, samples=1), expected, atol=1e-6)
+    stack.update(layer_edits.add_layer(moved, Layer((ring,), name="other")))
+    stack.update(layer_edits.remove_layer(layer_edits.select_layer(stack.document, 0), 0))
+    assert not stack._blurs  # the removed layer's blur field goes with it
 
 
 def test_the_fast_blur_follows_the_plain_sum_where_the_blur_varies():

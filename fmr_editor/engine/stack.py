@@ -178,6 +178,8 @@ class LiveStack:
             self._retired[key] = self.fields.pop(key)
             while len(self._retired) > RETIRED:
                 self._retired.popitem(last=False)
+        layers = {layer.id for layer in document.layers}
+        self._blurs = {key: live for key, live in self._blurs.items() if key in layers}
         self.document = document
         return updates
 
