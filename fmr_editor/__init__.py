@@ -55,8 +55,8 @@ def render_image(document, width=None, height=None, samples=3, *, order=None, me
                 else Settings(order=order, propagation_order=max(order, Settings().propagation_order)))
     stack = LiveStack(document, settings, progress)
     picture = stack.composite
-    blurs = {layer.id: stack.blur(layer) for layer in document.layers} if blur else {}
-    blurs = {key: rep for key, rep in blurs.items() if rep is not None}
+    fields = {layer.id: stack.blur(layer) for layer in document.layers} if blur else {}
+    blurs = {key: rep for key, rep in fields.items() if rep is not None}
     if blurs:
         from .engine.blur import rasterise_blurred
 

@@ -163,9 +163,8 @@ def render_one(source: str, output: str, args: argparse.Namespace) -> int:
     """
     from . import load, render_image
     from .engine import LiveStack, Settings, check_image_memory, output_size, rasterise
-    from .io import DocumentLoadError, load_fmr
-    from .io.png import flattened, save_png
-    from .io.svg_export import save_svg
+    from .io import DocumentLoadError, load_fmr, save_picture
+    from .io.png import flattened
 
     try:
         saved = load_fmr(source) if Path(source).suffix.lower() == ".fmr" else None
@@ -192,8 +191,7 @@ def render_one(source: str, output: str, args: argparse.Namespace) -> int:
     if args.background is not None:
         image = flattened(image, args.background)
     try:
-        svg = Path(output).suffix.lower() == ".svg"
-        written = save_svg(document, image, output) if svg else save_png(image, output)
+        written = save_picture(document, image, output)
     except OSError as error:
         print(f"fmr-editor: cannot write {output}: {error.strerror or error}", file=sys.stderr)
         return 2

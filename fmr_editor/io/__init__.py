@@ -10,15 +10,17 @@ from ..model import Document
 from .errors import DocumentLoadError
 from .fmr_file import FmrFile, load_fmr, save_fmr
 from .orzan import load_orzan, parse_orzan
+from .png import save_png
+from .svg_export import save_svg
 from .svg_import import load_svg
 
 __all__ = [
     "DocumentLoadError", "FmrFile", "load_document", "load_fmr", "load_orzan", "load_svg", "open_live", "parse_orzan",
-    "save_fmr",
+    "save_fmr", "save_picture",
 ]
 
 
-def load_document(path: str | os.PathLike) -> Document:
+def load_document(path: str | os.PathLike, notes: list[str] | None = None) -> Document:
     """Load a document, choosing the reader by the file's suffix.
 
     Parameters
@@ -28,6 +30,8 @@ def load_document(path: str | os.PathLike) -> Document:
         use :func:`load_fmr` for the representation too); ``.xml`` as Orzan
         CurveSetXML or usvg SceneXML; ``.svg`` as SVG (:func:`load_svg`: its
         paths and shapes become curves).
+    notes : list, optional
+        Gets a line for what an SVG file held that was not imported.
 
     Returns
     -------
@@ -45,7 +49,7 @@ def load_document(path: str | os.PathLike) -> Document:
     if suffix == ".xml":
         return load_orzan(path)
     if suffix == ".svg":
-        return load_svg(path)
+        return load_svg(path, notes)
     name = Path(path).name or os.fspath(path)
     raise DocumentLoadError(name, f"unsupported file type {suffix or '(no suffix)'!r}; supported: .fmr, .xml, .svg")
 
@@ -68,10 +72,8 @@ def open_live(path: str | os.PathLike, settings: Settings | None = None, progres
         When the file cannot be read.
     """
     settings = settings or Settings()
-    suffix = Path(path).suffix.lower()
-    if suffix != ".fmr":
-        document = load_svg(path, notes) if suffix == ".svg" else load_document(path)
-        return LiveStack(document, settings, progress)
+    if Path(path).suffix.lower() != ".fmr":
+        return LiveStack(load_document(path, notes), settings, progress)
     saved = load_fmr(path)
     live = LiveStack(saved.document, saved.settings or settings, progress, saved.fields)
     found = list(saved.notes)
@@ -83,3 +85,11 @@ def open_live(path: str | os.PathLike, settings: Settings | None = None, progres
     if notes is not None:
         notes.extend(found)
     return live
+
+
+def save_picture(document: Document, image, path: str | os.PathLike) -> Path:
+    """Write ``document``'s ``image`` (as ``png.save_png`` takes it) to ``path``: an SVG for an ``.svg`` path
+    (``svg_export.save_svg``), else a PNG.  Returns the absolute path written."""
+    if Path(path).suffix.lower() == ".svg":
+        return save_svg(document, image, path)
+    return save_png(image, path)

@@ -31,6 +31,7 @@ from __future__ import annotations
 import io
 import math
 import os
+from collections import Counter
 from pathlib import Path
 
 import numpy as np
@@ -72,12 +73,12 @@ def parse_svg(data: bytes, name: str, notes: list[str] | None = None) -> Documen
         svg = svgelements.SVG.parse(io.BytesIO(data))
         width, height = _canvas(svg)
         limits.check_canvas(width, height)
-        lines, shapes, left_out = [], Shapes(width, height), {}
+        lines, shapes, left_out = [], Shapes(width, height), Counter()
         for element in svg.elements():
             if isinstance(element, svgelements.Shape):
                 stroke, fill = _colour(element.stroke), _colour(element.fill)
                 if stroke is None and fill is None:
-                    left_out["paths without stroke or fill"] = left_out.get("paths without stroke or fill", 0) + 1
+                    left_out["paths without stroke or fill"] += 1
                 elif fill is None:
                     lines += _lines(element, stroke)
                 else:
@@ -85,8 +86,7 @@ def parse_svg(data: bytes, name: str, notes: list[str] | None = None) -> Documen
                 if len(lines) + shapes.curves > limits.MAX_CURVES:  # before the work grows further
                     raise DocumentLoadError(name, f"more than {limits.MAX_CURVES:,} curves to import")
             elif isinstance(element, (svgelements.Text, svgelements.Image)):
-                kind = f"{type(element).__name__.lower()} elements"
-                left_out[kind] = left_out.get(kind, 0) + 1
+                left_out[f"{type(element).__name__.lower()} elements"] += 1
         layers = ((Layer(tuple(lines), name="Lines"),) if lines else ()) + shapes.layers()
         if shapes.merged:
             left_out[f"separate layers past {MAX_SHAPE_LAYERS} (the rest share the last)"] = shapes.merged

@@ -53,7 +53,7 @@ class Stroke(EditDrag):
             label = "Erase Mask" if self.erasing else "Paint Mask"
             sign = 1.0 if float(MASK_LUMA @ color) >= 0.5 else -1.0
             color, amplitude = (1.0, 1.0, 1.0), sign * abs(amplitude)
-        elif options.brush_mode == "paint" or (document.active > 0 and document.layers[document.active].empty):
+        elif options.brush_mode == "paint" or (document.active > 0 and document.layer.empty):
             label = "Paint Stroke"
             self.base_document, self.fill = layer_edits.with_fill_layer(document, color)
             color, amplitude = (1.0, 1.0, 1.0), abs(amplitude)

@@ -27,8 +27,8 @@ from PySide6.QtWidgets import (
 )
 
 from ..engine import Composite, LiveStack, Representation, Settings, check_image_memory, rasterise
-from ..io.png import flattened, save_png
-from ..io.svg_export import save_svg
+from ..io import save_picture
+from ..io.png import flattened
 from ..model import Document
 from .colors import pick_color
 from .files import EXPORTS, ask_export_path
@@ -77,10 +77,7 @@ def export_picture(options: ExportOptions, document: Document, picture: Composit
         image = flattened(image, options.background)
     if progress:
         progress("write", 1.0)
-    image = image.clip(0.0, 1.0)
-    if options.path.suffix.lower() == ".svg":
-        return save_svg(document, image, options.path)
-    return save_png(image, options.path)
+    return save_picture(document, image.clip(0.0, 1.0), options.path)
 
 
 class ExportDialog(QDialog):
