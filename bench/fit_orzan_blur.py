@@ -34,7 +34,7 @@ def main() -> None:
     unit = [replace(c, blur=tuple(BlurStop(s.position, s.blur / BEST_SCALE_DEVIATION) for s in c.blur), id=c.id)
             for c in document.curves]  # best_scale as the file gives it
     document = replace(document, layers=(document.layer.with_curves(unit),))
-    stack = LiveStack(document)
+    stack = LiveStack(document, blur=True)
     picture, blur = stack.composite, stack.blur(document.layer)
     sharp_ref, blurred_ref = (np.asarray(Image.open(DATA / "reference_renders" / name)).astype(float) / 255
                               for name in ("no_blur_ex.jpg", "blur-ex.jpg"))

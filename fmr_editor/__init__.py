@@ -24,7 +24,7 @@ def load(path):
 
 
 def render_image(document, width=None, height=None, samples=3, *, order=None, method="fmr", progress=None,
-                 coverage=False, blur=False):
+                 coverage=False, blur=True):
     """Render ``document`` (all its layers composed) to a float32 ``(height, width, 3)`` array in [0, 1]: the
     picture over black (``(height, width, 4)`` with its coverage after it, when ``coverage``).
 
@@ -44,7 +44,8 @@ def render_image(document, width=None, height=None, samples=3, *, order=None, me
     coverage : bool
         Add the picture's coverage (1 where it is opaque; ``io.png.save_png`` writes RGBA where it is not).
     blur : bool
-        Soften each layer by its curves' blur (``engine.blur``; not yet shown by the editor's canvas).
+        Soften each layer by its curves' blur stops (``engine.blur``), as the editor shows it with View > Show
+        Blur (default); False renders every edge sharp.
     """
     import numpy as np
 
@@ -53,16 +54,7 @@ def render_image(document, width=None, height=None, samples=3, *, order=None, me
     check_image_memory(*output_size(document.width, document.height, width, height))
     settings = (Settings() if order is None
                 else Settings(order=order, propagation_order=max(order, Settings().propagation_order)))
-    stack = LiveStack(document, settings, progress)
-    picture = stack.composite
-    fields = {layer.id: stack.blur(layer) for layer in document.layers} if blur else {}
-    blurs = {key: rep for key, rep in fields.items() if rep is not None}
-    if blurs:
-        from .engine.blur import rasterise_blurred
-
-        image = rasterise_blurred(picture, blurs, width, height, samples=samples, coverage=coverage,
-                                  progress=progress)
-    else:
-        image = rasterise(picture, width, height, samples=samples, method=method, progress=progress,
-                          coverage=coverage)
+    stack = LiveStack(document, settings, progress, blur=blur)
+    image = rasterise(stack.composite, width, height, samples=samples, method=method, progress=progress,
+                      coverage=coverage)
     return np.clip(image, 0.0, 1.0).astype(np.float32)

@@ -79,8 +79,9 @@ def _parser() -> argparse.ArgumentParser:
     render.add_argument("--order", type=int, help="degree of the cell polynomials (default 8)")
     render.add_argument("--method", choices=("fmr", "direct"), default="fmr",
                         help="fmr (default) or direct summation (slow, for checking)")
-    render.add_argument("--blur", action="store_true",
-                        help="soften the picture by its curves' blur stops (not yet shown by the editor)")
+    render.add_argument("--blur", action=argparse.BooleanOptionalAction, default=True,
+                        help="soften the picture by its curves' blur stops, as the editor shows it with View > Show "
+                             "Blur (default; --no-blur: every edge sharp)"),
     render.add_argument("--background", type=_colour, metavar="RRGGBB",
                         help="lay a picture that is not opaque on this colour (default: an RGBA PNG)")
     compose = commands.add_parser("compose", help="layer TOP over BOTTOM into a two-layer .fmr document")
@@ -161,10 +162,13 @@ def render_one(source: str, output: str, args: argparse.Namespace) -> int:
     A ``.fmr`` file's saved representation is rendered as it is (no solve),
     unless ``--order`` or ``--method direct`` ask for another.
     """
+    from dataclasses import replace
+
     from . import load, render_image
     from .engine import LiveStack, Settings, check_image_memory, output_size, rasterise
     from .io import DocumentLoadError, load_fmr, save_picture
     from .io.png import flattened
+    from .model.blur import blurred
 
     try:
         saved = load_fmr(source) if Path(source).suffix.lower() == ".fmr" else None
@@ -175,10 +179,16 @@ def render_one(source: str, output: str, args: argparse.Namespace) -> int:
     progress = StderrProgress()
     try:
         check_image_memory(*output_size(document.width, document.height, args.width, args.height))
-        if saved is not None and args.order is None and args.method == "fmr" and not args.blur:
+        if saved is not None and args.order is None and args.method == "fmr":
             picture = saved.composite  # every representation saved: no solve
+            if picture is not None and not args.blur:
+                picture = replace(picture, layers=tuple(replace(layer, blur=None) for layer in picture.layers))
+            elif picture is not None and any(blurred(layer) and drawn.blur is None
+                                             for layer, drawn in zip(document.layers, picture.layers)):
+                picture = None  # saved without its blur fields
             if picture is None:
-                picture = LiveStack(document, saved.settings or Settings(), progress, saved.fields).composite
+                picture = LiveStack(document, saved.settings or Settings(), progress, saved.fields,
+                                    blur=args.blur).composite
             image = rasterise(picture, args.width, args.height, samples=args.samples, progress=progress,
                               coverage=True)
             image = image.clip(0.0, 1.0)

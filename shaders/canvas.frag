@@ -1,7 +1,7 @@
 #version 410 core
 // The FMR colour of a window pixel, as engine.rasterise computes it (samples=1, at the pixel centre):
 //     far field (the cell's polynomial) + the 3x3 block's segments (closed forms) + the cell's near points.
-// Outside the canvas: a checkerboard.  A delta pass (u_delta = 1) evaluates the change of the colour from
+// Outside the canvas: a checkerboard (or, for a field to be blurred, the picture reflected at the border).  A delta pass (u_delta = 1) evaluates the change of the colour from
 // change tables bound in place of the data (no near points) and writes 0 outside the canvas, to be added.
 //
 // The loader (shader_source in fmr_editor/render/canvas_renderer.py) inserts after the #version line:
@@ -30,6 +30,7 @@ uniform int u_cells;           // fine cells per side, 2^L
 uniform double u_cell_size;    // document pixels
 uniform float u_checker;       // checkerboard square, window pixels
 uniform int u_delta;           // 1: a delta pass
+uniform int u_reflect;         // 1: beyond the canvas, the picture reflected at its border (to be blurred)
 
 uniform samplerBuffer u_coeffs;
 uniform isamplerBuffer u_segment_start;
@@ -122,6 +123,10 @@ vec3 near_points(int cell, dvec2 position) {
 void main() {
     vec2 window = vec2(gl_FragCoord.x, u_window_height - gl_FragCoord.y);
     dvec2 position = u_origin + dvec2(window) * u_step;
+    if (u_reflect != 0) {
+        dvec2 size = dvec2(u_canvas);
+        position = size - abs(mod(position, 2.0 * size) - size);
+    }
     if (position.x < 0.0 || position.y < 0.0 || position.x > double(u_canvas.x) || position.y > double(u_canvas.y)) {
         ivec2 square = ivec2(floor(window / u_checker));
         colour = u_delta != 0 ? vec4(0.0) : vec4(vec3(((square.x + square.y) & 1) == 0 ? 0.8 : 0.6), 1.0);

@@ -5,7 +5,8 @@
 //     S(V) = clamp(T(clamp(V, 0, 1)), 0, 1)  (what the layer shows),
 // as fmr_editor/engine/composite.py computes it on the CPU.  V and the mask colour are the layer's and its mask's
 // evaluated window images (float, unclamped); the blend unit does the mixing (SRC_ALPHA, ONE_MINUS_SRC_ALPHA),
-// so this writes (S(V), m).  Outside the canvas the images hold the checkerboard, which is kept as it is.
+// so this writes (S(V), m).  Outside the canvas it writes the checkerboard, as canvas.frag does (a blurred
+// layer's image holds its reflection there).
 // u_tint = 1 draws the tint of a mask being edited over the result: red, half strength where it hides all.
 // u_base = 1 draws the checkerboard under the layers when the bottom one does not cover the canvas: where the
 // picture is not opaque, it shows through (the colour over black plus (1 - coverage) checkerboard).
@@ -36,14 +37,12 @@ void main() {
     ivec2 texel = ivec2(gl_FragCoord.xy);
     vec3 value = texelFetch(u_image, texel, 0).rgb;
     vec2 window = vec2(gl_FragCoord.x, u_window_height - gl_FragCoord.y);
-    if (u_base != 0) {
+    dvec2 position = u_origin + dvec2(window) * u_step;
+    bool outside = position.x < 0.0 || position.y < 0.0 || position.x > double(u_canvas.x)
+                   || position.y > double(u_canvas.y);
+    if (u_base != 0 || outside) {
         ivec2 square = ivec2(floor(window / u_checker));
         colour = vec4(vec3(((square.x + square.y) & 1) == 0 ? 0.8 : 0.6), 1.0);
-        return;
-    }
-    dvec2 position = u_origin + dvec2(window) * u_step;
-    if (position.x < 0.0 || position.y < 0.0 || position.x > double(u_canvas.x) || position.y > double(u_canvas.y)) {
-        colour = vec4(value, 1.0);
         return;
     }
     float m = u_mask_base;

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from fmr_editor.engine import Composite, Representation, evaluate_points
+from fmr_editor.engine.blur import window_picture
 from fmr_editor.render import View
 
 #: Checkerboard grey levels outside the canvas (shaders/canvas.frag), in 8 bits.
@@ -27,8 +28,13 @@ def checkerboard(view: View, square: float = 8.0) -> np.ndarray:
 
 def shown_colours(rep: Representation | Composite, view: View, inside: np.ndarray) -> np.ndarray:
     """What the canvas shows at the window pixels ``inside`` the canvas (a mask of ``window_samples``): the
-    picture's colour over black plus the checkerboard where it is not opaque, ``(count, 3)``."""
-    values = evaluate_points(rep, window_samples(view)[inside], coverage=True)
+    picture's colour over black plus the checkerboard where it is not opaque, ``(count, 3)``; a picture with
+    blur fields blurred as the CPU blurs a window (``engine.blur.window_picture``)."""
+    if isinstance(rep, Composite) and any(layer.blur is not None for layer in rep.shown):
+        values = window_picture(rep, (-view.offset_x / view.scale, -view.offset_y / view.scale), 1 / view.scale,
+                                view.width, view.height).reshape(-1, 4)[inside]
+    else:
+        values = evaluate_points(rep, window_samples(view)[inside], coverage=True)
     return values[:, :3] + (1.0 - values[:, 3:]) * checkerboard(view)[inside, None]
 
 

@@ -179,6 +179,13 @@ class EditorDriver:
     def context(self):
         return self.window.workspace.context
 
+    def fresh_picture(self):
+        """The composite of a fresh build of the current document, with blur fields while View > Show Blur is on
+        (what the canvas must show)."""
+        from fmr_editor.engine import LiveStack
+
+        return LiveStack(self.document, blur=self.window.show_blur).composite
+
     def wait_idle(self, timeout: int = 60_000) -> None:
         """Until the document shown has no job and its engine has caught up with it (other tabs' jobs may run)."""
         window = self.window

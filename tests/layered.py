@@ -8,7 +8,17 @@ import numpy as np
 from shapes import circle_points, scattered_document, uniform_curve
 
 from fmr_editor.engine import LiveStack, rasterise
-from fmr_editor.model import ColorStop, DiffusionCurve, DiffusionPoint, Document, Layer, Mask, edits, layer_edits
+from fmr_editor.model import (
+    BlurStop,
+    ColorStop,
+    DiffusionCurve,
+    DiffusionPoint,
+    Document,
+    Layer,
+    Mask,
+    edits,
+    layer_edits,
+)
 from fmr_editor.model.alpha import alpha_image
 from fmr_editor.model.color_transform import hue_rotation
 
@@ -98,3 +108,13 @@ def reference(document: Document, width: int, height: int) -> np.ndarray:
         colour = np.minimum(np.maximum(shown, 0.0), 1.0)  # ... and clamped again
         out = m[..., None] * colour + (1.0 - m[..., None]) * out
     return out
+
+
+def blurred_layers() -> Document:
+    """``translucent_layers`` with blur on the top layer (masked, hue-rotated, translucent): along each curve
+    from sharp to 6 px and back, so that its blur field varies over the canvas."""
+    document = translucent_layers()
+    top = document.layers[2]
+    curves = tuple(replace(curve, blur=(BlurStop(0.0, 0.0), BlurStop(curve.piece_count / 2, 6.0),
+                                        BlurStop(float(curve.piece_count), 0.5))) for curve in top.curves)
+    return replace(document, layers=document.layers[:2] + (replace(top, curves=curves),))

@@ -40,14 +40,14 @@ def test_a_straight_edge_under_a_constant_blur_is_the_normal_cdf(s):
     assert np.abs(sharp[8:-8, :, 0] - expected).max() > 0.3  # the blur made the difference
 
 
-def test_render_blurs_on_request(tmp_path):
+def test_render_blurs_unless_asked_not_to(tmp_path):
     from cli_runs import run
     from PIL import Image
 
     from fmr_editor.io import save_fmr
 
     path = save_fmr(tmp_path / "edge.fmr", edge((BlurStop(0.0, 4.0),)))
-    for flags, name in (((), "sharp.png"), (("--blur",), "soft.png")):
+    for flags, name in ((("--no-blur",), "sharp.png"), ((), "soft.png")):
         assert run("render", str(path), "-o", str(tmp_path / name), *flags)[0] == 0
     with Image.open(tmp_path / "sharp.png") as sharp, Image.open(tmp_path / "soft.png") as soft:
         rows = [np.asarray(image)[32, :, 0].astype(int) for image in (sharp, soft)]
@@ -66,7 +66,7 @@ def test_the_blur_field_is_the_colour_field_of_the_blur_values():
     ring = DiffusionCurve(straight_chain([(30.0, 30.0), (50.0, 30.0), (50.0, 50.0), (30.0, 50.0), (30.0, 30.0)]),
                           left=(ColorStop(0.0, BLACK),))  # no blur stops: sharp
     document = Document(128, 64, [curve, ring])
-    stack = LiveStack(document)
+    stack = LiveStack(document, blur=True)
     field = rasterise(stack.blur(document.layer), 64, 32, samples=1)
     greys = [replace(curve, left=(ColorStop(0.0, (1.0,) * 3), ColorStop(2.0, (7.0,) * 3)),
                      right=(ColorStop(0.0, (1.0,) * 3), ColorStop(2.0, (7.0,) * 3)), blur=()),
@@ -74,7 +74,7 @@ def test_the_blur_field_is_the_colour_field_of_the_blur_values():
     expected = rasterise(build(Document(128, 64, greys)), 64, 32, samples=1)
     np.testing.assert_allclose(field, expected, atol=1e-9)
     assert stack.fields[document.layer.id, "image"].factorisations == 1
-    assert stack._blurs[document.layer.id].factorisations == 0  # the image's factorisation, shared
+    assert stack.fields[document.layer.id, "blur"].factorisations == 0  # the image's factorisation, shared
     moved = edits.translate(document, (3.0, 2.0), curves=[curve.id])
     stack.update(moved)
     expected = rasterise(build(Document(128, 64, [replace(greys[0], control_points=moved.curves[0].control_points),
@@ -82,7 +82,7 @@ def test_the_blur_field_is_the_colour_field_of_the_blur_values():
     np.testing.assert_allclose(rasterise(stack.blur(moved.layer), 64, 32, samples=1), expected, atol=1e-6)
     stack.update(layer_edits.add_layer(moved, Layer((ring,), name="other")))
     stack.update(layer_edits.remove_layer(layer_edits.select_layer(stack.document, 0), 0))
-    assert not stack._blurs  # the removed layer's blur field goes with it
+    assert not any(role == "blur" for _, role in stack.fields)  # the removed layer's blur field goes with it
 
 
 def test_the_fast_blur_follows_the_plain_sum_where_the_blur_varies():
@@ -112,7 +112,7 @@ def test_the_fast_blur_is_within_a_level_of_the_plain_sum_on_real_files_at_two_z
     from fmr_editor.io import load_document
 
     document = load_document(shared_data / "orzan_xml" / "berkbavas" / f"{name}.xml")
-    stack = LiveStack(document)
+    stack = LiveStack(document, blur=True)
     blur = stack.blur(document.layer)
     field = np.maximum(rasterise(blur, samples=1)[..., 0], 0.0)
     fine, size = 4, 24
@@ -136,3 +136,68 @@ def test_the_fast_blur_is_within_a_level_of_the_plain_sum_on_real_files_at_two_z
         error = np.abs(fast[inside] - reference)
         assert error.mean() <= 0.25 * LEVEL, (zoom, error.mean())
         assert error[around[inside] >= 2.0].max() <= LEVEL, zoom  # below: the pixel means, as above
+    assert stack.fields[document.layer.id, "blur"].factorisations == 0  # the image's segments: its factorisation
+
+
+def test_the_window_picture_at_the_canvas_s_own_view_is_the_raster():
+    """``window_picture`` (the CPU side of the canvas) and ``rasterise`` blur alike where their pixels are the
+    same: the canvas's pixels at 1:1 from its corner, reflected at its border either way."""
+    from layered import blurred_layers
+
+    from fmr_editor.engine.blur import window_picture
+
+    picture = LiveStack(blurred_layers(), blur=True).composite
+    raster = rasterise(picture, samples=1, coverage=True)
+    window = window_picture(picture, (0.0, 0.0), 1.0, picture.width, picture.height)
+    np.testing.assert_allclose(window, raster, atol=1e-6)
+    sharp = rasterise(replace(picture, layers=tuple(replace(layer, blur=None) for layer in picture.layers)),
+                      samples=1, coverage=True)
+    assert np.abs(window - sharp).max() > 0.1  # blurred indeed
+
+
+def test_the_blur_plan_covers_every_pixel_s_bracket_with_whole_tiles():
+    """``render.blur_filter``'s plan, against the brackets of every pixel found plainly: each tile's range holds
+    its pixels' brackets, the blend rectangles of a bracket hold all its pixels, and ``column_runs`` gives
+    back exactly the tiles asked for."""
+    from fmr_editor.engine.blur import levels
+    from fmr_editor.render.blur_filter import TILE, BlurPlan, column_runs
+
+    rng = np.random.default_rng(4)
+    height, width = 70, 90
+    y, x = np.mgrid[0:height, 0:width]
+    field = (np.sin(x / 9.0) * np.cos(y / 7.0) * 4.0 + rng.normal(0, 0.05, (height, width))).astype(np.float32)
+    scale = 1.5
+    plan = BlurPlan.of(field, scale)
+    sigma = np.clip(field.astype(np.float64) * scale, 0.0, None)
+    assert plan.ladder == levels(float(sigma.max()))
+    bracket = np.searchsorted(plan.ladder, sigma, side="left")
+    for k in range(len(plan.ladder)):
+        covered = np.zeros((height, width), bool)
+        for x0, y0, x1, y1 in plan.blend_rects(k):
+            covered[y0:y1, x0:x1] = True
+        assert covered[bracket == k].all()
+    for row, column in np.ndindex(plan.lowest.shape):
+        tile = bracket[row * TILE : (row + 1) * TILE, column * TILE : (column + 1) * TILE]
+        assert plan.lowest[row, column] <= tile.min() and tile.max() <= plan.highest[row, column]
+    wanted = rng.random((5, 7)) < 0.4
+    drawn = np.zeros_like(wanted)
+    for x0, y0, x1, y1 in column_runs(wanted):
+        assert not drawn[y0:y1, x0:x1].any()  # no tile twice
+        drawn[y0:y1, x0:x1] = True
+    np.testing.assert_array_equal(drawn, wanted)
+
+
+def test_a_document_saved_with_its_blur_shown_opens_with_its_blur_field_solving_nothing(tmp_path):
+    from fmr_editor.io import load_fmr, save_fmr
+
+    document = edge((BlurStop(0.0, 1.0), BlurStop(1.0, 5.0)))
+    stack = LiveStack(document, blur=True)
+    saved = load_fmr(save_fmr(tmp_path / "soft.fmr", document, stack.composite))
+    assert saved.composite.layers[0].blur is not None
+    opened = LiveStack(saved.document, saved=saved.fields)
+    assert opened.composite.layers[0].blur is None  # kept until the blur is shown
+    opened.set_blur(True)
+    assert {live.origin for live in opened.fields.values()} == {"resumed"}
+    np.testing.assert_array_equal(rasterise(opened.composite, samples=1), rasterise(stack.composite, samples=1))
+    sharp = load_fmr(save_fmr(tmp_path / "sharp.fmr", document, LiveStack(document).composite))
+    assert sharp.composite.layers[0].blur is None  # saved while the blur was not shown: solved when shown

@@ -17,7 +17,6 @@ pytest.importorskip("pytestqt", reason="pytest-qt is in the [test] extra")
 from PySide6.QtCore import Qt  # noqa: E402
 from PySide6.QtWidgets import QMessageBox  # noqa: E402
 
-from fmr_editor.engine import LiveStack  # noqa: E402
 from fmr_editor.io import load_fmr, save_fmr  # noqa: E402
 from fmr_editor.model import edits, layer_edits  # noqa: E402
 from fmr_editor.tools.transform import Handles  # noqa: E402
@@ -33,7 +32,7 @@ SHIFT = Qt.KeyboardModifier.ShiftModifier
 def shows_the_composite(editor) -> None:
     """The canvas shows, to one 8-bit level, the composite of a fresh build of the current document."""
     editor.wait_idle()
-    off = mismatches(editor.canvas.grab_image(), LiveStack(editor.document).composite, editor.canvas.device_view(),
+    off = mismatches(editor.canvas.grab_image(), editor.fresh_picture(), editor.canvas.device_view(),
                      1.0)
     assert off["inside"] == 0 and off["outside"] == 0, off
 

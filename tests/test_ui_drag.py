@@ -15,7 +15,7 @@ pytest.importorskip("pytestqt", reason="pytest-qt is in the [test] extra")
 
 from PySide6.QtCore import Qt  # noqa: E402
 
-from fmr_editor.engine import build, rasterise  # noqa: E402
+from fmr_editor.engine import LiveStack, rasterise  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "bench"))
 from bench_edits import edited_curve  # noqa: E402
@@ -59,7 +59,7 @@ def test_dragging_an_anchor_shows_frames_and_ends_on_the_exact_image(editor, sha
     assert editor.workspace.frame.exact and not editor.window.shading_label.isVisible()
     final = editor.document
     assert not np.array_equal(final.curves[k].control_points, document.curves[k].control_points)
-    off = mismatches(canvas.grab_image(), build(final), canvas.device_view(), 2.0)
+    off = mismatches(canvas.grab_image(), editor.fresh_picture(), canvas.device_view(), 2.0)
     assert off["inside"] == 0 and off["outside"] == 0, off
 
 
@@ -93,10 +93,11 @@ def test_a_held_drag_shows_the_cpu_picture_of_its_frame_near_the_exact_one(edito
     if frame.stale:
         np.testing.assert_array_equal(shown, np.clip(rasterise(before, samples=1), 0, 1))
     else:
-        difference = 255 * np.abs(shown - np.clip(rasterise(build(document), samples=1), 0, 1)).max(axis=2)
+        exact = LiveStack(document, blur=editor.window.show_blur).composite
+        difference = 255 * np.abs(shown - np.clip(rasterise(exact, samples=1), 0, 1)).max(axis=2)
         assert difference.mean() <= 1.0 and np.percentile(difference, 99) <= 4.0
     editor.release(x + 6, y + 3)
     editor.wait_idle()
     assert not editor.window.shading_label.isVisible()
-    off = mismatches(canvas.grab_image(), build(editor.document), canvas.device_view(), 2.0)
+    off = mismatches(canvas.grab_image(), editor.fresh_picture(), canvas.device_view(), 2.0)
     assert off["inside"] == 0 and off["outside"] == 0, off

@@ -180,8 +180,7 @@ def test_export_png_renders_with_the_cpu_rasteriser(ribbon, tmp_path, qtbot):
     editor = ribbon
     recolour(editor)
     editor.wait_idle()
-    rep = editor.workspace.frame.representation
-    expected = to_rgb8(rasterise(rep, 40, 30, samples=2))
+    expected = to_rgb8(rasterise(editor.workspace.frame.picture, 40, 30, samples=2))  # blurred as shown
     target = tmp_path / "out" / "ribbon.png"
     editor.answers["export"] = ExportOptions(target, 40, 30, 2)
     editor.key(Qt.Key.Key_E, Qt.KeyboardModifier.ControlModifier)
@@ -201,7 +200,7 @@ def test_export_svg_embeds_the_png_export_and_keeps_every_curve(ribbon, tmp_path
     editor = ribbon
     recolour(editor)
     editor.wait_idle()
-    expected = to_rgb8(rasterise(editor.workspace.frame.representation, 40, 30, samples=2))
+    expected = to_rgb8(rasterise(editor.workspace.frame.picture, 40, 30, samples=2))
     target = tmp_path / "ribbon.svg"
     editor.answers["export"] = ExportOptions(target, 40, 30, 2)
     editor.key(Qt.Key.Key_E, Qt.KeyboardModifier.ControlModifier | Qt.KeyboardModifier.ShiftModifier)
@@ -218,7 +217,6 @@ def test_export_svg_embeds_the_png_export_and_keeps_every_curve(ribbon, tmp_path
 def test_import_svg_opens_its_shapes_as_curves_and_says_what_it_left_out(editor, tmp_path, qtbot):
     from canvas_oracle import mismatches
 
-    from fmr_editor.engine import LiveStack
     from fmr_editor.io import load_svg
 
     drawing = tmp_path / "drawing.svg"
@@ -232,7 +230,7 @@ def test_import_svg_opens_its_shapes_as_curves_and_says_what_it_left_out(editor,
     editor.wait_idle()
     assert editor.document == load_svg(drawing) and [len(layer.curves) for layer in editor.document.layers] == [1, 1]
     assert "not imported (only paths and shapes are): 1 text elements" in editor.window.status_label.text()
-    off = mismatches(editor.canvas.grab_image(), LiveStack(editor.document).composite, editor.canvas.device_view(),
+    off = mismatches(editor.canvas.grab_image(), editor.fresh_picture(), editor.canvas.device_view(),
                      1.0)
     assert off["inside"] == 0 and off["outside"] == 0, off
 

@@ -30,7 +30,7 @@ def shows_the_composite(editor) -> None:
     opaque (the window composes it by its alpha: a grab of the window blended what was not)."""
     editor.wait_idle()
     shown = editor.canvas.grab_image()
-    off = mismatches(shown, LiveStack(editor.document).composite, editor.canvas.device_view(), 1.0)
+    off = mismatches(shown, editor.fresh_picture(), editor.canvas.device_view(), 1.0)
     assert off["inside"] == 0 and off["outside"] == 0, off
     editor.canvas.makeCurrent()
     alpha = editor.canvas.renderer.read()[..., 3]  # what the window composes the canvas by
@@ -69,7 +69,7 @@ def test_layers_panel_mask_hue_undo_redo_save_and_reopen(line, tmp_path, qtbot):
     mask = editor.document.layers[1].mask
     assert mask.base == 1.0 and {p.amplitude for p in mask.points} == {-0.8}
     editor.wait_idle()
-    tinted = mismatches(editor.canvas.grab_image(), LiveStack(editor.document).composite,
+    tinted = mismatches(editor.canvas.grab_image(), editor.fresh_picture(),
                         editor.canvas.device_view(), 1.0)
     assert tinted["inside"] > 100  # while the mask is edited, what it hides is tinted red
     window.layer_commands.edit_mask()
@@ -228,12 +228,11 @@ def test_a_closed_curve_made_clear_outside_in_the_stop_dialog_covers_only_its_in
 def test_a_new_layer_over_lady_bug_is_clear_and_a_closed_pen_curve_covers_only_its_inside(editor, shared_data,
                                                                                            qtbot):
     editor.open(shared_data / "orzan_xml" / "berkbavas" / "lady_bug.xml")
-    below = editor.document
-    picture = rasterise(LiveStack(below).composite, 64, 64, samples=1)
+    picture = rasterise(editor.fresh_picture(), 64, 64, samples=1)  # blurred, as shown
     qtbot.mouseClick(editor.window.layers_panel.buttons["new_layer"], Qt.MouseButton.LeftButton)
     editor.wait_idle()
     assert len(editor.document.layers) == 2 and editor.document.layers[1].empty
-    np.testing.assert_array_equal(rasterise(LiveStack(editor.document).composite, 64, 64, samples=1), picture)
+    np.testing.assert_array_equal(rasterise(editor.fresh_picture(), 64, 64, samples=1), picture)
     shows_the_composite(editor)  # clear: lady_bug as it was
 
     editor.window.options.color = (0.1, 0.3, 0.9)

@@ -17,7 +17,6 @@ pytest.importorskip("pytestqt", reason="pytest-qt is in the [test] extra")
 
 from PySide6.QtCore import Qt  # noqa: E402
 
-from fmr_editor.engine import LiveStack  # noqa: E402
 from fmr_editor.ui import file_commands  # noqa: E402
 
 pytestmark = pytest.mark.gui
@@ -47,7 +46,7 @@ def shows_the_cpu_raster(editor) -> None:
     """The canvas at 1:1 shows the CPU composite of the shown document (over the checkerboard where it is clear)."""
     editor.window.actual_size()
     editor.wait_idle()
-    off = mismatches(editor.canvas.grab_image(), LiveStack(editor.document).composite, editor.canvas.device_view(),
+    off = mismatches(editor.canvas.grab_image(), editor.fresh_picture(), editor.canvas.device_view(),
                      LEVELS)
     assert off["inside"] == 0 and off["outside"] == 0, off
 

@@ -27,23 +27,26 @@ from scipy.special import ndtr
 
 from .composite import Composite, Role, compose
 from .raster import output_size, rasterise
-from .representation import Representation
 
 #: Successive prefiltered deviations differ by this factor: interpolating between them, an edge under any
 #: blur from 0.3 to 12 px is off its normal CDF by 0.35 of an 8-bit level at most (1.08: 0.06, at twice the
 #: levels).
 LEVEL_RATIO = 1.2
-#: The smallest deviation prefiltered (pixels); below it, pixels interpolate from the sharp image (an edge's
-#: blur is flat there: Phi(-0.5 / 0.1) = 3e-7, so halfway the interpolation is off by half Phi(-2.5), 0.003).
+#: The smallest deviation prefiltered (pixels); from ``SHARP`` to it, pixels interpolate from the sharp image
+#: (halfway, off by half Phi(-0.5 / 0.2) = 0.003 of an edge's step at most).
 FIRST_LEVEL = 0.2
+#: Deviations up to this leave a raster's pixel means as they are: an edge on a pixel's border spills
+#: Phi(-0.5 / 0.1) = 3e-7 of its step into the next pixel.  Level 0 of the ladder is the picture itself.
+SHARP = 0.1
 #: The Gaussians are cut this many deviations out (what is left is 6e-5 of their weight).
 TRUNCATE = 4.0
 
 
 def levels(largest: float) -> list[float]:
-    """The ladder of deviations: 0, then ``FIRST_LEVEL`` times powers of ``LEVEL_RATIO`` up to ``largest``."""
-    ladder = [0.0]
-    if largest > 0:
+    """The ladder of deviations: ``SHARP`` (the picture as it is), then ``FIRST_LEVEL`` times powers of
+    ``LEVEL_RATIO`` up to ``largest``."""
+    ladder = [SHARP]
+    if largest > SHARP:
         count = max(0, math.ceil(math.log(max(largest, FIRST_LEVEL) / FIRST_LEVEL) / math.log(LEVEL_RATIO)))
         ladder += [FIRST_LEVEL * LEVEL_RATIO**k for k in range(count + 1)]
     return ladder
@@ -57,34 +60,127 @@ def pixel_kernel(sigma: float) -> np.ndarray:
     return weights / weights.sum()
 
 
-def _filtered(image: np.ndarray, sigma: float) -> np.ndarray:
-    """``image`` convolved with ``pixel_kernel(sigma)`` along both axes, the border reflecting."""
-    kernel = pixel_kernel(sigma)
-    return correlate1d(correlate1d(image, kernel, axis=0, mode="reflect"), kernel, axis=1, mode="reflect")
+#: A level is filtered on the image halved ``d`` times (its octave) when its deviation is at least
+#: ``COARSE_SIGMA * 2**d`` pixels: then it spans 3 or more of the halved image's pixels, whose bilinear
+#: interpolation back to the output's pixels stays within a fraction of a level of the full-size filter.
+COARSE_SIGMA = 3.0
+#: The coarsest octave (pixels ``2**DEEPEST`` wide): deviations up to ``2 * COARSE_SIGMA * 2**DEEPEST``
+#: pixels keep kernels within ``MAX_RADIUS``; the canvas blurs by at most that many window pixels.
+DEEPEST = 8
+MAX_RADIUS = math.ceil(TRUNCATE * 2 * COARSE_SIGMA + 0.5)
+LARGEST = 2 * COARSE_SIGMA * 2**DEEPEST
+
+
+def octave(sigma: float) -> int:
+    """How many times the image is halved before filtering at deviation ``sigma`` (pixels)."""
+    d = 0
+    while d < DEEPEST and sigma >= COARSE_SIGMA * 2 ** (d + 1):
+        d += 1
+    return d
+
+
+def coarse_deviation(sigma: float, d: int) -> float:
+    """The deviation, in its own pixels, of the filter on the image halved ``d`` times that makes the whole
+    path (``2**d``-pixel means, that filter, bilinear interpolation back) as wide as ``sigma`` at full size:
+    the variances of the means, of the coarse pixels' kernel and of the interpolation (over the output
+    pixels' phases) are taken out."""
+    if d == 0:
+        return sigma
+    h = 2**d
+    phase = ((np.arange(h) + 0.5) / h - 0.5) % 1.0
+    taken = (h * h - 1) / 12 + h * h / 12 + h * h * float(np.mean(phase * (1.0 - phase)))
+    return math.sqrt(sigma**2 + 1 / 12 - taken) / h
+
+
+def kernel_radius(sigma: float) -> int:
+    """Half the width of ``pixel_kernel(sigma)``, in its pixels."""
+    return math.ceil(TRUNCATE * sigma + 0.5)
+
+
+def margin(largest: float) -> int:
+    """Pixels of picture needed beyond the output on every side to blur it up to ``largest``: a multiple of
+    the deepest octave's pixel, so that every octave's pixels line up with the output's."""
+    ladder = levels(largest)
+    reach = 0
+    for sigma in ladder[1:]:
+        d = octave(sigma)
+        reach = max(reach, (kernel_radius(coarse_deviation(sigma, d)) + 2) * 2**d)
+    unit = 2 ** octave(ladder[-1])
+    return unit * math.ceil(reach / unit)
+
+
+def halved(image: np.ndarray) -> np.ndarray:
+    """The means of ``image``'s 2 x 2 blocks (an odd last row or column dropped)."""
+    h, w = image.shape[0] // 2 * 2, image.shape[1] // 2 * 2
+    return ((image[0:h:2, 0:w:2] + image[0:h:2, 1:w:2]) + (image[1:h:2, 0:w:2] + image[1:h:2, 1:w:2])) * 0.25
+
+
+def filtered(image: np.ndarray, sigma: float) -> np.ndarray:
+    """``image`` convolved with ``pixel_kernel(sigma)`` along both axes (the border's value beyond it)."""
+    kernel = pixel_kernel(sigma).astype(image.dtype)
+    return correlate1d(correlate1d(image, kernel, axis=0, mode="nearest"), kernel, axis=1, mode="nearest")
+
+
+def sampled(level: np.ndarray, d: int, rows: np.ndarray, columns: np.ndarray) -> np.ndarray:
+    """``level``, an image halved ``d`` times, interpolated bilinearly at the centres of the full-size pixels
+    ``(rows, columns)``."""
+    if d == 0:
+        return level[rows, columns]
+    h = 2**d
+    out = []
+    for index, size in ((rows, level.shape[0]), (columns, level.shape[1])):
+        u = (index + 0.5) / h - 0.5
+        low = np.floor(u).astype(int)
+        out.append((np.clip(low, 0, size - 1), np.clip(low + 1, 0, size - 1), (u - low)[:, None].astype(level.dtype)))
+    (r0, r1, ty), (c0, c1, tx) = out
+    top = level[r0, c0] + tx * (level[r0, c1] - level[r0, c0])
+    bottom = level[r1, c0] + tx * (level[r1, c1] - level[r1, c0])
+    return top + ty * (bottom - top)
 
 
 def blurred(image: np.ndarray, sigma: np.ndarray) -> np.ndarray:
     """``image (H, W, C)`` blurred at each pixel by a Gaussian of deviation ``sigma (H, W)`` pixels (clamped
     at 0), the border reflecting: see the module."""
-    sigma = np.maximum(sigma, 0.0)
-    ladder = levels(float(sigma.max()))
-    out = image.copy()
-    image = image.astype(np.float32)  # filtered in single precision: 1e-7 of a colour, twice as fast
-    lower = image
+    extra = margin(min(float(np.max(sigma, initial=0.0)), LARGEST))
+    padded = np.pad(image, ((extra, extra), (extra, extra), (0, 0)), mode="symmetric")
+    return blurred_within(padded, sigma, extra)
+
+
+def blurred_within(padded: np.ndarray, sigma: np.ndarray, extra: int) -> np.ndarray:
+    """The middle ``sigma.shape`` of ``padded (H + 2 extra, W + 2 extra, C)`` blurred by ``sigma (H, W)``
+    pixels (clamped to [0, ``LARGEST``]); ``extra`` is at least ``margin(sigma.max())`` (``padding``), and
+    ``padded`` may hold more rows and columns after the window's.
+
+    The ladder of ``levels``: each level filtered on its ``octave`` of ``padded`` with its
+    ``coarse_deviation``; each pixel interpolates linearly in the deviation between the two levels about
+    its own, each level interpolated bilinearly to the pixel.
+    """
+    sigma = np.minimum(np.maximum(sigma, 0.0), LARGEST)
+    height, width = sigma.shape
+    out = padded[extra : extra + height, extra : extra + width].copy()  # where sharp, as it is
+    padded = padded.astype(np.float32)  # filtered in single precision: 1e-7 of a colour, twice as fast
+    ladder = levels(float(sigma.max(initial=0.0)))
+    bracket = np.searchsorted(ladder, sigma, side="left")  # pixels with ladder[k-1] < s <= ladder[k]: k
+    wanted = np.bincount(bracket.ravel(), minlength=len(ladder) + 1)
+    octaves = [padded]
+    made: dict[int, tuple[np.ndarray, int]] = {0: (padded, 0)}  # level k: its filtered image and octave
     for k in range(1, len(ladder)):
-        low, high = ladder[k - 1], ladder[k]
-        between = (sigma > low) & (sigma <= high)
-        wanted_later = k + 1 < len(ladder) and bool(((sigma > high) & (sigma <= ladder[k + 1])).any())
-        if not between.any() and not wanted_later:
-            lower = None  # not needed: the next level starts afresh
+        if wanted[k] == 0:
+            made.pop(k - 1, None)
             continue
-        upper = _filtered(image, high)
-        if between.any():
-            if lower is None:
-                lower = _filtered(image, low)
-            t = ((sigma[between] - low) / (high - low))[:, None]
-            out[between] = (1.0 - t) * lower[between] + t * upper[between]
-        lower = upper
+        for needed in (k - 1, k):
+            if needed not in made:
+                d = octave(ladder[needed])
+                while len(octaves) <= d:
+                    octaves.append(halved(octaves[-1]))
+                made[needed] = (filtered(octaves[d], coarse_deviation(ladder[needed], d)), d)
+        rows, columns = np.nonzero(bracket == k)
+        low, high = ladder[k - 1], ladder[k]
+        t = ((sigma[rows, columns] - low) / (high - low))[:, None].astype(np.float32)
+        lower = sampled(*made[k - 1], rows + extra, columns + extra)
+        upper = sampled(*made[k], rows + extra, columns + extra)
+        out[rows, columns] = lower + t * (upper - lower)
+        made.pop(k - 1)
     return out
 
 
@@ -117,22 +213,70 @@ def blurred_reference(fine: np.ndarray, sigma: np.ndarray, margin: int = 0) -> n
     return out
 
 
-def rasterise_blurred(composite: Composite, blurs: dict[int, Representation], width: int | None = None,
-                      height: int | None = None, samples: int = 3, coverage: bool = False,
+def rasterise_blurred(composite: Composite, width: int | None = None, height: int | None = None, samples: int = 3,
+                      method: str = "fmr", order: int | None = None, coverage: bool = False,
                       progress: Callable[[str, float], None] | None = None) -> np.ndarray:
-    """``engine.rasterise`` of ``composite`` with each layer blurred by its blur field in ``blurs`` (by layer
-    id; a layer without one is sharp).  The blur is in document pixels: with the aspect ratio changed, by the
-    mean of the two scales."""
+    """``engine.rasterise`` of ``composite`` with each layer that carries a blur field (``LayerFields.blur``)
+    blurred by it.  The blur is in document pixels: with the aspect ratio changed, by the mean of the two
+    scales."""
     width, height = output_size(composite.width, composite.height, width, height)
     scale = math.sqrt(width / composite.width * height / composite.height)  # output pixels a document pixel
     fields: dict[int, np.ndarray] = {}
     shown = composite.shown
     for number, layer in enumerate(shown):
-        blur = blurs.get(layer.id)
-        sigma = rasterise(blur, width, height, samples=1)[..., 0] * scale if blur is not None else None
+        sigma = rasterise(layer.blur, width, height, samples=1)[..., 0] * scale if layer.blur is not None else None
         for role, rep in layer.read:
-            values = rasterise(rep, width, height, samples=samples)
+            values = rasterise(rep, width, height, samples=samples, method=method, order=order)
             fields[id(rep)] = values if sigma is None or role is Role.MASK else blurred(values, sigma)
         if progress:
             progress("blur", (number + 1) / len(shown))
     return compose(composite, lambda rep: fields[id(rep)], (height, width, 3), coverage)
+
+
+def reflected(points: np.ndarray, width: float, height: float) -> np.ndarray:
+    """``points (n, 2)`` folded into the canvas by reflection at its border (as often as it takes)."""
+    size = np.array([width, height], float)
+    return size - np.abs(np.mod(points, 2.0 * size) - size)
+
+
+def window_picture(composite: Composite, origin: tuple[float, float], step: float, width: int,
+                   height: int) -> np.ndarray:
+    """What the canvas shows of ``composite`` in a window of ``width x height`` pixels whose top-left corner
+    lies at document point ``origin``, ``step`` document pixels a window pixel, one sample a pixel at its
+    centre: ``(height, width, 4)``, the colour over black and the coverage (``composite.compose``), each
+    blurred layer as ``blurred_within`` makes it from its fields evaluated beyond the window, reflected at
+    the canvas border.  The canvas's shader path does the same on the GPU (``render.blur_filter``)."""
+    from .raster import evaluate_points
+
+    def grid(left: int, top: int, columns: int, rows: int) -> np.ndarray:
+        xs = origin[0] + (np.arange(columns) - left + 0.5) * step
+        ys = origin[1] + (np.arange(rows) - top + 0.5) * step
+        return np.stack(np.broadcast_arrays(xs[None, :], ys[:, None]), axis=-1).reshape(-1, 2)
+
+    window = grid(0, 0, width, height)
+    fields: dict[int, np.ndarray] = {}
+    for layer in composite.shown:
+        sigma = None
+        if layer.blur is not None:
+            field = evaluate_points(layer.blur, reflected(window, composite.width, composite.height))
+            sigma = np.clip(field[:, 0] / step, 0.0, LARGEST).reshape(height, width)
+            extra, below = padding(float(sigma.max(initial=0.0)), height)
+            padded = grid(extra, extra, width + 2 * extra, height + extra + below)
+            padded = reflected(padded, composite.width, composite.height)
+        for role, rep in layer.read:
+            if sigma is None or role is Role.MASK:
+                fields[id(rep)] = evaluate_points(rep, window)
+                continue
+            values = evaluate_points(rep, padded).reshape(height + extra + below, width + 2 * extra, 3)
+            fields[id(rep)] = blurred_within(values, sigma, extra).reshape(-1, 3)
+    return compose(composite, lambda rep: fields[id(rep)], (width * height, 3), True).reshape(height, width, 4)
+
+
+def padding(largest: float, height: int) -> tuple[int, int]:
+    """Rows (and columns) of picture around a window ``height`` rows high that ``blurred_within`` needs to
+    blur it up to ``largest`` pixels: ``(extra, below)``, ``extra`` above and on both sides, ``below`` under
+    it, so that the padded height is a multiple of the deepest octave's pixel (its pixels then line up with
+    the window's counted from either end, as the GPU counts them from the bottom)."""
+    extra = margin(largest)
+    unit = 2 ** octave(levels(largest)[-1]) if largest > 0 else 1
+    return extra, extra + (-height) % unit

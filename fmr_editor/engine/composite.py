@@ -29,13 +29,15 @@ from .representation import Representation
 
 
 class Role(StrEnum):
-    """What a layer's field is: its ``IMAGE``, its ``MASK``, a clone layer's ``SOURCE`` (kept, not drawn), or its
-    ``ALPHA`` (the diffusion of its stops' alphas, ``model.alpha``)."""
+    """What a layer's field is: its ``IMAGE``, its ``MASK``, a clone layer's ``SOURCE`` (kept, not drawn), its
+    ``ALPHA`` (the diffusion of its stops' alphas, ``model.alpha``) or its ``BLUR`` (of its blur stops,
+    ``model.blur``: the deviation that softens it, where the blur is shown)."""
 
     IMAGE = "image"
     MASK = "mask"
     SOURCE = "source"
     ALPHA = "alpha"
+    BLUR = "blur"
 
 
 #: A layer's field: ``(layer id, role)``.
@@ -69,6 +71,10 @@ class LayerFields:
     alpha : Representation or None
         The layer's alpha field (its first channel, clamped to [0, 1], is the layer's coverage); None for an
         opaque layer.
+    blur : Representation or None
+        The layer's blur field (its first channel, clamped at 0, the deviation in document pixels by which
+        the layer's image and alpha are softened, ``engine.blur``); None for a sharp layer, or where the
+        blur is not shown.
     """
 
     image: Representation
@@ -82,6 +88,7 @@ class LayerFields:
     id: int = 0
     source: Representation | None = None
     alpha: Representation | None = None
+    blur: Representation | None = None
 
     @property
     def covers(self) -> bool:

@@ -143,7 +143,8 @@ def rasterise(
     Parameters
     ----------
     rep : Representation or Composite
-        One diffusion image, or layers composed sample by sample (``composite.compose``).
+        One diffusion image, or layers composed sample by sample (``composite.compose``), each carrying a
+        blur field blurred by it (``blur.rasterise_blurred``).
     width, height : int, optional
         Output size; defaults to the canvas size.  One alone keeps the aspect ratio.
     samples : int
@@ -164,6 +165,10 @@ def rasterise(
         ``(height, width, 3)`` float64: a representation's values not clamped, a composite's in [0, 1] (its
         colour over black); ``(height, width, 4)`` with ``coverage``.
     """
+    if isinstance(rep, Composite) and any(layer.blur is not None for layer in rep.shown):
+        from .blur import rasterise_blurred
+
+        return rasterise_blurred(rep, width, height, samples, method, order, coverage, progress)
     width, height = output_size(rep.width, rep.height, width, height)
     if samples < 1:
         raise ValueError("samples must be at least 1")

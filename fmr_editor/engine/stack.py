@@ -62,9 +62,10 @@ class StackUpdate:
         return next(iter(self.fields.values())).changed if len(self.fields) == 1 else None
 
 
-def _wanted(document: Document) -> dict[FieldKey, Document]:
+def _wanted(document: Document, blur: bool = False) -> dict[FieldKey, Document]:
     """The one-image documents the engine solves for ``document``: each layer's image (a clone layer's
-    source instead), each mask with items, each translucent layer's alpha."""
+    source instead), each mask with items, each translucent layer's alpha and, with ``blur``, each blurred
+    layer's blur field."""
     fields = {}
     for layer in document.layers:
         if layer.clone is not None:
@@ -76,6 +77,9 @@ def _wanted(document: Document) -> dict[FieldKey, Document]:
         alpha = alpha_image(layer)
         if alpha is not None:
             fields[layer.id, Role.ALPHA] = document.flat(alpha)
+        softness = blur_image(layer) if blur else None
+        if softness is not None:
+            fields[layer.id, Role.BLUR] = document.flat(softness)
     return fields
 
 
@@ -97,10 +101,13 @@ class LiveStack:
         ``progress(stage, fraction)`` over all the builds.
     saved : sequence, optional
         Per layer, its representations as saved in ``Role`` order, ``(image, mask)``, ``(image, mask,
-        source)`` or ``(image, mask, source, alpha)`` (any may be None): taken as they are, as
-        ``LiveRepresentation`` takes one; a clone layer's image and mask with its source's.
+        source)``, ``(image, mask, source, alpha)`` or ``(image, mask, source, alpha, blur)`` (any may be
+        None): taken as they are, as ``LiveRepresentation`` takes one; a clone layer's image and mask with its
+        source's; the blur fields once the blur is shown.
     memory : int
         Bytes the kept states of all fields may take, shared among them.
+    blur : bool
+        Solve each blurred layer's blur field too, so that the composite carries it (``show_blur``).
 
     Raises
     ------
@@ -111,22 +118,24 @@ class LiveStack:
     ----------
     document : Document
     fields : dict
-        ``LiveRepresentation`` by ``FieldKey``: layers' images, masks and
-        clone layers' sources (``Role.SOURCE``).
+        ``LiveRepresentation`` by ``FieldKey``: layers' images, masks,
+        alphas, blur fields and clone layers' sources (``Role.SOURCE``).
+    show_blur : bool
+        True while blur fields are kept (``set_blur`` changes it).
     clones : dict
         ``cloning.LiveClone`` by clone layer id.
     """
 
     def __init__(self, document: Document, settings: Settings = Settings(), progress: Progress | None = None,
                  saved: Sequence[tuple[Representation | None, Representation | None]] | None = None,
-                 memory: int = DEFAULT_MEMORY) -> None:
+                 memory: int = DEFAULT_MEMORY, blur: bool = False) -> None:
         check_document(document)
         self.settings = settings
+        self.show_blur = blur
         self._memory = memory
         self.document = document
         self.fields: dict[FieldKey, LiveRepresentation] = {}
         self._factorisations = SharedFactorisations()  # a translucent layer's image and alpha share theirs
-        self._blurs: dict[int, LiveRepresentation] = {}  # blur fields by layer id, solved when first asked for
         self._retired: OrderedDict[FieldKey, LiveRepresentation] = OrderedDict()
         self.clones: dict[int, LiveClone] = {}
         self._below: dict[int, tuple] = {}  # per clone layer id, what lay below it when it was blended
@@ -137,6 +146,7 @@ class LiveStack:
                 self.clones[layer.id] = LiveClone(layer.clone, fields.pop(Role.IMAGE), fields.pop(Role.MASK))
                 self._below[layer.id] = self._below_of(document, layer)
             kept.update({(layer.id, kind): rep for kind, rep in fields.items() if rep is not None})
+        self._saved_blurs = {key: rep for key, rep in kept.items() if key[1] is Role.BLUR}  # for set_blur
         self._follow(document, progress, kept, exact=True)
         self._blend(document, {})  # the clones not saved
 
@@ -151,7 +161,7 @@ class LiveStack:
 
     def _follow(self, document: Document, progress: Progress | None, saved: dict[FieldKey, Representation],
                 exact: bool) -> dict[FieldKey, Update]:
-        wanted = _wanted(document)
+        wanted = _wanted(document, self.show_blur)
         share = self._memory // max(1, len(wanted))
         for live in self.fields.values():
             live.memory = share
@@ -178,8 +188,6 @@ class LiveStack:
             self._retired[key] = self.fields.pop(key)
             while len(self._retired) > RETIRED:
                 self._retired.popitem(last=False)
-        layers = {layer.id for layer in document.layers}
-        self._blurs = {key: live for key, live in self._blurs.items() if key in layers}
         self.document = document
         return updates
 
@@ -205,6 +213,14 @@ class LiveStack:
         start = time.perf_counter()
         updates = self._follow(document, progress, {}, exact)
         self._blend(document, updates)
+        return StackUpdate(updates, time.perf_counter() - start)
+
+    def set_blur(self, shown: bool, progress: Progress | None = None) -> StackUpdate:
+        """Keep the blurred layers' blur fields (solving them) or let them go; the composite follows."""
+        start = time.perf_counter()
+        self.show_blur = bool(shown)
+        updates = self._follow(self.document, progress, self._saved_blurs, exact=True)
+        self._saved_blurs = {}
         return StackUpdate(updates, time.perf_counter() - start)
 
     def refine(self) -> StackUpdate:
@@ -250,11 +266,12 @@ class LiveStack:
             del self.clones[gone], self._below[gone]
 
     def _drawn(self, layer: Layer) -> tuple[Representation | None, ...]:
-        """``layer``'s representations as drawn, in ``Role`` order: image, mask, a clone layer's source, alpha."""
+        """``layer``'s representations as drawn, in ``Role`` order: image, mask, a clone layer's source, alpha,
+        blur."""
         if layer.clone is not None:
             live = self.clones[layer.id]
             return live.image, live.mask, self.fields[layer.id, Role.SOURCE].representation
-        return self.image(layer), self.mask(layer), None, self.alpha(layer)
+        return self.image(layer), self.mask(layer), None, self.alpha(layer), self.blur(layer)
 
     @property
     def approximate(self) -> bool:
@@ -287,18 +304,9 @@ class LiveStack:
         return live.representation if live is not None else None
 
     def blur(self, layer: Layer) -> Representation | None:
-        """``layer``'s blur field (``model.blur``; None when nothing of it is blurred): solved when first asked
-        for, with the layer image's factorisation, and brought up to date when asked for again."""
-        image = blur_image(layer)
-        if image is None:
-            return None
-        flat = self.document.flat(image)
-        live = self._blurs.get(layer.id)
-        if live is None:
-            live = self._blurs[layer.id] = LiveRepresentation(flat, self.settings, shared=self._factorisations)
-        elif _items_changed(live.document, flat):
-            live.update(flat)
-        return live.representation
+        """``layer``'s blur field (``model.blur``); None for a sharp layer or while ``show_blur`` is off."""
+        live = self.fields.get((layer.id, Role.BLUR))
+        return live.representation if live is not None else None
 
     @property
     def representation(self) -> Representation:
@@ -312,13 +320,14 @@ class LiveStack:
 
 
 def layer_fields(layer: Layer, image: Representation, mask_field: Representation | None,
-                 source: Representation | None = None, alpha: Representation | None = None, *,
-                 bottom: bool = False) -> LayerFields:
+                 source: Representation | None = None, alpha: Representation | None = None,
+                 blur: Representation | None = None, *, bottom: bool = False) -> LayerFields:
     """How ``layer`` is drawn from its image, mask and alpha representations (a clone layer's mask: its region;
     its ``source`` is kept with it).  An empty layer is clear, nothing of it drawn, unless it is the ``bottom``
     one, which starts opaque (black) as a new document does."""
     shown = {"opacity": layer.opacity, "transform": layer.transform,
-             "visible": layer.visible and (bottom or not layer.empty), "id": layer.id, "alpha": alpha}
+             "visible": layer.visible and (bottom or not layer.empty), "id": layer.id, "alpha": alpha,
+             "blur": blur}
     if layer.clone is not None:
         return LayerFields(image, mask_field, mask_base=0.0, source=source, **shown)
     mask = layer.mask
@@ -329,8 +338,8 @@ def layer_fields(layer: Layer, image: Representation, mask_field: Representation
 
 
 def composite_of(document: Document, fields: Sequence[tuple]) -> Composite:
-    """``document``'s picture from each layer's ``(image, mask, source, alpha)`` representations (mask None: no
-    mask or no items; alpha None: opaque)."""
+    """``document``'s picture from each layer's ``(image, mask, source, alpha, blur)`` representations (mask
+    None: no mask or no items; alpha None: opaque; blur None: sharp; the last ones may be left out)."""
     layers = (layer_fields(layer, *reps, bottom=index == 0)
               for index, (layer, reps) in enumerate(zip(document.layers, fields, strict=True)))
     return Composite(document.width, document.height, tuple(layers))

@@ -38,6 +38,7 @@ from PIL import Image
 from ..engine import Composite, Representation, Role, Settings, clone_points, composite_of, rasterise
 from ..model import Document, Layer
 from ..model.alpha import alpha_image
+from ..model.blur import blur_image
 from .atomic import write_atomically
 from .document_json import dumps_document, loads_document
 from .errors import DocumentLoadError
@@ -205,18 +206,23 @@ def _fields(document: Document, representation: Representation | Composite | Non
             raise ValueError(f"layer {i}'s alpha does not match its document's (translucent on one side only)")
         if drawn.alpha is not None:
             fields.append((field_prefix(i, Role.ALPHA), drawn.alpha, targets[Role.ALPHA]))
+        if drawn.blur is not None and targets.get(Role.BLUR) is not None:  # shown with blur: kept, if it fits
+            fields.append((field_prefix(i, Role.BLUR), drawn.blur, targets[Role.BLUR]))
     return fields
 
 
 def field_documents(document: Document, layer: Layer) -> dict[Role, Document | None]:
     """The one-image documents each representation of ``layer`` is made for, in ``Role`` order: its image, its
     mask (None without one), for a clone layer its source (its image holds its placed points; its mask, the
-    region's indicator, none), and for a translucent layer its alpha (``model.alpha``; source None)."""
+    region's indicator, none), for a translucent layer its alpha (``model.alpha``; source None) and for a
+    blurred one its blur field (``model.blur``; alpha None for an opaque one)."""
     if layer.clone is None:
-        alpha = alpha_image(layer)
+        alpha, blur = alpha_image(layer), blur_image(layer)
         fields = {Role.IMAGE: document.flat(layer),
                   Role.MASK: document.flat(layer.mask) if layer.mask is not None else None}
-        return fields | ({Role.SOURCE: None, Role.ALPHA: document.flat(alpha)} if alpha is not None else {})
+        if alpha is not None or blur is not None:
+            fields |= {Role.SOURCE: None, Role.ALPHA: document.flat(alpha) if alpha is not None else None}
+        return fields | ({Role.BLUR: document.flat(blur)} if blur is not None else {})
     placed = Document(document.width, document.height, (), clone_points(layer.clone, document.width, document.height))
     return {Role.IMAGE: placed, Role.MASK: Document(document.width, document.height), Role.SOURCE: layer.clone.source}
 

@@ -10,19 +10,24 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+import numpy as np
+
 from .curve import ColorStop, DiffusionCurve
 from .layer import Layer
 
-#: The blur of a curve without blur stops.
-SHARP = (ColorStop(0.0, (0.0, 0.0, 0.0)),)
-
 
 def blur_curve(curve: DiffusionCurve) -> DiffusionCurve:
-    """``curve`` (same geometry and id) with colour stops ``(b, b, b)`` on both sides for its blur stops."""
+    """``curve`` (same geometry, id and blur stops) with colour stops ``(b, b, b)`` on both sides: its blur
+    ``b`` (interpolated linearly between its blur stops, 0 without any) at each position where it has a colour
+    or blur stop, so that it breaks into the very segments of ``curve``."""
     memo = curve.__dict__  # not a field of the curve: no part of its value
     if "_blur_curve" not in memo:
-        greys = tuple(ColorStop(stop.position, (stop.blur,) * 3) for stop in curve.blur) or SHARP
-        memo["_blur_curve"] = replace(curve, left=greys, right=greys, blur=())
+        positions = sorted({stop.position for stop in curve.left + curve.right + curve.blur}) or [0.0]
+        stops = sorted(curve.blur, key=lambda stop: stop.position)
+        values = (np.interp(positions, [stop.position for stop in stops], [stop.blur for stop in stops])
+                  if stops else np.zeros(len(positions)))
+        greys = tuple(ColorStop(position, (float(value),) * 3) for position, value in zip(positions, values))
+        memo["_blur_curve"] = replace(curve, left=greys, right=greys)
     return memo["_blur_curve"]
 
 

@@ -43,7 +43,8 @@ class ColorStop:
 
 @dataclass(frozen=True)
 class BlurStop:
-    """A blur amount at a position along a curve (``model.blur``; drawn by ``engine.blur`` on request).
+    """A blur amount at a position along a curve (``model.blur``; drawn by ``engine.blur``, and by the canvas
+    with View > Show Blur).
 
     Parameters
     ----------
@@ -92,7 +93,8 @@ class DiffusionCurve:
     left, right : tuple of ColorStop
         Colour stops on each side; sorted and clamped to ``[0, k]`` on creation.
     blur : tuple of BlurStop
-        Blur stops (kept for round trips; rendering ignores them for now).
+        Blur stops: how much the picture is softened along the curve (``model.blur``); sorted and clamped
+        as the colour stops.
     id : int, optional
         The curve's stable id (``identity``); a new one when omitted.  Not
         part of the curve's value (equality and hash).

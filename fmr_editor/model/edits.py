@@ -14,17 +14,19 @@ from dataclasses import replace
 
 import numpy as np
 
-from .curve import Color, ColorStop, DiffusionCurve, interpolate_stops
+from .curve import BlurStop, Color, ColorStop, DiffusionCurve, interpolate_stops
 from .document import Document
 from .point import DiffusionPoint
 from .refusals import EditRefused
 
 SIDES = ("left", "right")
+#: Where a curve keeps stops: its colour stops' sides and its blur stops.
+STOP_SIDES = SIDES + ("blur",)
 
 
-def _side(side: str) -> str:
-    if side not in SIDES:
-        raise ValueError(f"side must be 'left' or 'right', got {side!r}")
+def _side(side: str, sides: tuple[str, ...] = SIDES) -> str:
+    if side not in sides:
+        raise ValueError(f"side must be one of {', '.join(map(repr, sides))}, got {side!r}")
     return side
 
 
@@ -70,16 +72,24 @@ def set_stop_alpha(document: Document, curve: int, side: str, stop: int, alpha: 
     return replace_curve(document, curve, replace(old, **{side: tuple(stops)}))
 
 
-def add_stop(document: Document, curve: int, side: str, stop: ColorStop) -> Document:
-    """``document`` with ``stop`` added on ``side`` of curve ``curve``."""
+def set_stop_blur(document: Document, curve: int, stop: int, blur: float) -> Document:
+    """``document`` with blur stop ``stop`` of curve ``curve`` at ``blur`` document pixels of deviation."""
     old = document.curve(curve)
-    return replace_curve(document, curve, replace(old, **{side: getattr(old, _side(side)) + (stop,)}))
+    stops = list(old.blur)
+    stops[stop] = replace(stops[stop], blur=float(blur))
+    return replace_curve(document, curve, replace(old, blur=tuple(stops)))
+
+
+def add_stop(document: Document, curve: int, side: str, stop: ColorStop | BlurStop) -> Document:
+    """``document`` with ``stop`` added on ``side`` of curve ``curve`` (a ``BlurStop`` on side ``"blur"``)."""
+    old = document.curve(curve)
+    return replace_curve(document, curve, replace(old, **{side: getattr(old, _side(side, STOP_SIDES)) + (stop,)}))
 
 
 def remove_stop(document: Document, curve: int, side: str, stop: int) -> Document:
-    """``document`` without stop ``stop`` on ``side`` of curve ``curve``."""
+    """``document`` without stop ``stop`` on ``side`` (``"blur"``: of its blur stops) of curve ``curve``."""
     old = document.curve(curve)
-    stops = getattr(old, _side(side))
+    stops = getattr(old, _side(side, STOP_SIDES))
     return replace_curve(document, curve, replace(old, **{side: stops[:stop] + stops[stop + 1 :]}))
 
 
@@ -152,7 +162,7 @@ def move_stop(document: Document, curve: int, side: str, stop: int, position: fl
     interchangeable: find it by position and colour).
     """
     old = document.curve(curve)
-    stops = list(getattr(old, _side(side)))
+    stops = list(getattr(old, _side(side, STOP_SIDES)))
     stops[stop] = replace(stops[stop], position=float(position))
     return replace_curve(document, curve, replace(old, **{side: tuple(stops)}))
 

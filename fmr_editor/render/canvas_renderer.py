@@ -34,7 +34,7 @@ from ..engine import Representation
 from . import bounds, packing
 from .cached_image import BACKGROUND, CachedImage, show_scaled
 from .canvas_data import UNITS, CanvasData, ShaderLayout
-from .gl import Program, VertexArray, additive, in_plain_state, shader_source
+from .gl import Framebuffer, Program, VertexArray, additive, in_plain_state, shader_source
 from .view import View, integer_shift
 
 #: Default ``CanvasRenderer.tolerance``: a twentieth of an 8-bit step.
@@ -94,6 +94,22 @@ class CanvasRenderer:
         self.last_evaluation = "none"
         self.evaluations: Counter[str] = Counter()
         self.last_update = {"changed": 0, "delta": 0, "evaluate": 0, "segments": 0}
+        self._reflect = False
+        self.reach = 0.0
+        self._redrawn = np.zeros(0, int)  # the cells whose pixels the latest update changes
+
+    @property
+    def reflect(self) -> bool:
+        """True: beyond the canvas the image holds the picture reflected at its border, not the checkerboard
+        (a field to be blurred; ``reach`` document pixels of it about the canvas are in the window, so a
+        change that near the border is evaluated in full, reflections and all)."""
+        return self._reflect
+
+    @reflect.setter
+    def reflect(self, reflect: bool) -> None:
+        if reflect != self._reflect:
+            self._reflect = reflect
+            self._cached_view = None
 
     # -- data ---------------------------------------------------------------------------------
     @property
@@ -104,6 +120,11 @@ class CanvasRenderer:
     def image_texture(self) -> int:
         """The GL texture of the cached float image (what ``evaluate`` brings up to date)."""
         return self._cache.image.texture
+
+    @property
+    def image(self) -> Framebuffer:
+        """The cached float image's framebuffer."""
+        return self._cache.image
 
     def take_changed(self) -> tuple[int, int, int, int] | None:
         """GL pixels ``(x0, y0, x1, y1)`` of the cached image changed since the last call; None: none."""
@@ -154,6 +175,8 @@ class CanvasRenderer:
             moved[:] = np.inf
         exact = same_geometry and not near_points_changed  # the change can also be added to the image
         self.last_update = self._catch_up(cells, delta, moved, exact, old)
+        if self._reflect and self.reach > 0 and self._near_border(self._redrawn).any():
+            self._cached_view = None  # their reflections beyond the border change too
 
     def _catch_up(self, cells: np.ndarray, delta: np.ndarray, moved: np.ndarray, exact: bool,
                   old: Representation) -> dict[str, int]:
@@ -171,6 +194,7 @@ class CanvasRenderer:
         show = total > self.tolerance
         unseen[cells[~show]] = total[~show]
         shown = cells[show]
+        self._redrawn = shown
         counts = {"changed": len(cells), "delta": 0, "evaluate": 0, "segments": 0}
         if self._cached_view is not None and len(shown):
             if exact and self._cache.additive:
@@ -187,6 +211,14 @@ class CanvasRenderer:
             self._dirty.ravel()[shown] = True
             counts["evaluate"] = len(shown)
         return counts
+
+    def _near_border(self, cells: np.ndarray) -> np.ndarray:
+        """Which of ``cells`` (flat indices) lie within ``reach`` of the canvas border."""
+        layout, reach = self._layout, self.reach
+        size = layout.cell_size
+        columns, rows = cells % layout.cells, cells // layout.cells
+        return ((columns * size < reach) | ((columns + 1) * size > layout.width - reach)
+                | (rows * size < reach) | ((rows + 1) * size > layout.height - reach))
 
     def _add_change(self, delta: np.ndarray, cells: np.ndarray, old: Representation, new: Representation,
                     keep: np.ndarray) -> None:
@@ -351,6 +383,7 @@ class CanvasRenderer:
             u_cell_size=layout.cell_size, u_checker=self.checker, u_instanced=int(instances > 0),
             u_cell_origin=(view.offset_x, view.offset_y), u_cell_window=layout.cell_size * view.scale,
             u_window=(view.width, view.height), u_delta=int(delta), u_rows_by_instance=int(delta),
+            u_reflect=int(self._reflect),
         )
         self._vao.bind()
         with additive() if delta else nullcontext():

@@ -172,14 +172,16 @@ class Program:
     def set(self, **values) -> None:
         """Set uniforms by name (the program must be in use); names the linker removed are ignored.
 
-        Samplers take their texture unit.
+        Samplers take their texture unit; a float array takes a sequence.
         """
         for name, value in values.items():
             found = self._uniforms.get(name)
             if found is None:
                 continue
             location, kind = found
-            if kind in _SAMPLERS:
+            if kind == GL.GL_FLOAT and np.ndim(value) == 1:  # a float array
+                GL.glUniform1fv(location, len(value), np.asarray(value, np.float32))
+            elif kind in _SAMPLERS:
                 GL.glUniform1i(location, int(value))
             else:
                 _SETTERS[kind](location, value)

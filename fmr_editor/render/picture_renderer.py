@@ -23,10 +23,14 @@ import numpy as np
 from OpenGL import GL
 
 from ..engine import Composite, FieldKey, LayerFields, Representation, Role
+from .blur_filter import BlurFilter, BlurPlan, FramebufferPool, read_first_channel
 from .cached_image import CachedImage, show_scaled, union
 from .canvas_renderer import TOLERANCE, CanvasRenderer
-from .gl import Program, VertexArray, in_plain_state, over, plain_state, shader_source
+from .gl import BufferTexture, Program, VertexArray, in_plain_state, over, plain_state, shader_source
 from .view import View
+
+#: The fields of a blurred layer that are evaluated beyond the window, reflected at the canvas border.
+REFLECTED = (Role.IMAGE, Role.ALPHA, Role.BLUR)
 
 #: ``changed`` of a field to upload whole (a new lattice, or changes merged across lattices).
 WHOLE = None
@@ -65,6 +69,8 @@ class PictureRenderer:
         ``CanvasRenderer`` by ``FieldKey``.
     composed : int
         How many draws composed the layers (a redraw of an unchanged picture does not).
+    blurred : int
+        How many times a field was blurred (``render.blur_filter``) since the renderer was made.
     mask_overlay : int or None
         The id of a layer whose mask is tinted over the picture (red where it
         hides the layer), while the user edits it; None for none.
@@ -84,6 +90,10 @@ class PictureRenderer:
         self._overlay: int | None = None
         self._overlay_fields = False
         self.composed = 0
+        self._filters: dict[FieldKey, BlurFilter] = {}  # blurred fields' filters
+        self._plans: dict[int, tuple[View, BlurPlan]] = {}  # by blurred layer id: the view it was made for
+        self._blur_gl: tuple[tuple[Program, ...], VertexArray, BufferTexture, FramebufferPool] | None = None
+        self.blurred = 0
 
     @property
     def mask_overlay(self) -> int | None:
@@ -132,6 +142,9 @@ class PictureRenderer:
             else:
                 continue
             self._last_key = key
+        blurred = {layer.id for layer in picture.layers if layer.blur is not None}
+        for key, renderer in self.renderers.items():
+            renderer.reflect = key[0] in blurred and key[1] in REFLECTED
         if self._picture is None or _settings(self._picture) != _settings(picture):
             self._composed_view = None  # layers' opacity, masks, transforms or order: compose everything again
         self._picture = picture
@@ -173,7 +186,8 @@ class PictureRenderer:
     def _single(self) -> CanvasRenderer | None:
         """The renderer that draws the picture by itself: one plain layer shown; else None."""
         shown = self._picture.shown if self._picture is not None else ()
-        if len(shown) == 1 and shown[0].covers and shown[0].transform.is_identity and self._overlay is None:
+        if (len(shown) == 1 and shown[0].covers and shown[0].transform.is_identity and shown[0].blur is None
+                and self._overlay is None):
             return self.renderers[shown[0].id, Role.IMAGE]
         return None
 
@@ -224,11 +238,23 @@ class PictureRenderer:
         # composes that.
         shown = self._picture.shown or (replace(self._picture.layers[0], opacity=0.0),)
         tinted = next((layer for layer in self._picture.layers if layer.id == self._overlay), None)
+        blurred = {layer.id: layer for layer in shown if layer.blur is not None}
         keys = {(layer.id, kind) for layer in shown for kind, _ in layer.read}
         if tinted is not None:
             keys |= {(tinted.id, Role.IMAGE)} | ({(tinted.id, Role.MASK)} if tinted.mask is not None else set())
+        keys = {key for key in keys if not (key[0] in blurred and key[1] in REFLECTED)}
+        for key in [key for key in self._filters if key[0] not in blurred]:
+            self._filters.pop(key).delete()
+        if not self._filters and self._blur_gl is not None:
+            self._blur_gl[3].delete()  # the blur's working images, while nothing is blurred
+        self._plans = {key: plan for key, plan in self._plans.items() if key in blurred}
         evaluated = {self.renderers[key].evaluate(view) for key in keys}
         changed = None
+        for layer in blurred.values():
+            region = self._blur(layer, view)
+            if region is not None:
+                changed = union(changed, region)
+                evaluated.add("blur")
         for renderer in self.renderers.values():  # every field's, so that none carries old changes over
             changed = union(changed, renderer.take_changed())
         if self._composed_view != view:
@@ -237,6 +263,45 @@ class PictureRenderer:
             self._compose(view, shown, tinted, changed)
         self._pending = False
         return "none" if evaluated <= {"none"} else "fields"
+
+    def _blur(self, layer: LayerFields, view: View) -> tuple[int, int, int, int] | None:
+        """Bring ``layer``'s blurred image (and alpha) up to date for ``view``: the GL pixels of the window
+        that changed (None: none).  Only what an edit reaches is blurred again: where the blur field
+        changed, and about where the picture changed, as far as the blur reaches."""
+        sigma = self.renderers[layer.id, Role.BLUR]
+        sigma.evaluate(view)
+        whole = (0, 0, view.width, view.height)
+        made_for, plan = self._plans.get(layer.id, (None, None))
+        region = sigma.take_changed()
+        if region is not None or made_for != view:
+            old, plan = plan, BlurPlan.of(read_first_channel(sigma.image), view.scale)
+            self._plans[layer.id] = (view, plan)
+            if made_for != view or not plan.same_ladder(old):
+                region = whole
+        padded = plan.padded(view)
+        fields = [(role, self.renderers[layer.id, role]) for role, _ in layer.read if role is not Role.MASK]
+        reach = plan.extra
+        for _, renderer in fields:
+            renderer.reach = max(plan.extra, plan.below) / view.scale
+            renderer.evaluate(padded)
+            rect = renderer.take_changed()
+            if rect is not None:  # padded GL pixels: the window's, grown by what the blur reaches
+                x0, y0, x1, y1 = rect
+                region = union(region, (x0 - plan.extra - reach, y0 - plan.below - reach,
+                                        x1 - plan.extra + reach, y1 - plan.below + reach))
+        if region is None:
+            return None
+        region = (max(region[0], 0), max(region[1], 0), min(region[2], view.width), min(region[3], view.height))
+        if self._blur_gl is None:
+            self._blur_gl = (BlurFilter.programs(), VertexArray(), BufferTexture(GL.GL_RGBA32F), FramebufferPool())
+        part = plan.within(region)
+        for role, renderer in fields:
+            if (layer.id, role) not in self._filters:
+                self._filters[layer.id, role] = BlurFilter(*self._blur_gl)
+                part = plan  # a new filter's output is blurred whole
+            self._filters[layer.id, role].run(renderer.image, part, sigma.image, view.scale)
+            self.blurred += 1
+        return region if part is not plan else whole
 
     def _compose(self, view: View, shown: tuple[LayerFields, ...], tinted: LayerFields | None,
                  rect: tuple[int, int, int, int] | None = None) -> None:
@@ -285,8 +350,9 @@ class PictureRenderer:
         textures = ([(0, (layer.id, Role.IMAGE))] + ([(1, (layer.id, Role.MASK))] if reads_mask else [])
                     + ([(2, (layer.id, Role.ALPHA))] if reads_alpha else []))
         for unit, key in textures:
+            blurred = self._filters.get(key) if layer.blur is not None else None
             GL.glActiveTexture(GL.GL_TEXTURE0 + unit)
-            GL.glBindTexture(GL.GL_TEXTURE_2D, self.renderers[key].image_texture)
+            GL.glBindTexture(GL.GL_TEXTURE_2D, blurred.output.texture if blurred else self.renderers[key].image_texture)
         program.set(u_masked=int(reads_mask), u_translucent=int(reads_alpha),
                     u_mask_base=layer.mask_base if enabled else 1.0, u_inverted=int(enabled and layer.mask_inverted),
                     u_opacity=layer.opacity,
@@ -306,13 +372,20 @@ class PictureRenderer:
                 item.delete()
         if self._background is not None:
             self._background.release()
-        self._program = self._vao = self._background = None
+        for kept in self._filters.values():
+            kept.delete()
+        if self._blur_gl is not None:
+            programs, *items = self._blur_gl
+            for item in (*programs, *items):
+                item.delete()
+        self._program = self._vao = self._background = self._blur_gl = None
+        self._filters.clear()
 
 
 def _settings(picture: Composite) -> tuple:
     """How ``picture``'s layers are composed (everything but their representations)."""
     return tuple((layer.id, layer.visible, layer.opacity, layer.transform, layer.mask_base, layer.mask_inverted,
-                  layer.mask_enabled, layer.mask is None) for layer in picture.layers)
+                  layer.mask_enabled, layer.mask is None, layer.blur is None) for layer in picture.layers)
 
 
 def _fields(picture: Composite, overlay: int | None) -> dict[FieldKey, Representation]:
@@ -328,4 +401,6 @@ def _fields(picture: Composite, overlay: int | None) -> dict[FieldKey, Represent
             fields[layer.id, Role.MASK] = layer.mask
         if layer.alpha is not None:
             fields[layer.id, Role.ALPHA] = layer.alpha
+        if layer.blur is not None:
+            fields[layer.id, Role.BLUR] = layer.blur
     return fields

@@ -17,7 +17,7 @@ the document from before it.
 
 from __future__ import annotations
 
-from .actions import delete_selection, nudge, recolor_stops
+from .actions import delete_selection, nudge, recolor_stops, set_blur_stops
 from .base import Drag, EditDrag, Tool
 from .brush import BrushTool
 from .context import Selection, ToolContext, ToolOptions
@@ -41,5 +41,5 @@ def create_tools(context: ToolContext) -> dict[str, Tool]:
 __all__ = [
     "TOOLS", "BrushTool", "CloneTool", "Drag", "EditDrag", "EyedropperTool", "LassoTool", "PenTool", "PointerEvent",
     "SelectTool", "Selection", "StopsTool", "Tool", "ToolContext", "ToolOptions", "create_tools", "delete_selection",
-    "nudge", "recolor_stops",
+    "nudge", "recolor_stops", "set_blur_stops",
 ]

@@ -95,3 +95,17 @@ def recolor_stops(context: ToolContext, color: Color, merge_key: Hashable | None
     n = len(context.selection.stops)
     context.history.apply(edited, "Change " + _plural(n, "Stop") + " Colour", merge_key)
     return True
+
+
+def set_blur_stops(context: ToolContext, blur: float, merge_key: Hashable | None = None) -> bool:
+    """Give every selected blur stop ``blur`` (document pixels of deviation) as one step "Change Blur"
+    (``merge_key`` as ``recolor_stops``'s)."""
+    document = context.document
+    edited = document
+    for c, side, i in sorted(context.selection.stops):
+        if side == "blur":
+            edited = edits.set_stop_blur(edited, c, i, blur)
+    if edited == document:
+        return False
+    context.history.apply(edited, "Change Blur", merge_key)
+    return True

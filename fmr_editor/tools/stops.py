@@ -14,7 +14,7 @@
 
 from __future__ import annotations
 
-from ..model import ColorStop, Document, edits
+from ..model import BlurStop, ColorStop, Document, edits
 from .actions import delete_selection
 from .base import Drag, EditDrag, Tool
 from .context import Selection, ToolContext
@@ -23,13 +23,19 @@ from .hit import CurveIndex, nearest_stop, stop_marker
 from .overlay import Markers, curve_marks
 
 
-def find_stop(document: Document, curve: int, side: str, position: float, color) -> int:
-    """Index of the stop on ``side`` of the curve ``curve`` (an id) at ``position`` with ``color``.
+def find_stop(document: Document, curve: int, side: str, position: float, value) -> int:
+    """Index of the stop on ``side`` of the curve ``curve`` (an id) at ``position`` with ``value``: its colour
+    (its blur, on side ``"blur"``).
 
     Equal stops are interchangeable.
     """
     stops = getattr(document.curve(curve), side)
-    return next(i for i, stop in enumerate(stops) if stop.position == position and stop.color == color)
+    return next(i for i, stop in enumerate(stops) if stop.position == position and stop_value(stop) == value)
+
+
+def stop_value(stop):
+    """What a stop holds besides its position: a colour stop's colour, a blur stop's blur."""
+    return stop.blur if isinstance(stop, BlurStop) else stop.color
 
 
 class StopDrag(EditDrag):

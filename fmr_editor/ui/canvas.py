@@ -167,9 +167,12 @@ class Canvas(QOpenGLWidget):
         document pixel is exactly one screen pixel (its centre sampled).
         """
         ratio = self.devicePixelRatioF()
-        view = self._view.zoomed(scale / ratio / self._view.scale, self.width() / 2, self.height() / 2)
-        self.set_view(View(view.scale, round(view.offset_x * ratio) / ratio, round(view.offset_y * ratio) / ratio,
-                           view.width, view.height))
+        scale = scale / ratio  # set, not reached by a factor: at 1 it must be 1 exactly
+        x, y = self.width() / 2, self.height() / 2
+        doc_x, doc_y = self._view.to_document(x, y)
+        offset_x, offset_y = x - doc_x * scale, y - doc_y * scale
+        self.set_view(View(scale, round(offset_x * ratio) / ratio, round(offset_y * ratio) / ratio,
+                           self._view.width, self._view.height))
         self._settle.start()
 
     @property

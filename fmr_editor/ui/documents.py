@@ -96,6 +96,8 @@ class DocumentCommands:
         cancel closes it.  ``then()`` follows either way, unless cancelled."""
         opening = Opening(name, path, Task(title), came_from=self.shown)
         self._add_tab(opening)
+        if self.show_blur:
+            work = (lambda progress, read=work: read(progress).blurred(progress))
 
         def succeeded(opened: Opened) -> None:
             self._install(opened, opening)

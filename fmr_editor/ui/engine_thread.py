@@ -58,7 +58,7 @@ class Frame:
         """The frame of ``live`` as built: every cell of every field changed."""
         picture, changes = live.composite, {}
         for layer in picture.layers:
-            for kind, rep in layer.read:
+            for kind, rep in layer.read + (((Role.BLUR, layer.blur),) if layer.blur is not None else ()):
                 n = rep.lattice.cells_per_side
                 changes[layer.id, kind] = np.ones((n, n), bool)
         return cls(live.document, picture, changes, "build", not live.approximate, live.stale)
@@ -178,6 +178,12 @@ class EngineThread(QObject):
         """The bytes of recent states the representation may keep for undo (``LiveStack.memory``: the worker
         reads it at its next update, so setting it from this thread is safe)."""
         self._worker.live.memory = memory
+
+    def set_blur(self, shown: bool, document: Document) -> None:
+        """Keep the blur fields or not (``LiveStack.show_blur``: the worker reads it at its next update), and
+        bring the representation to ``document`` with them."""
+        self._worker.live.show_blur = shown
+        self.request(document)
 
     def request(self, document: Document, preview: bool = False) -> None:
         """Bring the representation to ``document`` (newest request wins); ``preview``: may be approximate."""

@@ -67,6 +67,7 @@ class GradientBar(QWidget):
         self.stops: tuple[ColorStop, ...] = ()
         self.length = 1.0
         self.selected: frozenset[int] = frozenset()
+        self.empty_color = QColor(0, 0, 0)
         self._press: QPointF | None = None
         self._dragging = False
         self.setFocusPolicy(Qt.FocusPolicy.ClickFocus)
@@ -115,7 +116,7 @@ class GradientBar(QWidget):
                 gradient.setColorAt(min(max(stop.position / self.length, 0.0), 1.0), qcolor(stop.color, stop.alpha))
             painter.fillRect(bar, QBrush(gradient))
         else:
-            painter.fillRect(bar, QColor(0, 0, 0))  # a side without stops is black
+            painter.fillRect(bar, self.empty_color)  # a side without stops: black (a curve without blur: sharp)
         painter.setPen(QPen(self.palette().mid().color(), 1))
         painter.drawRect(bar)
         for i, stop in enumerate(self.stops):

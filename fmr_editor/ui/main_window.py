@@ -84,6 +84,7 @@ class MainWindow(FileCommands, DocumentCommands, QMainWindow):
         super().__init__(parent)
         self.settings = settings
         self.preferences = Preferences.load(settings)
+        self.show_blur = settings.value("view/show_blur", True, type=bool)
         self.autosaver = autosave or Autosaver(AutosaveFolder(default_folder()), self.preferences.autosave_seconds)
         self.autosaver.setParent(self)
         self.recovery: RecoveryDialog | None = None  # the recovery dialog while it is open
@@ -107,6 +108,7 @@ class MainWindow(FileCommands, DocumentCommands, QMainWindow):
         self.canvas.installEventFilter(self)
 
         self.actions = build_actions(self)
+        self.actions["show_blur"].setChecked(self.show_blur)
         self.recent_menu = QMenu("Open &Recent", self)
         self.recent_menu.aboutToShow.connect(self._fill_recent_menu)
         self.toolbox = build_toolbox(self, self.actions)
@@ -312,6 +314,14 @@ class MainWindow(FileCommands, DocumentCommands, QMainWindow):
 
     def actual_size(self) -> None:
         self.canvas.zoom_to(1.0)
+
+    def toggle_blur(self) -> None:
+        """View > Show Blur: soften each layer by its curves' blur stops, or show it sharp (every open
+        document; the choice holds from one start to the next)."""
+        self.show_blur = self.actions["show_blur"].isChecked()
+        self.settings.setValue("view/show_blur", self.show_blur)
+        for workspace in self.workspaces:
+            workspace.set_blur(self.show_blur)
 
     def swap_colors(self) -> None:
         self.options_panel.swap_colors()

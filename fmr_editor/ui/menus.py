@@ -41,6 +41,8 @@ ACTIONS = {
     "zoom_out": ("Zoom &Out", ["Ctrl+-"], "zoom_out", "Zoom out about the centre"),
     "actual_size": ("&Actual Size", ["1"], "actual_size", "One document pixel per screen pixel (100%)"),
     "fit": ("&Fit Canvas", ["Ctrl+0", "5"], "fit", "Show the whole canvas"),
+    "show_blur": ("Show &Blur", ["Ctrl+Shift+B"], "toggle_blur",
+                  "Soften the picture by its curves' blur stops (off: show every edge sharp, and work faster)"),
     "next_document": ("Ne&xt Document", ["Ctrl+Tab", "Ctrl+PgDown"], "next_document", "Show the next open document"),
     "previous_document": ("Pre&vious Document", ["Ctrl+Shift+Tab", "Ctrl+PgUp"], "previous_document",
                           "Show the previous open document"),
@@ -82,8 +84,8 @@ MENUS = (
                "quit")),
     ("&Edit", ("undo", "redo", None, "copy", "paste", "paste_seamless", None, "delete", None, "select_all",
                "deselect", None, "preferences")),
-    ("&View", ("zoom_in", "zoom_out", "actual_size", "fit", None, "next_document", "previous_document", None,
-               "panels")),
+    ("&View", ("zoom_in", "zoom_out", "actual_size", "fit", None, "show_blur", None, "next_document",
+               "previous_document", None, "panels")),
     ("&Layer", ("new_layer", "duplicate_layer", "delete_layer", None, "merge_down", "flatten", None, "add_mask",
                 "add_hiding_mask", "delete_mask", "invert_mask", "disable_mask", "edit_mask", None, "adjust_colors")),
     ("&Tools", ("tools", None, "swap_colors", "default_colors")),
@@ -109,6 +111,7 @@ def build_actions(window) -> dict[str, QAction]:
         action.triggered.connect(lambda _=False, method=method: _method(window, method)())
         actions[name] = action
     actions["edit_mask"].setCheckable(True)
+    actions["show_blur"].setCheckable(True)
     group = QActionGroup(window)
     group.setExclusive(True)
     for cls in TOOLS:

@@ -1,4 +1,4 @@
-"""The stops panel: the colour stops of the selected curve, left and right, as gradient bars.
+"""The stops panel: the colour stops of the selected curve, left and right, and its blur stops, as bars.
 
 - Pressing a handle selects its stop (Shift adds or removes it); dragging
   moves the stop along its side: one undo step "Move Stop" (Esc cancels).
@@ -8,21 +8,35 @@
 - A double click on the bar away from the handles adds a stop there with
   the colour the side has there ("Add Stop"); the side's remove button (or
   Delete while the bar has focus) removes its selected stops.
+- The third bar holds the blur stops, white where sharp and darker as the
+  blur grows (``BLUR_SHOWN`` px and more: darkest); they move, add and go
+  as colour stops do, and the spin box beside the bar sets the selected
+  ones' blur, in document pixels of deviation ("Change Blur", one step while
+  it is edited).
 """
 
 from __future__ import annotations
 
+import numpy as np
 from PySide6.QtCore import QEvent, Qt, Signal
 from PySide6.QtGui import QColor, QIcon, QPixmap
-from PySide6.QtWidgets import QGridLayout, QLabel, QToolButton, QVBoxLayout, QWidget
+from PySide6.QtWidgets import QDoubleSpinBox, QGridLayout, QLabel, QToolButton, QVBoxLayout, QWidget
 
-from ..model import ColorStop, edits
-from ..tools import Selection, ToolContext, delete_selection, recolor_stops
-from ..tools.stops import find_stop
+from ..model import BlurStop, ColorStop, edits
+from ..tools import Selection, ToolContext, delete_selection, recolor_stops, set_blur_stops
+from ..tools.stops import find_stop, stop_value
 from .colors import live_color_dialog
 from .gradient_bar import GradientBar, qcolor
 
 SIDES = ("left", "right")
+#: A blur stop of this many pixels or more shows darkest on the blur bar.
+BLUR_SHOWN = 10.0
+
+
+def blur_grey(blur: float) -> tuple[float, float, float]:
+    """How the blur bar shows ``blur``: white for sharp, darker up to ``BLUR_SHOWN``."""
+    grey = 1.0 - 0.85 * min(max(blur, 0.0) / BLUR_SHOWN, 1.0)
+    return (grey, grey, grey)
 
 
 def swatch(color: QColor | None, size: int = 16) -> QIcon:
@@ -82,11 +96,42 @@ class StopsPanel(QWidget):
             grid.addWidget(color, 2 * row + 1, 1, Qt.AlignmentFlag.AlignTop)
             grid.addWidget(remove, 2 * row + 1, 2, Qt.AlignmentFlag.AlignTop)
             self.bars[side], self.color_buttons[side], self.remove_buttons[side] = bar, color, remove
+        self._blur_row(grid, 2 * len(SIDES))
         layout = QVBoxLayout(self)
         layout.addWidget(self.title)
         layout.addLayout(grid)
         layout.addStretch(1)
         self.refresh()
+
+    def _blur_row(self, grid: QGridLayout, row: int) -> None:
+        bar = GradientBar(self)
+        bar.setObjectName("blur-stops")
+        bar.empty_color = QColor(255, 255, 255)  # no blur stops: sharp
+        bar.setToolTip("Blur along the curve: white is sharp, darker is softer (View > Show Blur shows it)")
+        bar.pressed.connect(lambda i, shift: self._pressed("blur", i, shift))
+        bar.dragged.connect(self._dragged)
+        bar.released.connect(self._released)
+        bar.cancelled.connect(self._cancel_drag)
+        bar.double_clicked.connect(lambda i: self._double_clicked("blur", i))
+        bar.add_requested.connect(lambda s: self.add_stop("blur", s))
+        bar.installEventFilter(self)
+        self.blur_value = QDoubleSpinBox(self)
+        self.blur_value.setRange(0.0, 200.0)
+        self.blur_value.setDecimals(1)
+        self.blur_value.setSingleStep(0.5)
+        self.blur_value.setSuffix(" px")
+        self.blur_value.setToolTip("Blur of the selected blur stops: the deviation of the Gaussian that softens "
+                                   "the picture there, in document pixels")
+        self.blur_value.valueChanged.connect(self._blur_changed)
+        remove = QToolButton(self)
+        remove.setText("\u2212")
+        remove.setToolTip("Remove the selected blur stops")
+        remove.clicked.connect(lambda _=False: self.remove_stops("blur"))
+        grid.addWidget(QLabel("Blur"), row, 0, 1, 3)
+        grid.addWidget(bar, row + 1, 0, 1, 2)
+        grid.addWidget(remove, row + 1, 2, Qt.AlignmentFlag.AlignTop)
+        grid.addWidget(self.blur_value, row + 2, 0, Qt.AlignmentFlag.AlignLeft)  # under the bar: the dock stays narrow
+        self.bars["blur"], self.remove_buttons["blur"] = bar, remove
 
     # -- state ---------------------------------------------------------------------------------------
     def bind(self, context: ToolContext | None) -> None:
@@ -142,6 +187,17 @@ class StopsPanel(QWidget):
             self.color_buttons[side].setIcon(swatch(color))
             self.color_buttons[side].setEnabled(bool(stops))
             self.remove_buttons[side].setEnabled(bool(chosen))
+        blurs = curve.blur if curve is not None else ()
+        chosen = self.selected("blur")
+        bar = self.bars["blur"]
+        bar.set_stops(tuple(ColorStop(stop.position, blur_grey(stop.blur)) for stop in blurs),
+                      curve.piece_count if curve is not None else 1.0, chosen)
+        bar.setEnabled(curve is not None)
+        self.remove_buttons["blur"].setEnabled(bool(chosen))
+        self.blur_value.setEnabled(bool(chosen))
+        self.blur_value.blockSignals(True)  # showing the value is no edit
+        self.blur_value.setValue(blurs[chosen[0]].blur if chosen else 0.0)
+        self.blur_value.blockSignals(False)
 
     def _done(self) -> None:
         self.refresh()
@@ -159,7 +215,7 @@ class StopsPanel(QWidget):
         if stop in context.selection.stops:
             curve = context.document.curve(self.curve)
             self._drag = {"side": side, "index": index, "base": context.document, "open": False,
-                          "color": getattr(curve, side)[index].color, "length": curve.piece_count}
+                          "value": stop_value(getattr(curve, side)[index]), "length": curve.piece_count}
         self._done()
 
     def _dragged(self, s: float) -> None:
@@ -175,7 +231,7 @@ class StopsPanel(QWidget):
             drag["open"] = True
         s = min(max(float(s), 0.0), float(drag["length"]))
         document = edits.move_stop(drag["base"], self.curve, drag["side"], drag["index"], s)
-        index = find_stop(document, self.curve, drag["side"], s, drag["color"])
+        index = find_stop(document, self.curve, drag["side"], s, drag["value"])
         context.history.preview(document)
         context.selection = Selection.of(stops=[(self.curve, drag["side"], index)])
         self._done()
@@ -199,7 +255,11 @@ class StopsPanel(QWidget):
             return
         self.context.selection = Selection.of(stops=[(self.curve, side, index)])
         self._done()
-        self.edit_color(side)
+        if side == "blur":
+            self.blur_value.setFocus()
+            self.blur_value.selectAll()
+        else:
+            self.edit_color(side)
 
     def edit_color(self, side: str) -> None:
         """Open a colour dialog for the selected stops of ``side`` (live; one undo step); with none selected, for
@@ -234,18 +294,33 @@ class StopsPanel(QWidget):
         self._done()
 
     def add_stop(self, side: str, s: float) -> None:
-        """Add a stop at ``s`` on ``side`` with the colour the side has there ("Add Stop")."""
+        """Add a stop at ``s`` on ``side`` with the colour (the blur) the side has there ("Add Stop")."""
         context = self.context
         if context is None or self.curve is None:
             return
         curve = context.document.curve(self.curve)
         s = min(max(float(s), 0.0), float(curve.piece_count))
-        color = tuple(float(v) for v in getattr(curve, f"{side}_colors_at")([s])[0])
-        new = ColorStop(s, color)
+        if side == "blur":
+            stops = curve.blur
+            value = float(np.interp(s, [stop.position for stop in stops], [stop.blur for stop in stops])) \
+                if stops else 0.0
+            new = BlurStop(s, value)
+        else:
+            value = tuple(float(v) for v in getattr(curve, f"{side}_colors_at")([s])[0])
+            new = ColorStop(s, value)
         document = edits.add_stop(context.document, self.curve, side, new)
         context.history.apply(document, "Add Stop")
-        context.selection = Selection.of(stops=[(self.curve, side, find_stop(document, self.curve, side, s, color))])
+        context.selection = Selection.of(stops=[(self.curve, side, find_stop(document, self.curve, side, s, value))])
         self._done()
+
+    def _blur_changed(self, value: float) -> None:
+        """The spin box's value: the selected blur stops' blur (edits in a row on the same stops: one step)."""
+        context, chosen = self.context, self.selected("blur")
+        if context is None or not chosen:
+            return
+        context.selection = Selection.of(stops=[(self.curve, "blur", i) for i in chosen])
+        if set_blur_stops(context, value, merge_key=("blur", self.curve, tuple(chosen))):
+            self._done()
 
     def remove_stops(self, side: str) -> None:
         """Remove the selected stops of ``side`` (one step)."""

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -55,6 +55,12 @@ class Opened:
     path: Path | None
     notes: tuple[str, ...] = ()
     recovered: str | None = None
+
+    def blurred(self, progress: Progress | None = None) -> Opened:
+        """This document with its blur fields solved (``LiveStack.set_blur``), so that its first frame shows the
+        blur."""
+        self.live.set_blur(True, progress)
+        return replace(self, frame=Frame.first(self.live))
 
     @property
     def document(self) -> Document:
@@ -243,6 +249,10 @@ class Workspace(QObject):
             callback(self.frame)
         else:
             self._waiting.append(callback)
+
+    def set_blur(self, shown: bool) -> None:
+        """Show the blur of the document's curves, or not (the engine solves or drops the blur fields)."""
+        self.engine.set_blur(shown, self.history.document)
 
     def set_undo_memory(self, memory: int) -> None:
         """Let the document keep ``memory`` bytes of recent states for fast undo (from its next change on)."""

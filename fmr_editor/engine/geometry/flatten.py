@@ -62,7 +62,9 @@ def flatten_curves(curves: Sequence[DiffusionCurve], tolerance: float, max_lengt
     that the chord error stays below ``tolerance`` (bound: ``max|B''| / 8n^2``)
     and no part is longer than ``max_length`` (bound: the largest speed
     ``|B'|``).  Colour-stop positions are added as breakpoints so that colours
-    are linear within every segment and its midpoint colour is its mean.
+    are linear within every segment and its midpoint colour is its mean; blur
+    stops' too, so that a layer's blur field (``model.blur``) has the very
+    segments of its image and shares its factorisation.
     ``flatten_curve_reference`` does one curve at a time (3.1 s for roses'
     3,906 curves, against 0.1 s here); the two agree bit for bit.
 
@@ -78,7 +80,7 @@ def flatten_curves(curves: Sequence[DiffusionCurve], tolerance: float, max_lengt
     piece = np.repeat(np.arange(len(parts)), parts)
     step = np.arange(len(piece)) - np.repeat(np.cumsum(parts) - parts, parts)
     counts = np.array([curve.piece_count for curve in curves], np.int64)
-    stops = [[stop.position for stop in curve.left + curve.right] for curve in curves]
+    stops = [[stop.position for stop in curve.left + curve.right + curve.blur] for curve in curves]
     s = np.concatenate([piece_in_curve[piece] + step / parts[piece], counts,
                         np.fromiter((p for positions in stops for p in positions), float)])
     owner = np.concatenate([owner_of_piece[piece], np.arange(len(curves)),
@@ -114,7 +116,7 @@ def flatten_curve_reference(curve: DiffusionCurve, tolerance: float, max_length:
     piece = np.repeat(np.arange(len(parts)), parts)
     step = np.arange(len(piece)) - np.repeat(np.cumsum(parts) - parts, parts)
     s = np.concatenate([piece + step / parts[piece], [curve.piece_count]])
-    stops = [stop.position for stop in curve.left + curve.right]
+    stops = [stop.position for stop in curve.left + curve.right + curve.blur]
     s = np.unique(np.concatenate([s, stops]))
 
     points = curve.point_at(s)
