@@ -93,3 +93,21 @@ def test_the_canvas_blurs_as_the_cpu_does_and_follows_edits(canvas):
     canvas.update_representation(sharp, {})
     check(canvas, sharp, AROUND)  # window_picture of a picture without blur fields: the sharp one
     assert not any(key[1] == "blur" for key in canvas.renderer.renderers)
+
+
+def test_a_pan_blurs_only_the_strips_it_uncovers(canvas):
+    """A pan by whole pixels with nothing edited moves the blurred images and blurs the uncovered strips alone:
+    the canvas is then what blurring afresh gives."""
+    from fmr_editor.render.blur_filter import TILE
+
+    stack = LiveStack(blurred_layers(), blur=True)
+    canvas.set_representation(stack.composite, fit=False)
+    check(canvas, stack.composite, CLOSE)
+    renderer = canvas.renderer
+    rows, columns = -(-CLOSE.height // TILE), -(-CLOSE.width // TILE)
+    before = renderer.blurred_tiles
+    panned = CLOSE.panned(16, -8)  # whole tiles: the octaves' pixels stay aligned
+    check(canvas, stack.composite, panned)
+    blurred = renderer.blurred_tiles - before
+    assert 0 < blurred <= 2 * (2 * rows + columns)  # two fields, a strip of 2 tile columns and one of a row each
+    assert blurred < rows * columns

@@ -27,6 +27,7 @@ from scipy.special import ndtr
 
 from .composite import Composite, Role, compose
 from .raster import output_size, rasterise
+from .representation import Representation
 
 #: Successive prefiltered deviations differ by this factor: interpolating between them, an edge under any
 #: blur from 0.3 to 12 px is off its normal CDF by 0.35 of an 8-bit level at most (1.08: 0.06, at twice the
@@ -138,28 +139,46 @@ def sampled(level: np.ndarray, d: int, rows: np.ndarray, columns: np.ndarray) ->
     return top + ty * (bottom - top)
 
 
-def blurred(image: np.ndarray, sigma: np.ndarray) -> np.ndarray:
+def blurred(image: np.ndarray, sigma: np.ndarray, largest: float | None = None) -> np.ndarray:
     """``image (H, W, C)`` blurred at each pixel by a Gaussian of deviation ``sigma (H, W)`` pixels (clamped
-    at 0), the border reflecting: see the module."""
-    extra = margin(min(float(np.max(sigma, initial=0.0)), LARGEST))
+    to [0, ``largest``], by default its largest value), the border reflecting: see the module."""
+    largest = ceiling(sigma, largest)
+    extra = margin(largest)
     padded = np.pad(image, ((extra, extra), (extra, extra), (0, 0)), mode="symmetric")
-    return blurred_within(padded, sigma, extra)
+    return blurred_within(padded, sigma, extra, largest)
 
 
-def blurred_within(padded: np.ndarray, sigma: np.ndarray, extra: int) -> np.ndarray:
+def ceiling(sigma: np.ndarray, largest: float | None) -> float:
+    """The ladder's top for ``sigma``: ``largest`` (by default ``sigma``'s largest value) up to ``LARGEST``."""
+    return min(float(np.max(sigma, initial=0.0)) if largest is None else float(largest), LARGEST)
+
+
+def largest_blur(field: Representation) -> float:
+    """The largest value of a blur field (document pixels): its curves' largest blur value, since a diffusion
+    takes its extremes on its curves.  The ladder goes up to it, so that it does not change with the part
+    of the field in view."""
+    segments = field.segments
+    if len(segments.p) == 0:
+        return 0.0
+    return max(float(np.max(segments.mean[:, 0] + 0.5 * np.abs(segments.jump[:, 0]))), 0.0)
+
+
+def blurred_within(padded: np.ndarray, sigma: np.ndarray, extra: int, largest: float | None = None) -> np.ndarray:
     """The middle ``sigma.shape`` of ``padded (H + 2 extra, W + 2 extra, C)`` blurred by ``sigma (H, W)``
-    pixels (clamped to [0, ``LARGEST``]); ``extra`` is at least ``margin(sigma.max())`` (``padding``), and
-    ``padded`` may hold more rows and columns after the window's.
+    pixels, clamped to [0, ``largest``] (by default its largest value; at most ``LARGEST``); ``extra`` is at
+    least ``margin(largest)`` (``padding``), and ``padded`` may hold more rows and columns after the
+    window's.
 
     The ladder of ``levels``: each level filtered on its ``octave`` of ``padded`` with its
     ``coarse_deviation``; each pixel interpolates linearly in the deviation between the two levels about
     its own, each level interpolated bilinearly to the pixel.
     """
-    sigma = np.minimum(np.maximum(sigma, 0.0), LARGEST)
+    largest = ceiling(sigma, largest)
+    sigma = np.clip(sigma, 0.0, largest)
     height, width = sigma.shape
     out = padded[extra : extra + height, extra : extra + width].copy()  # where sharp, as it is
     padded = padded.astype(np.float32)  # filtered in single precision: 1e-7 of a colour, twice as fast
-    ladder = levels(float(sigma.max(initial=0.0)))
+    ladder = levels(largest)
     bracket = np.searchsorted(ladder, sigma, side="left")  # pixels with ladder[k-1] < s <= ladder[k]: k
     wanted = np.bincount(bracket.ravel(), minlength=len(ladder) + 1)
     octaves = [padded]
@@ -227,7 +246,8 @@ def rasterise_blurred(composite: Composite, width: int | None = None, height: in
         sigma = rasterise(layer.blur, width, height, samples=1)[..., 0] * scale if layer.blur is not None else None
         for role, rep in layer.read:
             values = rasterise(rep, width, height, samples=samples, method=method, order=order)
-            fields[id(rep)] = values if sigma is None or role is Role.MASK else blurred(values, sigma)
+            fields[id(rep)] = (values if sigma is None or role is Role.MASK
+                               else blurred(values, sigma, largest_blur(layer.blur) * scale))
         if progress:
             progress("blur", (number + 1) / len(shown))
     return compose(composite, lambda rep: fields[id(rep)], (height, width, 3), coverage)
@@ -259,8 +279,9 @@ def window_picture(composite: Composite, origin: tuple[float, float], step: floa
         sigma = None
         if layer.blur is not None:
             field = evaluate_points(layer.blur, reflected(window, composite.width, composite.height))
-            sigma = np.clip(field[:, 0] / step, 0.0, LARGEST).reshape(height, width)
-            extra, below = padding(float(sigma.max(initial=0.0)), height)
+            largest = min(largest_blur(layer.blur) / step, LARGEST)
+            sigma = np.clip(field[:, 0] / step, 0.0, largest).reshape(height, width)
+            extra, below = padding(largest, height)
             padded = grid(extra, extra, width + 2 * extra, height + extra + below)
             padded = reflected(padded, composite.width, composite.height)
         for role, rep in layer.read:
@@ -268,7 +289,7 @@ def window_picture(composite: Composite, origin: tuple[float, float], step: floa
                 fields[id(rep)] = evaluate_points(rep, window)
                 continue
             values = evaluate_points(rep, padded).reshape(height + extra + below, width + 2 * extra, 3)
-            fields[id(rep)] = blurred_within(values, sigma, extra).reshape(-1, 3)
+            fields[id(rep)] = blurred_within(values, sigma, extra, largest).reshape(-1, 3)
     return compose(composite, lambda rep: fields[id(rep)], (width * height, 3), True).reshape(height, width, 4)
 
 

@@ -41,7 +41,9 @@ class BlurPlan:
     Attributes
     ----------
     ladder : list of float
-        ``engine.blur.levels`` of the window's largest deviation (window pixels).
+        ``engine.blur.levels`` of the field's largest deviation (window pixels).
+    largest : float
+        That deviation: each pixel's is clamped to it.
     extra, below : int
         The margin of picture needed (``engine.blur.padding``): columns on both sides and rows above, rows below.
     size : tuple of int
@@ -52,6 +54,7 @@ class BlurPlan:
     """
 
     ladder: list[float]
+    largest: float
     extra: int
     below: int
     size: tuple[int, int]
@@ -59,34 +62,47 @@ class BlurPlan:
     highest: np.ndarray
 
     @classmethod
-    def of(cls, field: np.ndarray, scale: float) -> BlurPlan:
+    def of(cls, field: np.ndarray, scale: float, largest: float) -> BlurPlan:
         """The plan for the blur field's values ``field (height, width)`` (document pixels, GL rows) seen at
-        ``scale`` window pixels a document pixel."""
+        ``scale`` window pixels a document pixel, up to its ``largest`` value (``engine.blur.largest_blur``,
+        window pixels; at most ``LARGEST``)."""
         height, width = field.shape
+        largest = min(largest, LARGEST)
         rows, columns = -(-height // TILE), -(-width // TILE)
         tiled = np.pad(field, ((0, rows * TILE - height), (0, columns * TILE - width)), mode="edge")
         tiled = tiled.reshape(rows, TILE, columns, TILE)
-        least = np.clip(tiled.min(axis=(1, 3)).astype(np.float64) * scale, 0.0, LARGEST)
-        most = np.clip(tiled.max(axis=(1, 3)).astype(np.float64) * scale, 0.0, LARGEST)
-        largest = float(most.max(initial=0.0))
+        least = np.clip(tiled.min(axis=(1, 3)).astype(np.float64) * scale, 0.0, largest)
+        most = np.clip(tiled.max(axis=(1, 3)).astype(np.float64) * scale, 0.0, largest)
         ladder = levels(largest)
         lowest = np.searchsorted(ladder, least * (1.0 - ROUNDING), side="left")
         highest = np.minimum(np.searchsorted(ladder, most * (1.0 + ROUNDING), side="left"), len(ladder) - 1)
         extra, below = padding(largest, height)
-        return cls(ladder, extra, below, (width, height), lowest, highest)
+        return cls(ladder, largest, extra, below, (width, height), lowest, highest)
 
-    def within(self, rect: tuple[int, int, int, int]) -> BlurPlan:
-        """This plan for the window's GL pixels ``rect`` ``(x0, y0, x1, y1)`` only (whole tiles about it)."""
+    def within(self, rects: list[tuple[int, int, int, int]]) -> BlurPlan:
+        """This plan for the window's GL pixels in ``rects`` ``(x0, y0, x1, y1)`` only (whole tiles about them)."""
         rows, columns = self.lowest.shape
-        x0, y0, x1, y1 = rect
         keep = np.zeros((rows, columns), bool)
-        keep[max(y0 // TILE, 0) : -(-y1 // TILE), max(x0 // TILE, 0) : -(-x1 // TILE)] = True
+        for x0, y0, x1, y1 in rects:
+            keep[max(y0 // TILE, 0) : -(-y1 // TILE), max(x0 // TILE, 0) : -(-x1 // TILE)] = True
         return replace(self, lowest=np.where(keep, self.lowest, len(self.ladder)),
                        highest=np.where(keep, self.highest, -1))
 
     def same_ladder(self, other: BlurPlan) -> bool:
         """True when ``other`` has this plan's ladder and margins (so what it blurred stays right elsewhere)."""
-        return (self.ladder, self.extra, self.below, self.size) == (other.ladder, other.extra, other.below, other.size)
+        return (self.ladder, self.largest, self.extra, self.below, self.size) == \
+            (other.ladder, other.largest, other.extra, other.below, other.size)
+
+    @property
+    def tiles(self) -> int:
+        """How many tiles the plan blurs."""
+        return int((self.lowest <= self.highest).sum())
+
+    def aligned(self, dx: int, dy: int) -> bool:
+        """True when a pan by ``(dx, dy)`` pixels moves the deepest octave's pixels by whole pixels too (so
+        that what was blurred, moved, is what blurring afresh gives)."""
+        unit = 2 ** octave(self.ladder[-1])
+        return dx % unit == 0 and dy % unit == 0
 
     def padded(self, view: View) -> View:
         """``view`` grown by the margin: what a blurred field is evaluated over."""
@@ -206,7 +222,7 @@ class BlurFilter:
         for program in self._programs:
             program.use()
             program.set(u_source=0, u_lower=1, u_upper=2, u_sigma=3, u_rects=4, u_extra=(plan.extra, plan.below),
-                        u_scale=scale, u_largest=LARGEST)
+                        u_scale=scale, u_largest=plan.largest)
         self._vao.bind()
         self._rects.set_data(rects)  # once: changing it between passes would make the driver wait for them
         self._rects.bind(4)
@@ -265,6 +281,13 @@ class BlurFilter:
         program.use()
         program.set(u_target=(target.width, target.height), u_first=rects[0], **uniforms)
         GL.glDrawArraysInstanced(GL.GL_TRIANGLE_STRIP, 0, 4, rects[1])
+
+    def shift(self, dx: int, dy: int) -> None:
+        """Move ``output`` by ``(dx, dy)`` window pixels (y down), for a pan."""
+        spare = self._pool.take((self.output.width, self.output.height))
+        self.output.blit_to(spare.handle, dx, -dy)  # GL rows go up
+        self._pool.give_back(self.output)
+        self.output = spare
 
     def delete(self) -> None:
         self.output.delete()

@@ -23,11 +23,12 @@ import numpy as np
 from OpenGL import GL
 
 from ..engine import Composite, FieldKey, LayerFields, Representation, Role
+from ..engine.blur import largest_blur
 from .blur_filter import BlurFilter, BlurPlan, FramebufferPool, read_first_channel
 from .cached_image import CachedImage, show_scaled, union
 from .canvas_renderer import TOLERANCE, CanvasRenderer
 from .gl import BufferTexture, Program, VertexArray, in_plain_state, over, plain_state, shader_source
-from .view import View
+from .view import View, integer_shift
 
 #: The fields of a blurred layer that are evaluated beyond the window, reflected at the canvas border.
 REFLECTED = (Role.IMAGE, Role.ALPHA, Role.BLUR)
@@ -71,6 +72,8 @@ class PictureRenderer:
         How many draws composed the layers (a redraw of an unchanged picture does not).
     blurred : int
         How many times a field was blurred (``render.blur_filter``) since the renderer was made.
+    blurred_tiles : int
+        How many of the window's tiles (``blur_filter.TILE`` pixels a side) those runs blurred, in all.
     mask_overlay : int or None
         The id of a layer whose mask is tinted over the picture (red where it
         hides the layer), while the user edits it; None for none.
@@ -93,7 +96,9 @@ class PictureRenderer:
         self._filters: dict[FieldKey, BlurFilter] = {}  # blurred fields' filters
         self._plans: dict[int, tuple[View, BlurPlan]] = {}  # by blurred layer id: the view it was made for
         self._blur_gl: tuple[tuple[Program, ...], VertexArray, BufferTexture, FramebufferPool] | None = None
+        self._edited: set[FieldKey] = set()  # fields whose data changed since they were last blurred
         self.blurred = 0
+        self.blurred_tiles = 0
 
     @property
     def mask_overlay(self) -> int | None:
@@ -142,6 +147,7 @@ class PictureRenderer:
             else:
                 continue
             self._last_key = key
+            self._edited.add(key)
         blurred = {layer.id for layer in picture.layers if layer.blur is not None}
         for key, renderer in self.renderers.items():
             renderer.reflect = key[0] in blurred and key[1] in REFLECTED
@@ -266,18 +272,26 @@ class PictureRenderer:
 
     def _blur(self, layer: LayerFields, view: View) -> tuple[int, int, int, int] | None:
         """Bring ``layer``'s blurred image (and alpha) up to date for ``view``: the GL pixels of the window
-        that changed (None: none).  Only what an edit reaches is blurred again: where the blur field
-        changed, and about where the picture changed, as far as the blur reaches."""
+        that changed (None: none).  Only what changed is blurred again: where the blur field changed, about
+        where the picture changed as far as the blur reaches, and after a pan by whole pixels (and whole
+        pixels of the deepest octave) with nothing edited, the strips it uncovers."""
         sigma = self.renderers[layer.id, Role.BLUR]
+        keys = {(layer.id, role) for role in REFLECTED}
+        edited, self._edited = bool(keys & self._edited), self._edited - keys
+        made_for, old = self._plans.get(layer.id, (None, None))
         sigma.evaluate(view)
         whole = (0, 0, view.width, view.height)
-        made_for, plan = self._plans.get(layer.id, (None, None))
-        region = sigma.take_changed()
-        if region is not None or made_for != view:
-            old, plan = plan, BlurPlan.of(read_first_channel(sigma.image), view.scale)
+        regions = [sigma.take_changed()]
+        plan = old
+        if regions[0] is not None or made_for != view:
+            plan = BlurPlan.of(read_first_channel(sigma.image), view.scale, largest_blur(layer.blur) * view.scale)
             self._plans[layer.id] = (view, plan)
-            if made_for != view or not plan.same_ladder(old):
-                region = whole
+        shift = integer_shift(made_for, view) if old is not None and not edited else None
+        moved = shift is not None and shift != (0, 0) and plan.same_ladder(old) and plan.aligned(*shift)
+        if moved:
+            regions = uncovered(view, *shift)
+        elif old is None or made_for != view or not plan.same_ladder(old):
+            regions = [whole]
         padded = plan.padded(view)
         fields = [(role, self.renderers[layer.id, role]) for role, _ in layer.read if role is not Role.MASK]
         reach = plan.extra
@@ -285,23 +299,32 @@ class PictureRenderer:
             renderer.reach = max(plan.extra, plan.below) / view.scale
             renderer.evaluate(padded)
             rect = renderer.take_changed()
-            if rect is not None:  # padded GL pixels: the window's, grown by what the blur reaches
+            if rect is not None and not moved:  # padded GL pixels: the window's, grown by what the blur reaches
                 x0, y0, x1, y1 = rect
-                region = union(region, (x0 - plan.extra - reach, y0 - plan.below - reach,
-                                        x1 - plan.extra + reach, y1 - plan.below + reach))
-        if region is None:
+                regions.append((x0 - plan.extra - reach, y0 - plan.below - reach,
+                                x1 - plan.extra + reach, y1 - plan.below + reach))
+        regions = [clipped(rect, view) for rect in regions if rect is not None]
+        if not regions:
             return None
-        region = (max(region[0], 0), max(region[1], 0), min(region[2], view.width), min(region[3], view.height))
         if self._blur_gl is None:
             self._blur_gl = (BlurFilter.programs(), VertexArray(), BufferTexture(GL.GL_RGBA32F), FramebufferPool())
-        part = plan.within(region)
+        part = plan.within(regions)
         for role, renderer in fields:
-            if (layer.id, role) not in self._filters:
-                self._filters[layer.id, role] = BlurFilter(*self._blur_gl)
+            kept = self._filters.get((layer.id, role))
+            if kept is None:
+                kept = self._filters[layer.id, role] = BlurFilter(*self._blur_gl)
                 part = plan  # a new filter's output is blurred whole
-            self._filters[layer.id, role].run(renderer.image, part, sigma.image, view.scale)
+            elif moved:
+                kept.shift(*shift)
+            kept.run(renderer.image, part, sigma.image, view.scale)
             self.blurred += 1
-        return region if part is not plan else whole
+            self.blurred_tiles += part.tiles
+        if part is plan:
+            return whole
+        changed = None
+        for rect in regions:
+            changed = union(changed, rect)
+        return changed
 
     def _compose(self, view: View, shown: tuple[LayerFields, ...], tinted: LayerFields | None,
                  rect: tuple[int, int, int, int] | None = None) -> None:
@@ -380,6 +403,22 @@ class PictureRenderer:
                 item.delete()
         self._program = self._vao = self._background = self._blur_gl = None
         self._filters.clear()
+
+
+def uncovered(view: View, dx: int, dy: int) -> list[tuple[int, int, int, int]]:
+    """The GL pixels of the window that a pan by ``(dx, dy)`` window pixels (y down) uncovers."""
+    w, h = view.width, view.height
+    strips = []
+    if dx:
+        strips.append((0, 0, min(dx, w), h) if dx > 0 else (max(w + dx, 0), 0, w, h))
+    if dy:  # uncovered window rows at the top: GL rows at the top end
+        strips.append((0, max(h - dy, 0), w, h) if dy > 0 else (0, 0, w, min(-dy, h)))
+    return strips
+
+
+def clipped(rect: tuple[int, int, int, int], view: View) -> tuple[int, int, int, int]:
+    """``rect`` (GL pixels) within the window."""
+    return (max(rect[0], 0), max(rect[1], 0), min(rect[2], view.width), min(rect[3], view.height))
 
 
 def _settings(picture: Composite) -> tuple:

@@ -128,7 +128,7 @@ class StopsPanel(QWidget):
         remove.setToolTip("Remove the selected blur stops")
         remove.clicked.connect(lambda _=False: self.remove_stops("blur"))
         grid.addWidget(QLabel("Blur"), row, 0, 1, 3)
-        grid.addWidget(bar, row + 1, 0, 1, 2)
+        grid.addWidget(bar, row + 1, 0)
         grid.addWidget(remove, row + 1, 2, Qt.AlignmentFlag.AlignTop)
         grid.addWidget(self.blur_value, row + 2, 0, Qt.AlignmentFlag.AlignLeft)  # under the bar: the dock stays narrow
         self.bars["blur"], self.remove_buttons["blur"] = bar, remove
