@@ -35,7 +35,7 @@ from . import bounds, packing
 from .cached_image import BACKGROUND, CachedImage, show_scaled
 from .canvas_data import UNITS, CanvasData, ShaderLayout
 from .gl import Framebuffer, Program, VertexArray, additive, in_plain_state, shader_source
-from .view import View, integer_shift
+from .view import View, integer_shift, uncovered
 
 #: Default ``CanvasRenderer.tolerance``: a twentieth of an 8-bit step.
 TOLERANCE = 0.05 / 255
@@ -347,20 +347,10 @@ class CanvasRenderer:
     def _shift(self, view: View, dx: int, dy: int) -> None:
         """Move the cached image by ``(dx, dy)`` window pixels and evaluate the strips it uncovers."""
         self._cache.shift(view.width, view.height, dx, dy)
-        w, h = view.width, view.height
-        strips = []  # (x, y, width, height) in GL pixels
-        if dx > 0:
-            strips.append((0, 0, min(dx, w), h))
-        elif dx < 0:
-            strips.append((max(w + dx, 0), 0, min(-dx, w), h))
-        if dy > 0:  # uncovered window rows at the top: GL rows at the top end
-            strips.append((0, max(h - dy, 0), w, min(dy, h)))
-        elif dy < 0:
-            strips.append((0, 0, w, min(-dy, h)))
         GL.glEnable(GL.GL_SCISSOR_TEST)
         try:
-            for x, y, sw, sh in strips:
-                GL.glScissor(x, y, sw, sh)
+            for x0, y0, x1, y1 in uncovered(view, dx, dy):
+                GL.glScissor(x0, y0, x1 - x0, y1 - y0)
                 self._pass(view)
         finally:
             GL.glDisable(GL.GL_SCISSOR_TEST)

@@ -28,7 +28,7 @@ from .blur_filter import BlurFilter, BlurPlan, FramebufferPool, read_first_chann
 from .cached_image import CachedImage, show_scaled, union
 from .canvas_renderer import TOLERANCE, CanvasRenderer
 from .gl import BufferTexture, Program, VertexArray, in_plain_state, over, plain_state, shader_source
-from .view import View, integer_shift
+from .view import View, integer_shift, uncovered
 
 #: The fields of a blurred layer that are evaluated beyond the window, reflected at the canvas border.
 REFLECTED = (Role.IMAGE, Role.ALPHA, Role.BLUR)
@@ -403,17 +403,6 @@ class PictureRenderer:
                 item.delete()
         self._program = self._vao = self._background = self._blur_gl = None
         self._filters.clear()
-
-
-def uncovered(view: View, dx: int, dy: int) -> list[tuple[int, int, int, int]]:
-    """The GL pixels of the window that a pan by ``(dx, dy)`` window pixels (y down) uncovers."""
-    w, h = view.width, view.height
-    strips = []
-    if dx:
-        strips.append((0, 0, min(dx, w), h) if dx > 0 else (max(w + dx, 0), 0, w, h))
-    if dy:  # uncovered window rows at the top: GL rows at the top end
-        strips.append((0, max(h - dy, 0), w, h) if dy > 0 else (0, 0, w, min(-dy, h)))
-    return strips
 
 
 def clipped(rect: tuple[int, int, int, int], view: View) -> tuple[int, int, int, int]:

@@ -91,3 +91,15 @@ def integer_shift(before: View | None, after: View) -> tuple[int, int] | None:
     if abs(dx - round(dx)) > SHIFT_TOLERANCE or abs(dy - round(dy)) > SHIFT_TOLERANCE:
         return None
     return int(round(dx)), int(round(dy))
+
+
+def uncovered(view: View, dx: int, dy: int) -> list[tuple[int, int, int, int]]:
+    """The GL pixels ``(x0, y0, x1, y1)`` (rows from the bottom) of the window that a pan by ``(dx, dy)`` window
+    pixels (y down) uncovers."""
+    w, h = view.width, view.height
+    strips = []
+    if dx:
+        strips.append((0, 0, min(dx, w), h) if dx > 0 else (max(w + dx, 0), 0, w, h))
+    if dy:  # uncovered window rows at the top: GL rows at the top end
+        strips.append((0, max(h - dy, 0), w, h) if dy > 0 else (0, 0, w, min(-dy, h)))
+    return strips
