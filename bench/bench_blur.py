@@ -36,11 +36,6 @@ def seconds(work, repeat: int) -> float:
     return min(runs)
 
 
-def sharp(picture):
-    """``picture`` without its blur fields."""
-    return replace(picture, layers=tuple(replace(layer, blur=None) for layer in picture.layers))
-
-
 def cpu_rows(args) -> dict:
     from fmr_editor.engine import LiveStack, rasterise
     from fmr_editor.io import load_document
@@ -61,7 +56,7 @@ def cpu_rows(args) -> dict:
         field = stack.fields[document.layer.id, "blur"]
         largest = float(np.max(rasterise(field.representation, samples=1)))
         picture = stack.composite
-        flat = seconds(lambda: rasterise(sharp(picture), samples=args.samples), args.repeat)
+        flat = seconds(lambda: rasterise(picture.sharp, samples=args.samples), args.repeat)
         soft = seconds(lambda: rasterise(picture, samples=args.samples), args.repeat)
         print(f"| {name} | {opened:.2f} | {solve:.2f} | {field.factorisations} | {largest:.1f} | {flat * 1e3:.0f} "
               f"| {soft * 1e3:.0f} | {soft / flat:.1f}x |")
@@ -109,7 +104,7 @@ def canvas_rows(args, stacks: dict) -> None:
             s = scale * zoom
             view = View(s, size / 2 - document.width / 2 * s, size / 2 - document.height / 2 * s, size, size)
             flat, soft = PictureRenderer(), PictureRenderer()
-            flat.upload(sharp(stack.composite))
+            flat.upload(stack.composite.sharp)
             soft.upload(stack.composite)
             times = [full(flat, view), full(soft, view)]
             views = [view, view.panned(16, 0)]

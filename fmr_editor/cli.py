@@ -162,8 +162,6 @@ def render_one(source: str, output: str, args: argparse.Namespace) -> int:
     A ``.fmr`` file's saved representation is rendered as it is (no solve),
     unless ``--order`` or ``--method direct`` ask for another.
     """
-    from dataclasses import replace
-
     from . import load, render_image
     from .engine import LiveStack, Settings, check_image_memory, output_size, rasterise
     from .io import DocumentLoadError, load_fmr, save_picture
@@ -182,7 +180,7 @@ def render_one(source: str, output: str, args: argparse.Namespace) -> int:
         if saved is not None and args.order is None and args.method == "fmr":
             picture = saved.composite  # every representation saved: no solve
             if picture is not None and not args.blur:
-                picture = replace(picture, layers=tuple(replace(layer, blur=None) for layer in picture.layers))
+                picture = picture.sharp
             elif picture is not None and any(blurred(layer) and drawn.blur is None
                                              for layer, drawn in zip(document.layers, picture.layers)):
                 picture = None  # saved without its blur fields

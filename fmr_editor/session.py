@@ -117,9 +117,15 @@ class Session:
         self.history.redo()
         return self.last_update
 
-    def image(self, width: int | None = None, height: int | None = None, samples: int = 3) -> np.ndarray:
-        """The picture (all layers composed, each clamped to [0, 1]) ``(height, width, 3)``, as ``engine.rasterise``."""
-        return rasterise(self.live.composite, width, height, samples=samples)
+    def image(self, width: int | None = None, height: int | None = None, samples: int = 3,
+              blur: bool = True) -> np.ndarray:
+        """The picture (all layers composed, each clamped to [0, 1]) ``(height, width, 3)``, as ``engine.rasterise``:
+        each layer softened by its curves' blur stops (the first time solves the blur fields, which then follow
+        the edits), or with ``blur=False`` every edge sharp."""
+        if blur and not self.live.show_blur:
+            self.live.set_blur(True, self._progress)
+        picture = self.live.composite
+        return rasterise(picture if blur else picture.sharp, width, height, samples=samples)
 
     def cells(self, order: int | None = None) -> np.ndarray:
         """The active layer's cell polynomials ``c[row, column, channel, i, j]`` (``Representation.polynomials``)."""
@@ -132,6 +138,6 @@ class Session:
         return written
 
     def save_png(self, path: str | os.PathLike, width: int | None = None, height: int | None = None,
-                 samples: int = 3) -> Path:
-        """Render the current image and write it to ``path`` as a PNG."""
-        return save_png(self.image(width, height, samples), path)
+                 samples: int = 3, blur: bool = True) -> Path:
+        """Render the current image (``image``) and write it to ``path`` as a PNG."""
+        return save_png(self.image(width, height, samples, blur), path)

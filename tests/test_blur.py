@@ -150,8 +150,7 @@ def test_the_window_picture_at_the_canvas_s_own_view_is_the_raster():
     raster = rasterise(picture, samples=1, coverage=True)
     window = window_picture(picture, (0.0, 0.0), 1.0, picture.width, picture.height)
     np.testing.assert_allclose(window, raster, atol=1e-6)
-    sharp = rasterise(replace(picture, layers=tuple(replace(layer, blur=None) for layer in picture.layers)),
-                      samples=1, coverage=True)
+    sharp = rasterise(picture.sharp, samples=1, coverage=True)
     assert np.abs(window - sharp).max() > 0.1  # blurred indeed
 
 
@@ -201,3 +200,19 @@ def test_a_document_saved_with_its_blur_shown_opens_with_its_blur_field_solving_
     np.testing.assert_array_equal(rasterise(opened.composite, samples=1), rasterise(stack.composite, samples=1))
     sharp = load_fmr(save_fmr(tmp_path / "sharp.fmr", document, LiveStack(document).composite))
     assert sharp.composite.layers[0].blur is None  # saved while the blur was not shown: solved when shown
+
+
+def test_the_python_api_blurs_unless_asked_not_to():
+    from fmr_editor.session import Session
+
+    document = edge((BlurStop(0.0, 4.0),))
+    session = Session(document)
+    np.testing.assert_allclose(session.image(samples=1, blur=False), render_image(document, samples=1, blur=False),
+                               atol=1e-6)
+    assert not session.live.show_blur  # nothing solved for the blur yet
+    soft = session.image(samples=1)
+    np.testing.assert_allclose(soft, render_image(document, samples=1), atol=1e-6)
+    assert np.abs(soft - session.image(samples=1, blur=False)).max() > 0.3
+    moved = edits.translate(document, (5.0, 0.0), curves=[document.curves[0].id])
+    session.apply(moved, "Move")  # the blur field follows the edit
+    np.testing.assert_allclose(session.image(samples=1), render_image(moved, samples=1), atol=1e-6)

@@ -14,6 +14,7 @@ SAMPLES = Path(__file__).resolve().parents[2] / "resources" / "samples"
 
 doc = load(SAMPLES / "ribbon.xml")  # an Orzan .xml curve set, or a .fmr document
 image = render_image(doc, width=None, height=None, samples=3)  # float32 array (H, W, 3) in [0, 1]
+sharp = render_image(doc, blur=False)  # without the curves' blur stops (on by default)
 
 # diffusion points: Gaussian colour blobs amplitude * colour * exp(-d^2 / radius^2), added to the curves
 glow = doc.with_points([DiffusionPoint(position=(120, 80), radius=25.0, color=(1.0, 0.8, 0.2), amplitude=0.5)])

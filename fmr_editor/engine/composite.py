@@ -18,7 +18,7 @@ dropped terms out of the picture.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from enum import StrEnum
 
 import numpy as np
@@ -140,6 +140,11 @@ class Composite:
         visible = [layer for layer in self.layers if layer.visible]
         start = max((i for i, layer in enumerate(visible) if layer.covers), default=0)
         return tuple(visible[start:])
+
+    @property
+    def sharp(self) -> Composite:
+        """This picture without its layers' blur fields: every edge sharp."""
+        return replace(self, layers=tuple(replace(layer, blur=None) for layer in self.layers))
 
     @property
     def representations(self) -> tuple[Representation, ...]:
