@@ -216,3 +216,13 @@ def test_the_python_api_blurs_unless_asked_not_to():
     moved = edits.translate(document, (5.0, 0.0), curves=[document.curves[0].id])
     session.apply(moved, "Move")  # the blur field follows the edit
     np.testing.assert_allclose(session.image(samples=1), render_image(moved, samples=1), atol=1e-6)
+
+
+def test_a_blur_beyond_the_largest_is_drawn_at_the_largest():
+    """The documented clamp (``LARGEST`` output pixels, which bounds the margin a canvas window needs)."""
+    from fmr_editor.engine.blur import LARGEST
+
+    rng = np.random.default_rng(8)
+    image = rng.random((40, 50, 3))
+    np.testing.assert_array_equal(blurred(image, np.full((40, 50), 3 * LARGEST)),
+                                  blurred(image, np.full((40, 50), LARGEST)))

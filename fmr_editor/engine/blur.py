@@ -65,9 +65,10 @@ def pixel_kernel(sigma: float) -> np.ndarray:
 #: ``COARSE_SIGMA * 2**d`` pixels: then it spans 3 or more of the halved image's pixels, whose bilinear
 #: interpolation back to the output's pixels stays within a fraction of a level of the full-size filter.
 COARSE_SIGMA = 3.0
-#: The coarsest octave (pixels ``2**DEEPEST`` wide): deviations up to ``2 * COARSE_SIGMA * 2**DEEPEST``
-#: pixels keep kernels within ``MAX_RADIUS``; the canvas blurs by at most that many window pixels.
-DEEPEST = 8
+#: The coarsest octave (pixels ``2**DEEPEST`` wide).  Deviations are clamped to ``LARGEST`` (96) pixels of the
+#: output: the margin of picture a window needs grows with the deviation (448 px beyond each side at the
+#: clamp), so a canvas zoomed far into a strong blur shows it at 96 window pixels, as the CPU draws that view.
+DEEPEST = 4
 MAX_RADIUS = math.ceil(TRUNCATE * 2 * COARSE_SIGMA + 0.5)
 LARGEST = 2 * COARSE_SIGMA * 2**DEEPEST
 
