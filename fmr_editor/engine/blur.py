@@ -5,9 +5,11 @@ standard deviation, in document pixels, of the Gaussian that softens the layer a
 layer at ``x`` is its picture convolved with that Gaussian centred at ``x``, the canvas border reflecting
 (as it does for the colours).  Its image and alpha fields are blurred so; its mask is not.
 
-``blurred`` is the fast path on a raster: the image prefiltered at a ladder of standard deviations
-(``LEVEL_RATIO`` apart, reflecting, in single precision), each pixel interpolating linearly in the
-deviation between the two levels about its own.  A raster's pixel is the mean of the picture over it, so
+``blurred`` is the fast path on a raster (``blurred_within`` on a picture padded beyond it): the image
+prefiltered at a ladder of standard deviations (``LEVEL_RATIO`` apart, in single precision; the wide ones
+on the image halved, ``octave``), each pixel interpolating linearly in the deviation between the two
+levels about its own.  ``window_picture`` is what the canvas shows of a view, which the shader path
+(``render.blur_filter``) computes the same way.  A raster's pixel is the mean of the picture over it, so
 each level's kernel is the Gaussian integrated over each pixel (``pixel_kernel``), not sampled at its
 centre: a picture constant on each pixel is blurred exactly (a sampled kernel misses an edge's normal CDF
 by a level at 1.5 px).
