@@ -226,3 +226,26 @@ def test_a_blur_beyond_the_largest_is_drawn_at_the_largest():
     image = rng.random((40, 50, 3))
     np.testing.assert_array_equal(blurred(image, np.full((40, 50), 3 * LARGEST)),
                                   blurred(image, np.full((40, 50), LARGEST)))
+
+
+def test_a_blur_value_out_of_range_is_refused_with_one_message(tmp_path):
+    """A blur value must be finite and at most ``MAX_BLUR`` px: a file holding another (its blur field would
+    overflow the solve) gives the load error, naming the curve."""
+    import zipfile
+
+    from fmr_editor.io import DocumentLoadError, load_document, save_fmr
+    from fmr_editor.model.limits import MAX_BLUR
+
+    with pytest.raises(ValueError, match="blur values must be finite"):
+        edge((BlurStop(0.0, float("nan")),))
+    with pytest.raises(ValueError, match="blur values must be finite"):
+        edge((BlurStop(0.0, 2 * MAX_BLUR),))
+    good = save_fmr(tmp_path / "good.fmr", edge((BlurStop(0.0, 5.0),)))
+    with zipfile.ZipFile(good) as archive:
+        mimetype, text = archive.read("mimetype"), archive.read("document.json").decode()
+    bad = tmp_path / "bad.fmr"
+    with zipfile.ZipFile(bad, "w") as archive:
+        archive.writestr("mimetype", mimetype, compress_type=zipfile.ZIP_STORED)
+        archive.writestr("document.json", text.replace('"blur":5.0', '"blur":1e9'))
+    with pytest.raises(DocumentLoadError, match=r"curves\[0\]: blur values must be finite"):
+        load_document(bad)

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .identity import checked_id
-from .limits import MAX_COLOR
+from .limits import MAX_BLUR, MAX_COLOR
 
 Color = tuple[float, float, float]
 
@@ -67,6 +67,8 @@ def _normalised_stops(stops, piece_count: int) -> tuple:
         raise ValueError(f"stop colours must be finite and at most {MAX_COLOR:g} in size")
     if not all(0.0 <= float(stop.alpha) <= 1.0 for stop in stops if isinstance(stop, ColorStop)):
         raise ValueError("stop alphas must lie in [0, 1]")
+    if not all(abs(float(stop.blur)) <= MAX_BLUR for stop in stops if isinstance(stop, BlurStop)):
+        raise ValueError(f"blur values must be finite and at most {MAX_BLUR:g} px in size")
     clamped = [
         type(stop)(min(max(float(stop.position), 0.0), float(piece_count)), *_payload(stop))
         for stop in stops

@@ -44,6 +44,9 @@ COORDINATE_REACH = 4.0
 #: Largest magnitude of a colour component or a point's amplitude (colours are nominally in [0, 1]); checked
 #: by ``ColorStop``'s curve and ``DiffusionPoint`` when they are made.
 MAX_COLOR = 1e3
+#: Largest magnitude of a blur value (document pixels of deviation; ``engine.blur`` draws at most 96 output
+#: pixels of it); checked by ``BlurStop``'s curve.
+MAX_BLUR = 1e3
 
 
 class LimitError(EditRefused):
