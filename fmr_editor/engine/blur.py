@@ -57,7 +57,7 @@ def levels(largest: float) -> list[float]:
 
 def pixel_kernel(sigma: float) -> np.ndarray:
     """The Gaussian of deviation ``sigma`` pixels integrated over each pixel about the centre one."""
-    radius = math.ceil(TRUNCATE * sigma + 0.5)
+    radius = kernel_radius(sigma)
     k = np.arange(-radius, radius + 1)
     weights = ndtr((k + 0.5) / sigma) - ndtr((k - 0.5) / sigma)
     return weights / weights.sum()

@@ -10,8 +10,6 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-import numpy as np
-
 from .curve import ColorStop, DiffusionCurve
 from .layer import Layer
 
@@ -23,10 +21,8 @@ def blur_curve(curve: DiffusionCurve) -> DiffusionCurve:
     memo = curve.__dict__  # not a field of the curve: no part of its value
     if "_blur_curve" not in memo:
         positions = sorted({stop.position for stop in curve.left + curve.right + curve.blur}) or [0.0]
-        stops = sorted(curve.blur, key=lambda stop: stop.position)
-        values = (np.interp(positions, [stop.position for stop in stops], [stop.blur for stop in stops])
-                  if stops else np.zeros(len(positions)))
-        greys = tuple(ColorStop(position, (float(value),) * 3) for position, value in zip(positions, values))
+        greys = tuple(ColorStop(position, (float(value),) * 3)
+                      for position, value in zip(positions, curve.blur_at(positions)))
         memo["_blur_curve"] = replace(curve, left=greys, right=greys)
     return memo["_blur_curve"]
 

@@ -162,6 +162,10 @@ class DiffusionCurve:
         """Right-side colours at positions ``s``, shape ``(n, 3)``."""
         return interpolate_stops(self.right, s)
 
+    def blur_at(self, s: np.ndarray) -> np.ndarray:
+        """The blur at positions ``s``, shape ``(n,)`` (``interpolate_blur``)."""
+        return interpolate_blur(self.blur, s)
+
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, DiffusionCurve):
             return NotImplemented
@@ -180,6 +184,14 @@ class DiffusionCurve:
             value = hash(((self.control_points + 0.0).tobytes(), self.left, self.right, self.blur))
             self.__dict__["_hash"] = value  # immutable, so computed once (edits diff curves often)
             return value
+
+
+def interpolate_blur(stops: tuple[BlurStop, ...], s: np.ndarray) -> np.ndarray:
+    """Piecewise-linear blur through sorted ``stops`` at positions ``s``, constant beyond them; 0 without any."""
+    s = np.asarray(s, dtype=np.float64)
+    if not stops:
+        return np.zeros(s.shape)
+    return np.interp(s, [stop.position for stop in stops], [stop.blur for stop in stops])
 
 
 def interpolate_stops(stops: tuple[ColorStop, ...], s: np.ndarray) -> np.ndarray:

@@ -14,7 +14,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from .curve import BlurStop, Color, ColorStop, DiffusionCurve, interpolate_stops
+from .curve import BlurStop, Color, ColorStop, DiffusionCurve, interpolate_blur, interpolate_stops
 from .document import Document
 from .point import DiffusionPoint
 from .refusals import EditRefused
@@ -171,7 +171,7 @@ def _stop_value(stops: tuple, s: float):
     """The colour (or blur) that ``stops`` give at position ``s``."""
     if isinstance(stops[0], ColorStop):
         return tuple(float(c) for c in interpolate_stops(stops, np.array([s]))[0])
-    return float(np.interp(s, [st.position for st in stops], [st.blur for st in stops]))
+    return float(interpolate_blur(stops, np.array([s]))[0])
 
 
 def _cut_stops(stops: tuple, lo: float, hi: float) -> tuple:

@@ -17,7 +17,6 @@
 
 from __future__ import annotations
 
-import numpy as np
 from PySide6.QtCore import QEvent, Qt, Signal
 from PySide6.QtGui import QColor, QIcon, QPixmap
 from PySide6.QtWidgets import QDoubleSpinBox, QGridLayout, QLabel, QToolButton, QVBoxLayout, QWidget
@@ -74,28 +73,16 @@ class StopsPanel(QWidget):
         self.remove_buttons: dict[str, QToolButton] = {}
         grid = QGridLayout()
         for row, side in enumerate(SIDES):
-            bar = GradientBar(self)
-            bar.setObjectName(f"{side}-stops")
-            bar.pressed.connect(lambda i, shift, side=side: self._pressed(side, i, shift))
-            bar.dragged.connect(self._dragged)
-            bar.released.connect(self._released)
-            bar.cancelled.connect(self._cancel_drag)
-            bar.double_clicked.connect(lambda i, side=side: self._double_clicked(side, i))
-            bar.add_requested.connect(lambda s, side=side: self.add_stop(side, s))
-            bar.installEventFilter(self)
+            bar, remove = self._bar(side)
             color = QToolButton(self)
             color.setToolTip(f"Colour of the selected {side} stops (with none selected: of the stop nearest "
                              "the middle of the curve)")
             color.clicked.connect(lambda _=False, side=side: self.edit_color(side))
-            remove = QToolButton(self)
-            remove.setText("\u2212")
-            remove.setToolTip(f"Remove the selected {side} stops")
-            remove.clicked.connect(lambda _=False, side=side: self.remove_stops(side))
             grid.addWidget(QLabel(side.capitalize()), 2 * row, 0, 1, 3)
             grid.addWidget(bar, 2 * row + 1, 0)
             grid.addWidget(color, 2 * row + 1, 1, Qt.AlignmentFlag.AlignTop)
             grid.addWidget(remove, 2 * row + 1, 2, Qt.AlignmentFlag.AlignTop)
-            self.bars[side], self.color_buttons[side], self.remove_buttons[side] = bar, color, remove
+            self.color_buttons[side] = color
         self._blur_row(grid, 2 * len(SIDES))
         layout = QVBoxLayout(self)
         layout.addWidget(self.title)
@@ -103,18 +90,29 @@ class StopsPanel(QWidget):
         layout.addStretch(1)
         self.refresh()
 
-    def _blur_row(self, grid: QGridLayout, row: int) -> None:
+    def _bar(self, side: str) -> tuple[GradientBar, QToolButton]:
+        """The bar of ``side``'s stops, wired to the panel, and its remove button (kept in ``bars`` and
+        ``remove_buttons``)."""
         bar = GradientBar(self)
-        bar.setObjectName("blur-stops")
-        bar.empty_color = QColor(255, 255, 255)  # no blur stops: sharp
-        bar.setToolTip("Blur along the curve: white is sharp, darker is softer (View > Show Blur shows it)")
-        bar.pressed.connect(lambda i, shift: self._pressed("blur", i, shift))
+        bar.setObjectName(f"{side}-stops")
+        bar.pressed.connect(lambda i, shift: self._pressed(side, i, shift))
         bar.dragged.connect(self._dragged)
         bar.released.connect(self._released)
         bar.cancelled.connect(self._cancel_drag)
-        bar.double_clicked.connect(lambda i: self._double_clicked("blur", i))
-        bar.add_requested.connect(lambda s: self.add_stop("blur", s))
+        bar.double_clicked.connect(lambda i: self._double_clicked(side, i))
+        bar.add_requested.connect(lambda s: self.add_stop(side, s))
         bar.installEventFilter(self)
+        remove = QToolButton(self)
+        remove.setText("\u2212")
+        remove.setToolTip(f"Remove the selected {side} stops")
+        remove.clicked.connect(lambda _=False: self.remove_stops(side))
+        self.bars[side], self.remove_buttons[side] = bar, remove
+        return bar, remove
+
+    def _blur_row(self, grid: QGridLayout, row: int) -> None:
+        bar, remove = self._bar("blur")
+        bar.empty_color = QColor(255, 255, 255)  # no blur stops: sharp
+        bar.setToolTip("Blur along the curve: white is sharp, darker is softer (View > Show Blur shows it)")
         self.blur_value = QDoubleSpinBox(self)
         self.blur_value.setRange(0.0, 200.0)
         self.blur_value.setDecimals(1)
@@ -123,15 +121,10 @@ class StopsPanel(QWidget):
         self.blur_value.setToolTip("Blur of the selected blur stops: the deviation of the Gaussian that softens "
                                    "the picture there, in document pixels")
         self.blur_value.valueChanged.connect(self._blur_changed)
-        remove = QToolButton(self)
-        remove.setText("\u2212")
-        remove.setToolTip("Remove the selected blur stops")
-        remove.clicked.connect(lambda _=False: self.remove_stops("blur"))
         grid.addWidget(QLabel("Blur"), row, 0, 1, 3)
         grid.addWidget(bar, row + 1, 0)
         grid.addWidget(remove, row + 1, 2, Qt.AlignmentFlag.AlignTop)
         grid.addWidget(self.blur_value, row + 2, 0, Qt.AlignmentFlag.AlignLeft)  # under the bar: the dock stays narrow
-        self.bars["blur"], self.remove_buttons["blur"] = bar, remove
 
     # -- state ---------------------------------------------------------------------------------------
     def bind(self, context: ToolContext | None) -> None:
@@ -301,9 +294,7 @@ class StopsPanel(QWidget):
         curve = context.document.curve(self.curve)
         s = min(max(float(s), 0.0), float(curve.piece_count))
         if side == "blur":
-            stops = curve.blur
-            value = float(np.interp(s, [stop.position for stop in stops], [stop.blur for stop in stops])) \
-                if stops else 0.0
+            value = float(curve.blur_at([s])[0])
             new = BlurStop(s, value)
         else:
             value = tuple(float(v) for v in getattr(curve, f"{side}_colors_at")([s])[0])
