@@ -20,7 +20,7 @@ from fmr_editor.engine.fmm.lattice import (
     fine_multipoles,
     upward_pass,
 )
-from fmr_editor.engine.fmm.passes import build_passes
+from fmr_editor.engine.fmm.passes import build_passes, downward, level_sources
 from fmr_editor.engine.fmm.sparse_downward import delta_local
 from fmr_editor.engine.geometry.discretise import boundary_segments, curve_segments
 from fmr_editor.engine.geometry.segments import Segments
@@ -75,6 +75,19 @@ def test_uniform_orders_match_the_plain_passes(spread, levels):
     assert np.array_equal(fine, fine_multipoles(segments, cell_start, lattice, WIDTH))
     expected = downward_pass(upward_pass(segments, cell_start, lattice, WIDTH), lattice, WIDTH)
     assert relative(local, expected) < 1e-12
+
+
+def test_a_sparse_level_above_a_dense_one_takes_its_multipoles_from_the_grid():
+    rng = np.random.default_rng(3)
+    lattice = Lattice(6, SIDE)
+    segments, cell_start = random_segments(rng, 6000, lattice, 1.0)
+    uniform = orders.uniform_orders(lattice.levels, WIDTH)
+    fine = fine_multipoles(segments, cell_start, lattice, WIDTH).reshape(4**6, 3, WIDTH + 1)
+    cells = np.flatnonzero(np.any(fine != 0, axis=(1, 2)))
+    sources = level_sources(fine, cells, cells, lattice, uniform)
+    assert [sources[level].dense for level in range(2, 7)] == [False, False, False, True, True]
+    expected = downward_pass(upward_pass(segments, cell_start, lattice, WIDTH), lattice, WIDTH)
+    assert relative(downward(sources, lattice, uniform), expected) < 1e-12
 
 
 @pytest.mark.parametrize("spread", [0.02, 1.0])

@@ -19,7 +19,7 @@ from fmr_editor.engine.fmm.lattice import (
     downward_pass,
     sort_into_cells,
 )
-from fmr_editor.engine.fmm.passes import HUGE_PAGE, downward_onto, huge_pages_empty, level_sources
+from fmr_editor.engine.fmm.passes import HUGE_PAGE, downward_onto, huge_pages_empty, huge_pages_zeros, level_sources
 from fmr_editor.engine.fmm.sparse_downward import delta_local
 from fmr_editor.engine.geometry.segments import Segments
 
@@ -264,14 +264,16 @@ def test_a_preview_touches_only_the_changed_cells_and_their_ancestors(monkeypatc
     old, new_sorted = cells, sort_into_cells(new, lattice)
     assert np.array_equal(seen["p2m"], changed_runs(old.segments, old.cell_start, *new_sorted))
     assert len(seen["p2m"]) <= 8 + 2 * 4  # each moved piece: its old and new cell, a few cut in two
-    ancestors, dense = np.flatnonzero(moved), False
+    ancestors = np.flatnonzero(moved)
     for level in range(lattice.levels, 1, -1):
-        dense = dense or len(ancestors) >= passes._dense_count(2**level)
+        dense = len(ancestors) >= passes._dense_count(2**level)
         assert seen["sources"][level] == ((True, 0) if dense else (False, len(ancestors))), level
         rows, columns = np.divmod(ancestors, 2**level)
         ancestors = np.unique((rows // 2) * 2 ** (level - 1) + columns // 2)
-    assert threads == [(2**level, 1 if 4**level < level_kernels.PARALLEL_CELLS else numba.get_num_threads())
-                       for level in range(2, lattice.levels + 1)]
+    work = [4**level * passes._term_pairs(cells.orders, level) / passes.CELL_TERM_PAIRS
+            for level in range(2, lattice.levels + 1)]
+    assert threads == [(2**level, 1 if cells_of_work < level_kernels.PARALLEL_CELLS else numba.get_num_threads())
+                       for level, cells_of_work in zip(range(2, lattice.levels + 1), work)]
 
 
 def test_huge_pages_empty_is_an_empty_array_at_a_huge_page():
@@ -282,3 +284,12 @@ def test_huge_pages_empty_is_an_empty_array_at_a_huge_page():
     assert big.ctypes.data % HUGE_PAGE == 0
     big[...] = 1.0  # every byte of it is the array's own
     assert big.sum() == big.size
+
+
+@pytest.mark.parametrize("cells", [8, 64, 128])  # below huge pages, on ours, on numpy's own
+def test_huge_pages_zeros_is_an_array_of_zeros(cells):
+    shape = (cells, cells, 3, 17)
+    zeros = huge_pages_zeros(shape, complex)
+    assert zeros.shape == shape and zeros.dtype == complex and zeros.flags.c_contiguous and not zeros.any()
+    if zeros.nbytes >= HUGE_PAGE and cells < 128:
+        assert zeros.ctypes.data % HUGE_PAGE == 0

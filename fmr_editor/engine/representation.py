@@ -59,9 +59,12 @@ class Settings:
 MAX_LEVELS = 11
 #: Mean segments per occupied fine cell that ``choose_levels`` aims below.
 SEGMENTS_PER_CELL = 6.0
-#: The same for the lattice of the iterative solve's products: fewer levels,
-#: more exact near-field pairs, measured 3-4x faster per product.
-SOLVE_SEGMENTS_PER_CELL = 24.0
+#: The same for the lattice of the iterative solve's products (order 20): fewer
+#: levels, more exact near-field pairs.  A product on the lattice one level
+#: coarser than 24 chose, ms: at 31-39 segments a cell 24-91 against 34-114
+#: (lady_bug, poivron, zephyr, fruits), at 54-86 slower (flower, glass_droplet_blur,
+#: gm_grapes, dolphin, roses).
+SOLVE_SEGMENTS_PER_CELL = 40.0
 #: The same for a clone layer, made anew on every frame of a drag: its downward
 #: pass is paid per frame (a level less is about 4x fewer cells; a drag frame of
 #: roses into itself 280 -> 125 ms, near fields of about 10 segments a cell).

@@ -9,8 +9,9 @@ orders) are the reference.  The work follows the occupied cells:
   occupied (and it is ``DENSE_SIDE`` cells wide), else *sparse*
   (``level_kernels``): dense levels run M2M and M2L as row sweeps over
   whole grids, sparse ones M2M from the occupied children and M2L gathered
-  per target from the occupied members of its list.  The levels above a
-  dense one are dense, so the dense ones are the top of the tree.
+  per target from the occupied members of its list.  A sparse level above
+  a dense one takes its occupied cells' multipoles out of the grid that
+  M2M made (``_grid_values``).
 - Every target cell gets its local expansion (pixels need all of them), with
   ``orders.kept(level)`` terms; the fine level's are written straight into
   the array ``Cells`` keeps, zero past ``kept``.
@@ -35,9 +36,15 @@ from .orders import PassOrders
 #: gather at 7% occupied 0.32 s).
 DENSE_SHARE = 0.15
 
-#: Cells per side below which a level is always sparse: row sweeps of a few cells are all loop overhead (a
-#: level 2 of lady_bug's L6 edit, 3 of 16 cells occupied: 0.6-0.8 ms as a grid, ~0.1 gathered).
-DENSE_SIDE = 16
+#: Cells per side below which a level is always sparse: row sweeps of a few cells are mostly loop overhead.
+#: Gathered, the levels 2 to 4 of the boundary solve's products (order 20, every cell occupied) took 0.3,
+#: 0.7 and 2.6-3.3 ms, as grids 0.3-1.1, 0.7-2.5 and 7.1-7.3 ms (lady_bug, fruits, roses); 32 cells wide
+#: (half of them occupied) both took 9-14 ms.
+DENSE_SIDE = 32
+
+#: M2L term pairs (``_term_pairs``) of a fine cell of the editor's builds (pixels of degree 8): the cell of
+#: work ``level_kernels.PARALLEL_CELLS`` counts in.  A cell of the solve's products (order 20) is 6 of them.
+CELL_TERM_PAIRS = 2868
 
 _NO_GRID = np.zeros((0,) * 6)
 _NO_SOURCES = np.zeros((0, 0, 0))
@@ -105,7 +112,7 @@ def upward(segments, cell_start: np.ndarray, lattice: Lattice, orders: PassOrder
     n, width = lattice.cells_per_side, orders.width
     cells = np.flatnonzero(np.diff(cell_start))
     centres = lattice.cell_centres(np.stack(np.divmod(cells, n), axis=1))
-    fine = np.zeros((n, n, 3, width + 1), complex)
+    fine = huge_pages_zeros((n, n, 3, width + 1), complex)
     moments = fine.reshape(n * n, 3, width + 1)  # a view: P2M writes the fine multipoles in place
     fine_moments_into(cell_start, cells, centres, lattice.cell_size, segments.p, segments.q, segments.flux,
                       segments.jump, moments)
@@ -127,22 +134,22 @@ def level_sources(moments: np.ndarray, rows: np.ndarray, cells: np.ndarray, latt
         sources; every other cell holds none.
     """
     n, width = lattice.cells_per_side, orders.width
-    values_re = values_im = None  # the sparse levels' multipoles, as planes
+    values_re = values_im = None  # a sparse level's multipoles, as planes
     sources: list[LevelSources | None] = [None] * (lattice.levels + 1)
-    grid = None
+    grid = None  # a dense level's multipoles, as its grid
     for level in range(lattice.levels, 1, -1):
         size, terms = 2**level, _carried_terms(orders, level)
-        if grid is None and len(cells) >= _dense_count(size):
-            grid = _empty_grid(size, terms)
-            with kernels.threads_for(size * size):
-                if values_re is None:  # the fine level: ``moments`` as they are
-                    position = np.full(n * n, -1, np.int64)
-                    position[cells] = rows
-                    kernels.fill_grid_complex(position.reshape(n, n), moments, *grid)
-                else:
-                    pad = kernels.INDEX_PAD
-                    kernels.fill_grid(_index_map(cells, size)[pad:-pad, pad:-pad], values_re, values_im, *grid)
-        if grid is not None:
+        if len(cells) >= _dense_count(size):
+            if grid is None:
+                grid = _empty_grid(size, terms)
+                with kernels.threads_for(size * size):
+                    if values_re is None:  # the fine level: ``moments`` as they are
+                        position = np.full(n * n, -1, np.int64)
+                        position[cells] = rows
+                        kernels.fill_grid_complex(position.reshape(n, n), moments, *grid)
+                    else:
+                        pad = kernels.INDEX_PAD
+                        kernels.fill_grid(_index_map(cells, size)[pad:-pad, pad:-pad], values_re, values_im, *grid)
             sources[level] = LevelSources(grid_re=grid[0], grid_im=grid[1])
             if level > 2:
                 parent_terms = _carried_terms(orders, level - 1)
@@ -150,13 +157,17 @@ def level_sources(moments: np.ndarray, rows: np.ndarray, cells: np.ndarray, latt
                 with kernels.threads_for(size * size):
                     kernels.grid_m2m(*grid, *_m2m_tables(terms, parent_terms, width), *parent)
                 grid = parent
+            cells = _parents(cells, size)
             continue
         index = _index_map(cells, size)
-        if values_re is None:
+        if grid is not None:  # a sparse level above a dense one
+            values_re, values_im = _grid_values(grid, cells, size)
+            grid = None
+        elif values_re is None:
             values_re, values_im = _split(moments[rows], terms)
         sources[level] = LevelSources(src_re=values_re, src_im=values_im, index=index)
         if level > 2:
-            parents = np.unique(_parent_cells(cells, size))
+            parents = _parents(cells, size)
             parent_terms = _carried_terms(orders, level - 1)
             values_re, values_im = (np.zeros((len(parents), 3, parent_terms)) for _ in range(2))
             with kernels.threads_for(len(cells)):
@@ -166,14 +177,25 @@ def level_sources(moments: np.ndarray, rows: np.ndarray, cells: np.ndarray, latt
     return sources
 
 
+def _grid_values(grid: tuple[np.ndarray, np.ndarray], cells: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
+    """The multipoles ``(len(cells), 3, K)`` (planes) of the cells ``cells`` (flat) of a level's grid."""
+    rows, columns = np.divmod(cells, size)
+    pad = kernels.GRID_PAD
+    at = (rows % 2, columns % 2, rows // 2 + pad, slice(None), slice(None), columns // 2 + pad)
+    return tuple(np.ascontiguousarray(part[at].transpose(0, 2, 1)) for part in grid)
+
+
 def _dense_count(size: int) -> int:
     """Occupied cells from which a level of ``size`` cells per side counts as dense (never below ``DENSE_SIDE``)."""
     return int(np.ceil(DENSE_SHARE * size * size)) if size >= DENSE_SIDE else size * size + 1
 
 
-def _parent_cells(cells: np.ndarray, size: int) -> np.ndarray:
+def _parents(cells: np.ndarray, size: int) -> np.ndarray:
+    """The parents (flat, sorted, distinct) of the cells ``cells`` (flat) of a level ``size`` cells wide."""
     rows, columns = np.divmod(cells, size)
-    return (rows // 2) * (size // 2) + columns // 2
+    occupied = np.zeros(size * size // 4, bool)
+    occupied[(rows // 2) * (size // 2) + columns // 2] = True
+    return np.flatnonzero(occupied)
 
 
 def _split(moments: np.ndarray, terms: int) -> tuple[np.ndarray, np.ndarray]:
@@ -213,6 +235,12 @@ def _level_tables(orders: PassOrders, level: int, log_size: float) -> tuple[np.n
     return table, starts, np.ascontiguousarray(matrices.real), np.ascontiguousarray(matrices.imag)
 
 
+@lru_cache(maxsize=256)
+def _term_pairs(orders: PassOrders, level: int) -> int:
+    """Multipole-local term pairs of ``level``'s translations, summed over the offsets (its cells' M2L work)."""
+    return int(((orders.multipole[level] + 1) * (orders.local[level] + 1)).sum())
+
+
 @lru_cache(maxsize=64)
 def _l2l_tables(parent_terms: int, child_terms: int, width: int) -> tuple[np.ndarray, np.ndarray]:
     """``(4, parent_terms, child_terms)`` L2L matrices of the child parities ``2 py + px``."""
@@ -234,7 +262,7 @@ def downward(sources: list[LevelSources | None], lattice: Lattice, orders: PassO
     levels' grids are freed before the fine level's local expansions fill (77 MB of a 1.2 GB peak at L 9).
     """
     n = lattice.cells_per_side
-    local = np.zeros((n, n, 3, orders.width + 1 if terms is None else terms), complex)
+    local = huge_pages_zeros((n, n, 3, orders.width + 1 if terms is None else terms), complex)
     _downward(sources, lattice, orders, local, _NO_FINE, _NO_CHANGE, lap)
     return local
 
@@ -287,6 +315,19 @@ def huge_pages_empty(shape: tuple[int, ...], dtype) -> np.ndarray:
     return raw[start : start + nbytes].view(dtype).reshape(shape)
 
 
+def huge_pages_zeros(shape: tuple[int, ...], dtype) -> np.ndarray:
+    """``numpy.zeros(shape, dtype)``, on huge pages from ``HUGE_FROM`` bytes (``huge_pages_empty``).
+
+    Below the 4 MB from which numpy asks for huge pages itself, a fresh array of zeros is paid for by a page
+    fault per 4 kB as it is written: 2.2 ms for the 3.3 MB of a level 6's fine multipoles, 0.4 on huge pages.
+    """
+    if np.prod(shape) * np.dtype(dtype).itemsize >= 4 * HUGE_FROM:
+        return np.zeros(shape, dtype)
+    out = huge_pages_empty(shape, dtype)
+    out.fill(0)
+    return out
+
+
 def _downward(sources: list[LevelSources | None], lattice: Lattice, orders: PassOrders, local: np.ndarray,
               base: np.ndarray, change: np.ndarray, lap: Callable[[str], None] | None) -> None:
     """``downward`` into ``local``; with a ``base`` (not empty), ``downward_onto``."""
@@ -303,7 +344,7 @@ def _downward(sources: list[LevelSources | None], lattice: Lattice, orders: Pass
         coarse = (_NO_PLANES, _NO_PLANES) if fine else (np.zeros((size, _even(kept), 3, size)),
                                                          np.zeros((size, _even(kept), 3, size)))
         tables = _level_tables(orders, level, float(np.log(lattice.level_size(level))))
-        with kernels.threads_for(size * size):
+        with kernels.threads_for(size * size * _term_pairs(orders, level) / CELL_TERM_PAIRS):
             kernels.level_local(size, parent_re, parent_im, *l2l, level_sources.grid_re, level_sources.grid_im,
                                 level_sources.src_re, level_sources.src_im, level_sources.index, *tables, kept,
                                 *coarse, local if fine else _NO_FINE, base if fine else _NO_FINE,

@@ -4,13 +4,11 @@ A sample in fine cell ``(cy, cx)`` at ``w = xi + i eta`` (its offset from
 the cell centre in cell sizes) takes ``(1/2pi) Re sum_{l <= order} L_l w^l``
 of that cell's scaled local expansion ``L`` (docs/design.md section 3), written
 straight into the image.  Threads take rows of cells; each cell's
-coefficients are read once (scaled by ``1/2pi`` into a small table) and its
-samples evaluated by Horner's rule in ``w``, the three channels side by side,
+samples are evaluated by Horner's rule in ``w``, the three channels side by side,
 or, in cells of many samples, all at once with the powers of ``w`` (a loop
 over the samples that vectorises).  The cost is pixels x order plus one read of the cells'
-coefficients: no per-cell set-up beyond that read.  At level 10 (one sample
-a cell at 1024^2) that read is most of it: the fine cells' expansions
-(``(2^L, 2^L, 3, P + 1)`` complex, ``P`` the propagation order) take 855 MB.
+coefficients.  Cells of few samples read them as they are, with no table: at
+level 10 (one sample a cell at 1024^2) a table made the far field 1.4x slower.
 
 ``local_field_reference`` is the plain numpy form; the tests compare them.
 """
@@ -98,22 +96,23 @@ def _local_grid(local, order, xs, ys, x_start, y_start, cell_size, skip, skippin
             xa, width = x_start[cx], x_start[cx + 1] - x_start[cx]
             if width == 0 or (skipping and skip[cy, cx]):
                 continue
-            for c in range(3):
-                for l in range(order + 1):
-                    coeffs[c, l] = local[cy, cx, c, l] * INV_TWO_PI
-            if rows * width < FLAT:
+            if rows * width < FLAT:  # from the coefficients as they are: a copy would cost as much again
                 for a in range(rows):
                     eta = ys[ya + a] * inv - (cy + 0.5)
                     for b in range(xa, xa + width):
-                        out[ya + a, b, 0], out[ya + a, b, 1], out[ya + a, b, 2] = _by_horner(
-                            coeffs, order, xs[b] * inv - (cx + 0.5), eta)
+                        r0, r1, r2 = _by_horner(local[cy, cx], order, xs[b] * inv - (cx + 0.5), eta)
+                        out[ya + a, b, 0], out[ya + a, b, 1] = r0 * INV_TWO_PI, r1 * INV_TWO_PI
+                        out[ya + a, b, 2] = r2 * INV_TWO_PI
                 continue
+            for c in range(3):
+                for l in range(order + 1):
+                    coeffs[c, l] = local[cy, cx, c, l]
             xi, eta = scratch[5], scratch[6]
             for a in range(rows):
                 for b in range(width):
                     xi[a * width + b] = xs[xa + b] * inv - (cx + 0.5)
                     eta[a * width + b] = ys[ya + a] * inv - (cy + 0.5)
-            by_powers(coeffs, order, rows * width, xi, eta, 1.0, scratch)
+            by_powers(coeffs, order, rows * width, xi, eta, INV_TWO_PI, scratch)
             for a in range(rows):
                 for b in range(width):
                     i = a * width + b
