@@ -245,9 +245,14 @@ def grid_m2m(child_re, child_im, m2m_re, m2m_im, parent_re, parent_im):
 
 @numba.njit(parallel=True, cache=True, fastmath=FAST_MATH)
 def compact_m2m(size, parents, child_index, child_re, child_im, m2m_re, m2m_im, out_re, out_im):
-    """The multipoles ``out (len(parents), 3, K)`` of the occupied ``parents`` (flat, level ``size / 2`` wide)
-    of a sparse level's occupied children (``child_index``, ``child_re``, ``child_im`` as for ``level_local``)."""
+    """The multipoles ``out (len(parents), 3, K')`` of the occupied ``parents`` (flat, level ``size / 2`` wide)
+    of a sparse level's occupied children (``child_index``, ``child_re``, ``child_im`` as for ``level_local``).
+
+    ``m2m_re, m2m_im (4, K', K)``: the M2M matrix of each child parity *transposed*, so that each parent term is
+    a dot product along a contiguous row (half the time of adding each child term into the parent's row).
+    """
     half = size // 2
+    terms, child_terms = m2m_re.shape[1], m2m_re.shape[2]
     for p in numba.prange(len(parents)):
         row, column = parents[p] // half, parents[p] % half
         for parity in range(4):
@@ -255,11 +260,16 @@ def compact_m2m(size, parents, child_index, child_re, child_im, m2m_re, m2m_im, 
             if s < 0:
                 continue
             for ch in range(3):
-                for k in range(m2m_re.shape[1]):
-                    x, y = child_re[s, ch, k], child_im[s, ch, k]
-                    for l in range(k, m2m_re.shape[2]):
-                        out_re[p, ch, l] += m2m_re[parity, k, l] * x - m2m_im[parity, k, l] * y
-                        out_im[p, ch, l] += m2m_re[parity, k, l] * y + m2m_im[parity, k, l] * x
+                x, y = child_re[s, ch], child_im[s, ch]
+                for l in range(terms):
+                    total_re = 0.0
+                    total_im = 0.0
+                    for k in range(min(l + 1, child_terms)):  # M2M is upper triangular
+                        a, b = m2m_re[parity, l, k], m2m_im[parity, l, k]
+                        total_re += a * x[k] - b * y[k]
+                        total_im += a * y[k] + b * x[k]
+                    out_re[p, ch, l] += total_re
+                    out_im[p, ch, l] += total_im
 
 
 @numba.njit(parallel=True, cache=True)

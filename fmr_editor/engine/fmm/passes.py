@@ -103,6 +103,13 @@ def _m2m_tables(child_terms: int, parent_terms: int, width: int) -> tuple[np.nda
     return np.ascontiguousarray(matrices.real), np.ascontiguousarray(matrices.imag)
 
 
+@lru_cache(maxsize=64)
+def _m2m_rows(child_terms: int, parent_terms: int, width: int) -> tuple[np.ndarray, np.ndarray]:
+    """``_m2m_tables`` transposed, ``(4, parent_terms, child_terms)``: one row per parent term."""
+    return tuple(np.ascontiguousarray(part.transpose(0, 2, 1)) for part in _m2m_tables(child_terms, parent_terms,
+                                                                                        width))
+
+
 def upward(segments, cell_start: np.ndarray, lattice: Lattice, orders: PassOrders,
            lap: Callable[[str], None] | None = None) -> tuple[np.ndarray, list[LevelSources | None]]:
     """P2M and M2M: the fine multipoles at full width ``(2^L, 2^L, 3, width + 1)`` and every level's sources.
@@ -172,7 +179,7 @@ def level_sources(moments: np.ndarray, rows: np.ndarray, cells: np.ndarray, latt
             values_re, values_im = (np.zeros((len(parents), 3, parent_terms)) for _ in range(2))
             with kernels.threads_for(len(cells)):
                 kernels.compact_m2m(size, parents, index, sources[level].src_re, sources[level].src_im,
-                                    *_m2m_tables(terms, parent_terms, width), values_re, values_im)
+                                    *_m2m_rows(terms, parent_terms, width), values_re, values_im)
             cells = parents
     return sources
 
