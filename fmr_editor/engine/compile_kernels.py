@@ -32,7 +32,7 @@ from ..model import ColorStop, DiffusionCurve, DiffusionPoint, Document, edits
 from .fmm.lattice import Lattice
 from .points.field import PointField, warm_up_points
 from .raster import rasterise
-from .raster_kernels import near_grid, sub_cells
+from .raster_kernels import blending, near_grid, sub_cells
 from .stack import LiveStack
 
 
@@ -62,7 +62,7 @@ def points() -> None:
 
 #: Parts that touch disjoint kernels, so that parallel processes never compile the same one twice.
 PARTS: dict[str, Callable[[], None]] = {"near_grid": near_grid, "sub_cells": sub_cells, "solver": solver,
-                                        "points": points}
+                                        "points": points, "blending": blending}
 
 
 def sample_document(points: bool, size: int = 64) -> Document:

@@ -25,6 +25,7 @@ import numpy as np
 
 from ..model.color_transform import IDENTITY, ColorTransform
 from ..model.layer import MASK_LUMA
+from .blending import blend_layer
 from .representation import Representation
 
 
@@ -167,7 +168,34 @@ def compose(composite: Composite, values: Callable[[Representation], np.ndarray]
     In [0, 1] (each layer is clamped before it is blended): the picture over black, which is its colour
     premultiplied by its coverage.  With ``coverage``, ``(..., 4)``: the coverage ``a`` after the colour,
     ``a <- m + (1 - m) a`` from 0 up the layers (1 where a layer covers, 0 where nothing shows).
+    Each layer is blended in one compiled pass (``blending.blend_layer``); ``compose_reference`` is the plain form.
     """
+    count = int(np.prod(shape[:-1]))
+    out, alpha = np.zeros((count, 3)), np.zeros(count)
+    for layer in composite.shown:
+        masked = layer.masked and not layer.covers
+        translucent = layer.alpha is not None and not layer.covers
+        transform = layer.transform
+        blend_layer(out, alpha, _samples(values(layer.image), count), transform.matrix, transform.offset,
+                    not transform.is_identity, _samples(values(layer.mask), count) if masked else _NO_SAMPLES,
+                    MASK_LUMA, float(layer.mask_base), layer.mask_enabled, layer.mask_inverted,
+                    _samples(values(layer.alpha), count) if translucent else _NO_SAMPLES, float(layer.opacity),
+                    layer.covers)
+    out = out.reshape(shape)
+    return np.concatenate([out, alpha.reshape(shape[:-1])[..., None]], axis=-1) if coverage else out
+
+
+_NO_SAMPLES = np.zeros((0, 3))
+
+
+def _samples(values: np.ndarray, count: int) -> np.ndarray:
+    """``values (..., 3)`` as ``(count, 3)`` float64, C-contiguous (a view where they are)."""
+    return np.ascontiguousarray(values, np.float64).reshape(count, 3)
+
+
+def compose_reference(composite: Composite, values: Callable[[Representation], np.ndarray], shape: tuple[int, ...],
+                      coverage: bool = False) -> np.ndarray:
+    """``compose`` in plain numpy, a pass over the samples for each step."""
     out = np.zeros(shape)
     alpha = np.zeros(shape[:-1])
     for layer in composite.shown:

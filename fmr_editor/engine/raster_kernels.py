@@ -11,6 +11,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..model.color_transform import IDENTITY
+from ..model.layer import MASK_LUMA
+from .blending import blend_layer
 from .fmm.lattice import Lattice, sort_into_cells
 from .geometry.segments import Segments
 from .kernels.segment_sums import near_tables
@@ -45,7 +48,15 @@ def sub_cells() -> None:
     _grid(4, 64.0, split=2, samples_per_cell=32)
 
 
+def blending() -> None:
+    """The composition of a layered picture (``blending``), with the arguments ``composite.compose`` gives."""
+    samples = np.zeros((1, 3))
+    blend_layer(np.zeros((1, 3)), np.zeros(1), samples, IDENTITY.matrix, IDENTITY.offset, False, samples, MASK_LUMA,
+                1.0, True, False, samples, 1.0, False)
+
+
 def load_raster_kernels() -> None:
     """Load (from numba's cache, else compile) the kernels of every kind of CPU render."""
     near_grid()
     sub_cells()
+    blending()
