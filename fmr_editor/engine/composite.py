@@ -173,14 +173,12 @@ def compose(composite: Composite, values: Callable[[Representation], np.ndarray]
     count = int(np.prod(shape[:-1]))
     out, alpha = np.zeros((count, 3)), np.zeros(count)
     for layer in composite.shown:
-        masked = layer.masked and not layer.covers
-        translucent = layer.alpha is not None and not layer.covers
         transform = layer.transform
         blend_layer(out, alpha, _samples(values(layer.image), count), transform.matrix, transform.offset,
-                    not transform.is_identity, _samples(values(layer.mask), count) if masked else _NO_SAMPLES,
+                    not transform.is_identity, _samples(values(layer.mask), count) if layer.masked else _NO_SAMPLES,
                     MASK_LUMA, float(layer.mask_base), layer.mask_enabled, layer.mask_inverted,
-                    _samples(values(layer.alpha), count) if translucent else _NO_SAMPLES, float(layer.opacity),
-                    layer.covers)
+                    _NO_SAMPLES if layer.alpha is None else _samples(values(layer.alpha), count),
+                    float(layer.opacity), layer.covers)
     out = out.reshape(shape)
     return np.concatenate([out, alpha.reshape(shape[:-1])[..., None]], axis=-1) if coverage else out
 
