@@ -90,6 +90,13 @@ class Lattice:
         return (cells[:, ::-1] + 0.5) * self.cell_size
 
 
+def distinct_cells(cells: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray]:
+    """``numpy.unique(cells, return_inverse=True)`` for cells below ``count``, by marking (no sort)."""
+    present = np.zeros(count, bool)
+    present[cells] = True
+    return np.flatnonzero(present), (np.cumsum(present) - 1)[cells]
+
+
 def dilated(cells: np.ndarray) -> np.ndarray:
     """The boolean ``(n, n)`` cell mask ``cells`` grown by one cell every way (to the 3x3 blocks)."""
     grown = cells.copy()

@@ -27,7 +27,7 @@ import numpy as np
 
 from . import level_kernels as kernels
 from .expansions import l2l_matrix, m2l_matrix, m2m_matrix
-from .lattice import Lattice, child_offset, interaction_offsets
+from .lattice import Lattice, child_offset, distinct_cells, interaction_offsets
 from .moments import fine_moments_into
 from .orders import PassOrders
 
@@ -200,9 +200,7 @@ def _dense_count(size: int) -> int:
 def _parents(cells: np.ndarray, size: int) -> np.ndarray:
     """The parents (flat, sorted, distinct) of the cells ``cells`` (flat) of a level ``size`` cells wide."""
     rows, columns = np.divmod(cells, size)
-    occupied = np.zeros(size * size // 4, bool)
-    occupied[(rows // 2) * (size // 2) + columns // 2] = True
-    return np.flatnonzero(occupied)
+    return distinct_cells((rows // 2) * (size // 2) + columns // 2, size * size // 4)[0]
 
 
 def _split(moments: np.ndarray, terms: int) -> tuple[np.ndarray, np.ndarray]:
@@ -303,6 +301,8 @@ def downward_onto(sources: list[LevelSources | None], lattice: Lattice, orders: 
 #: Bytes of a huge page, and the size from which ``huge_pages_empty`` places an array on them.
 HUGE_PAGE = 1 << 21
 HUGE_FROM = 1 << 20
+#: Bytes from which numpy itself asks for huge pages for a new array.
+NUMPY_HUGE_FROM = 4 << 20
 
 
 def huge_pages_empty(shape: tuple[int, ...], dtype) -> np.ndarray:
@@ -328,7 +328,7 @@ def huge_pages_zeros(shape: tuple[int, ...], dtype) -> np.ndarray:
     Below the 4 MB from which numpy asks for huge pages itself, a fresh array of zeros is paid for by a page
     fault per 4 kB as it is written: 2.2 ms for the 3.3 MB of a level 6's fine multipoles, 0.4 on huge pages.
     """
-    if np.prod(shape) * np.dtype(dtype).itemsize >= 4 * HUGE_FROM:
+    if np.prod(shape) * np.dtype(dtype).itemsize >= NUMPY_HUGE_FROM:
         return np.zeros(shape, dtype)
     out = huge_pages_empty(shape, dtype)
     out.fill(0)

@@ -29,7 +29,7 @@ import numpy as np
 from scipy.special import comb
 
 from .expansions import l2l_matrix, m2m_matrix
-from .lattice import Lattice, child_offset, coarser_multipoles, downward_pass, offset_parities, times
+from .lattice import Lattice, child_offset, coarser_multipoles, distinct_cells, downward_pass, offset_parities, times
 from .orders import uniform_orders
 from .passes import downward, level_sources
 
@@ -113,13 +113,6 @@ def _gathered_m2l(size, targets, source_index, moments, offsets, masks, pre, pas
                     out[t, channel, l] += complex(sums[channel, 0, l], sums[channel, 1, l])
 
 
-def _distinct(cells: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray]:
-    """``numpy.unique(cells, return_inverse=True)`` for cells below ``count``, by marking (no sort)."""
-    present = np.zeros(count, bool)
-    present[cells] = True
-    return np.flatnonzero(present), (np.cumsum(present) - 1)[cells]
-
-
 class _Level:
     """The cells of one level a pass visits, in blocks of one parity each (their L2L matrix): their rows and parents."""
 
@@ -146,7 +139,7 @@ def _upward(cells: np.ndarray, moments: np.ndarray, lattice: Lattice, order: int
     sources[lattice.levels] = level, np.take(np.asarray(moments, complex), np.argsort(level.row_of[cells]), axis=0)
     for depth in range(lattice.levels, 2, -1):
         level, multipoles = sources[depth]
-        parents, slot = _distinct(level.parents, (level.size // 2) ** 2)
+        parents, slot = distinct_cells(level.parents, (level.size // 2) ** 2)
         above = np.zeros((len(parents),) + multipoles.shape[1:], complex)
         for start, stop, px, py in level.blocks():  # one child per parent in a block: no repeated slots
             above[slot[start:stop]] += times(multipoles[start:stop], m2m_matrix(child_offset(px, py), order))
@@ -163,7 +156,7 @@ def pass_levels(wanted: np.ndarray | None, lattice: Lattice) -> list[_Level | No
     cells = np.arange(n * n) if wanted is None else np.flatnonzero(wanted)
     for depth in range(lattice.levels, 1, -1):
         levels[depth] = _Level(cells, 2**depth)
-        cells = _distinct(levels[depth].parents, 4 ** (depth - 1))[0]
+        cells = distinct_cells(levels[depth].parents, 4 ** (depth - 1))[0]
     return levels
 
 
