@@ -12,6 +12,7 @@ from fmr_editor.engine import build, rasterise
 from fmr_editor.engine.fmm.far_field import far_field_at, far_field_at_reference
 from fmr_editor.engine.fmm.lattice import Lattice, downward_pass, sort_into_cells, upward_pass
 from fmr_editor.engine.geometry.discretise import boundary_segments, curve_segments
+from fmr_editor.engine.kernels.segment_sums import near_sum
 from fmr_editor.engine.solve import solver as fast_solve
 from fmr_editor.engine.solve.dense import assemble, solve_dense
 from fmr_editor.engine.solve.skeleton import SkeletonFactorization
@@ -34,6 +35,51 @@ def test_fmm_product_equals_the_dense_matrix_product(system):
     got = CollocationOperator(segments, cell_start, lattice, 20).apply(unknown)
     expected = matrix @ unknown
     assert np.abs(got - expected).max() <= 1e-8 * np.abs(expected).max()
+
+
+def near_pairs(segments, lattice):
+    """Whether each source lies in the 3x3 cells around each target's cell (plain: every pair)."""
+    cells = lattice.cell_of(segments.midpoints)
+    return np.abs(cells[:, None, :] - cells[None, :, :]).max(axis=2) <= 1
+
+
+def test_the_kept_near_matrix_is_the_dense_matrix_on_neighbouring_cells(system):
+    """Its product is the dense matrix's over the 3x3 cells around each midpoint (without the border's -1/2), and
+    ``apply`` with it is the dense product, as without it."""
+    segments, cell_start, lattice, matrix, _ = system
+    unknown = np.random.default_rng(5).normal(size=(len(segments), 3))
+    operator = CollocationOperator(segments, cell_start, lattice, 20)
+    near = operator.near_matrix()
+    own_border = np.diag(np.where(segments.on_border, -0.5, 0.0))
+    expected = np.where(near_pairs(segments, lattice), matrix - own_border, 0.0) @ unknown
+    np.testing.assert_allclose(near @ unknown, expected, rtol=0, atol=1e-12 * np.abs(expected).max())
+    got = operator.apply(unknown, near)
+    assert np.abs(got - matrix @ unknown).max() <= 1e-8 * np.abs(matrix @ unknown).max()
+    np.testing.assert_allclose(got, operator.apply(unknown), rtol=0, atol=1e-12 * np.abs(got).max())
+
+
+@pytest.mark.parametrize("fits", [True, False], ids=["kept", "too large"])
+def test_gmres_computes_the_near_entries_once(system, monkeypatch, fits):
+    """GMRES computes the near entries once and reuses them in every product (no ``near_sum``); a system whose
+    entries would exceed ``NEAR_MATRIX_BYTES`` sums them afresh in each product."""
+    from fmr_editor.engine.solve import near_matrix
+
+    segments, cell_start, lattice, _, _ = system
+    operator = CollocationOperator(segments, cell_start, lattice, 20)
+    rhs, preconditioner = operator.right_hand_side(), compressed(segments, 1e-3)
+    if not fits:
+        monkeypatch.setattr(near_matrix, "NEAR_MATRIX_BYTES", 0)
+    sums, made, products = [], [], []
+    monkeypatch.setattr(fast_solve, "near_sum", lambda *a, **k: sums.append(1) or near_sum(*a, **k))
+    entries = near_matrix._entries
+    monkeypatch.setattr(near_matrix, "_entries", lambda *a: made.append(1) or entries(*a))
+    apply = CollocationOperator.apply
+    monkeypatch.setattr(CollocationOperator, "apply", lambda *a: products.append(1) or apply(*a))
+    unknown, report = fast_solve.gmres(operator, rhs, preconditioner, rtol=1e-11)
+    assert report.iterations >= 2 and report.residual <= 1e-11 and len(products) > report.iterations
+    assert (len(made), len(sums)) == ((1, 0) if fits else (0, len(products)))
+    expected = solve_dense(segments).unknowns()
+    assert np.abs(unknown - expected).max() <= 1e-6 * np.abs(expected).max()
 
 
 def test_compiled_far_field_equals_the_numpy_reference(system):
@@ -147,9 +193,9 @@ def test_gmres_stops_after_a_cycle_that_barely_cut_the_residual(system):
     counted = fast_solve.CollocationOperator.apply
 
     class Counting(CollocationOperator):
-        def apply(self, values):
+        def apply(self, values, near=None):
             products.append(1)
-            return counted(self, values)
+            return counted(self, values, near)
 
     operator.__class__ = Counting
     _, report = fast_solve.gmres(operator, rhs, Blind(len(segments)))

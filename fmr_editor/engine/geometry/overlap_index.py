@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 import shapely
 
-from .overlaps import COINCIDENT_DISTANCE, last_twins, shared_stretches
+from .overlaps import COINCIDENT_DISTANCE, last_twins, segment_lines, shared_stretches, within_pairs
 from .segments import Segments
 from .splice import Blocks
 
@@ -95,7 +95,7 @@ class OverlapIndex:
 
     def _plant(self, segments: Segments, ids: RowIds) -> None:
         """Put all of ``segments`` in the tree."""
-        self._tree = shapely.STRtree(_lines(segments, np.arange(len(segments))))
+        self._tree = shapely.STRtree(segment_lines(segments, np.arange(len(segments))))
         self._tree_ids = ids.ids(np.arange(len(segments)))
         self._tree_curves = np.unique(np.append(ids.first, -1))  # the curves (by first id) in the tree, all rows
 
@@ -128,7 +128,7 @@ class OverlapIndex:
         extra = ids.rows_of(np.flatnonzero(self._tree_curves[at] != ids.first))  # curves not in the tree
         near = _Near(self, ids, new, extra)
         # one search for the rows that came (their twins and pairs) and went (their twins)
-        asked, found = near(np.concatenate([_lines(new, fresh), _lines(old, gone)]))
+        asked, found = near(np.concatenate([segment_lines(new, fresh), segment_lines(old, gone)]))
         twins, affected, repeated = self._twins(old, new, blocks, fresh, gone, asked, found)
         from_fresh = asked < len(fresh)
         asked, found = fresh[asked[from_fresh]], found[from_fresh]
@@ -136,13 +136,13 @@ class OverlapIndex:
         is_repeated[repeated] = True
         searched = affected[~is_repeated[affected]]  # kept rows that became their twins' last
         if len(searched):
-            more_asked, more_found = near(_lines(new, searched))
+            more_asked, more_found = near(segment_lines(new, searched))
             asked, found = np.concatenate([asked, searched[more_asked]]), np.concatenate([found, more_found])
         keep = (found != asked) & ~is_repeated[asked] & ~is_repeated[found]
         earlier, later = _distinct_pairs(np.minimum(asked, found)[keep], np.maximum(asked, found)[keep])
         among = np.union1d(fresh, affected)
         among = among[is_repeated[among]]
-        found = [shared_stretches(new, *_within(new, earlier, later, tolerance), tolerance),
+        found = [shared_stretches(new, *within_pairs(new, earlier, later, tolerance), tolerance),
                  shared_stretches(new, among, twins[1][np.searchsorted(twins[0], among)], tolerance)]
 
         old_earlier, old_later = blocks.to_new(pairs[0]), blocks.to_new(pairs[1])
@@ -207,7 +207,7 @@ class _Near:
 
     def __init__(self, index: OverlapIndex, ids: RowIds, segments: Segments, extra: np.ndarray) -> None:
         self.index, self.ids, self.extra = index, ids, extra
-        self.extra_tree = shapely.STRtree(_lines(segments, extra))
+        self.extra_tree = shapely.STRtree(segment_lines(segments, extra))
 
     def __call__(self, lines: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Pairs ``(line, row)`` of ``lines`` and rows within twice the tolerance of them (a superset of the pairs
@@ -218,10 +218,6 @@ class _Near:
         extra_asked, extra_item = self.extra_tree.query(lines, predicate="dwithin", distance=distance)
         asked = np.concatenate([asked[rows >= 0], extra_asked])
         return asked, np.concatenate([rows[rows >= 0], self.extra[extra_item]])
-
-
-def _lines(segments: Segments, rows: np.ndarray) -> np.ndarray:
-    return shapely.linestrings(np.stack([segments.p[rows], segments.q[rows]], axis=1))
 
 
 def _ends(segments: Segments, rows: np.ndarray) -> np.ndarray:
@@ -239,17 +235,3 @@ def _distinct_pairs(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarra
     scale = int(b.max()) + 1
     pairs = np.unique(a * scale + b)
     return pairs // scale, pairs % scale
-
-
-def _within(segments: Segments, earlier: np.ndarray, later: np.ndarray, tolerance: float):
-    """The pairs ``overlapping_pairs``'s STRtree query keeps: the box of ``earlier`` grown by ``tolerance`` meets
-    ``later``'s, and GEOS's prepared ``dwithin`` of ``earlier`` accepts ``later``."""
-    low_e, high_e = np.minimum(segments.p[earlier], segments.q[earlier]), np.maximum(segments.p[earlier],
-                                                                                    segments.q[earlier])
-    low_l, high_l = np.minimum(segments.p[later], segments.q[later]), np.maximum(segments.p[later], segments.q[later])
-    boxes = np.all((low_l <= high_e + tolerance) & (high_l >= low_e - tolerance), axis=1)
-    earlier, later = earlier[boxes], later[boxes]
-    first = _lines(segments, earlier)
-    shapely.prepare(first)
-    within = shapely.dwithin(first, _lines(segments, later), tolerance)
-    return earlier[within], later[within]

@@ -37,10 +37,8 @@ MAX_SINE = 0.1
 ANGLE_BUCKET, OFFSET_BUCKET = 0.11, 4.0
 
 
-def overlapping_pairs(segments: Segments, tolerance: float = COINCIDENT_DISTANCE, among: np.ndarray | None = None):
+def overlapping_pairs(segments: Segments, tolerance: float = COINCIDENT_DISTANCE):
     """Pairs ``(earlier, later)`` of segments where the later covers a stretch of the earlier.
-
-    With ``among`` (a boolean mask), only the pairs with at least one of those.
 
     Returns
     -------
@@ -52,37 +50,70 @@ def overlapping_pairs(segments: Segments, tolerance: float = COINCIDENT_DISTANCE
     twin_of = last_twins(segments)
     searched = twin_of == np.arange(len(segments))
     if tolerance <= COINCIDENT_DISTANCE:
-        chosen = np.intersect1d(_candidates(segments, among), np.flatnonzero(searched))
+        chosen = np.intersect1d(_candidates(segments), np.flatnonzero(searched))
     else:
         chosen = np.flatnonzero(searched)
-    lines = shapely.linestrings(np.stack([segments.p[chosen], segments.q[chosen]], axis=1))
-    earlier, later = shapely.STRtree(lines).query(lines, predicate="dwithin", distance=tolerance)
-    earlier, later = chosen[earlier], chosen[later]
+    # The pairs of an STRtree query for dwithin (within_pairs), 1.5-2x faster (lady_bug, roses): the grown boxes
+    # that meet, then shared_stretches' cheap tests, and GEOS's dwithin last, on the few pairs left.
+    low, high = np.minimum(segments.p[chosen], segments.q[chosen]), np.maximum(segments.p[chosen], segments.q[chosen])
+    grown = shapely.box(*(low - tolerance).T, *(high + tolerance).T)
+    earlier, later = shapely.STRtree(segment_lines(segments, chosen)).query(grown)
+    forward = earlier < later
+    earlier, later = chosen[earlier[forward]], chosen[later[forward]]
+    earlier, later, start, end = shared_stretches(segments, earlier, later, tolerance)
+    within = dwithin_prepared(segments, earlier, later, tolerance)
     repeated = np.flatnonzero(~searched)  # wholly covered by their last twin
-    earlier, later = np.concatenate([earlier, repeated]), np.concatenate([later, twin_of[repeated]])
-    forward = earlier < later if among is None else (earlier < later) & (among[earlier] | among[later])
-    return shared_stretches(segments, earlier[forward], later[forward], tolerance)
+    found = shared_stretches(segments, repeated, twin_of[repeated], tolerance)
+    return tuple(np.concatenate([a[within], b]) for a, b in zip((earlier, later, start, end), found))
+
+
+def segment_lines(segments: Segments, rows: np.ndarray) -> np.ndarray:
+    """Shapely line strings of the segments ``rows``."""
+    return shapely.linestrings(np.stack([segments.p[rows], segments.q[rows]], axis=1))
+
+
+def dwithin_prepared(segments: Segments, earlier: np.ndarray, later: np.ndarray, tolerance: float) -> np.ndarray:
+    """Whether GEOS's prepared ``dwithin`` of ``earlier`` accepts ``later``, as an STRtree query runs it."""
+    first = segment_lines(segments, earlier)
+    shapely.prepare(first)
+    return shapely.dwithin(first, segment_lines(segments, later), tolerance)
+
+
+def within_pairs(segments: Segments, earlier: np.ndarray, later: np.ndarray, tolerance: float):
+    """The pairs an STRtree query for ``dwithin`` keeps: the box of ``earlier`` grown by ``tolerance`` meets
+    ``later``'s, and GEOS's prepared ``dwithin`` of ``earlier`` accepts ``later``."""
+    low_e, high_e = np.minimum(segments.p[earlier], segments.q[earlier]), np.maximum(segments.p[earlier],
+                                                                                    segments.q[earlier])
+    low_l, high_l = np.minimum(segments.p[later], segments.q[later]), np.maximum(segments.p[later], segments.q[later])
+    boxes = np.all((low_l <= high_e + tolerance) & (high_l >= low_e - tolerance), axis=1)
+    earlier, later = earlier[boxes], later[boxes]
+    within = dwithin_prepared(segments, earlier, later, tolerance)
+    return earlier[within], later[within]
 
 
 def last_twins(segments: Segments) -> np.ndarray:
     """For each segment, the index of the last segment with the same end points (either way round)."""
+    if len(segments) == 0:
+        return np.zeros(0, np.int64)
     ends = np.concatenate([segments.p, segments.q], axis=1)
     swap = (segments.q[:, 0] < segments.p[:, 0]) | ((segments.q[:, 0] == segments.p[:, 0])
                                                    & (segments.q[:, 1] < segments.p[:, 1]))
     ends[swap] = ends[swap][:, [2, 3, 0, 1]]
-    _, group = np.unique(ends, axis=0, return_inverse=True)
-    group = group.reshape(-1)
-    last = np.zeros(group.max(initial=-1) + 1, np.int64)
-    np.maximum.at(last, group, np.arange(len(segments)))
-    return last[group]
+    order = np.lexsort(ends.T[::-1])  # stable: each group of equal rows ends with its last segment
+    ordered = ends[order]
+    starts = np.ones(len(order), bool)
+    starts[1:] = np.any(ordered[1:] != ordered[:-1], axis=1)
+    last = order[np.append(np.flatnonzero(starts)[1:], len(order)) - 1]
+    out = np.empty(len(order), np.int64)
+    out[order] = last[np.cumsum(starts) - 1]
+    return out
 
 
-def _candidates(segments: Segments, among: np.ndarray | None = None) -> np.ndarray:
-    """Indices of the segments that may cover or be covered by another (one of ``among``): a filter before shapely.
+def _candidates(segments: Segments) -> np.ndarray:
+    """Indices of the segments that may cover or be covered by another: a filter before shapely.
 
     Each segment's line is put in a bucket of direction and offset; a
-    segment whose bucket or a neighbouring one holds another segment (of
-    ``among``, a boolean mask, when given; those are kept too) is kept.
+    segment whose bucket or a neighbouring one holds another segment is kept.
     """
     d = segments.q - segments.p
     theta = np.mod(np.arctan2(d[:, 1], d[:, 0]), np.pi)
@@ -98,17 +129,15 @@ def _candidates(segments: Segments, among: np.ndarray | None = None) -> np.ndarr
     bucket = max(OFFSET_BUCKET, 2 * ANGLE_BUCKET * reach)
     keys = np.stack([np.floor(theta / ANGLE_BUCKET), np.floor(offset / bucket)], axis=1).astype(np.int64)
     flat = keys[:, 0] * (1 << 32) + keys[:, 1]
-    source = np.ones(len(index), bool) if among is None else among[index]
-    occupied, counts = np.unique(flat[source], return_counts=True)
+    occupied, counts = np.unique(flat, return_counts=True)
     crowded = np.zeros(len(index), bool)
     for da in (-1, 0, 1):
         for dc in (-1, 0, 1):
             neighbour = flat + da * (1 << 32) + dc
             at = np.clip(np.searchsorted(occupied, neighbour), 0, max(len(occupied) - 1, 0))
             found = np.where(occupied[at] == neighbour, counts[at], 0) if len(occupied) else np.zeros(len(flat), int)
-            crowded |= found - (source & (da == 0) & (dc == 0)) > 0
-    chosen = np.unique(index[crowded])
-    return chosen if among is None else np.union1d(chosen, np.flatnonzero(among))
+            crowded |= found - (da == 0 and dc == 0) > 0
+    return np.unique(index[crowded])
 
 
 def reference_pairs(segments: Segments, tolerance: float = COINCIDENT_DISTANCE):

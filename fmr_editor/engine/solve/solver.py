@@ -34,6 +34,7 @@ from ..fmm.sparse_downward import delta_local
 from ..geometry.segments import Segments
 from ..kernels.segment_sums import direct_sum, near_sum, pair_matrices
 from .dense import SingularSystemError, assemble, check_dense_fits, dense_factors, trivial
+from .near_matrix import NearMatrix
 from .skeleton import SkeletonFactorization
 
 #: Unknowns up to which the dense solve is faster (``bench/bench_solve.py``).
@@ -112,18 +113,21 @@ class CollocationOperator:
         sources = np.flatnonzero(np.any(flux != 0, axis=1) | np.any(jump != 0, axis=1))
         if len(sources) * len(flux) <= DIRECT_PAIRS and 8 * len(sources) <= len(flux):
             return self._direct_field(sources, flux[sources], jump[sources])
-        seg = replace(self.segments, flux=flux, jump=jump)
-        lattice, order = self.lattice, self.order
-        fine = fine_multipoles(seg, self.cell_start, lattice, order)
-        local = delta_local(fine, lattice, order)
-        sources = np.any(fine != 0, axis=(2, 3))
-        rows = np.flatnonzero(dilated(sources)[self.cells[:, 0], self.cells[:, 1]])
-        out = far_field_at(local, lattice, self.cells, seg.midpoints)
+        out, fine = self._far_field(flux, jump)
+        seg, lattice = self.segments, self.lattice
+        rows = np.flatnonzero(dilated(np.any(fine != 0, axis=(2, 3)))[self.cells[:, 0], self.cells[:, 1]])
         out[rows] += near_sum(
             seg.midpoints[rows], lattice.cells_per_side, lattice.cell_size, self.cell_start, seg.p, seg.q,
             np.ascontiguousarray(flux), np.ascontiguousarray(jump), own=rows,
         )
         return out
+
+    def _far_field(self, flux: np.ndarray, jump: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The field at every midpoint of all but the 3x3 cells around it, and the fine cells' multipoles."""
+        seg = replace(self.segments, flux=flux, jump=jump)
+        fine = fine_multipoles(seg, self.cell_start, self.lattice, self.order)
+        local = delta_local(fine, self.lattice, self.order)
+        return far_field_at(local, self.lattice, self.cells, seg.midpoints), fine
 
     def _direct_field(self, sources: np.ndarray, flux: np.ndarray, jump: np.ndarray) -> np.ndarray:
         """``field`` of the ``sources`` with these densities, summed directly (the own double layer 0 on theirs)."""
@@ -135,11 +139,17 @@ class CollocationOperator:
         out[sources] = single @ flux - double @ jump
         return out
 
-    def apply(self, unknown: np.ndarray) -> np.ndarray:
-        """Collocation matrix times ``unknown (n, 3)``."""
+    def apply(self, unknown: np.ndarray, near: NearMatrix | None = None) -> np.ndarray:
+        """Collocation matrix times ``unknown (n, 3)``; ``near``, when given, is ``near_matrix()``'s."""
         flux = np.where(self.border, 0.0, unknown)
         jump = np.where(self.border, unknown, 0.0)
-        return self.field(flux, jump) - np.where(self.border, 0.5 * unknown, 0.0)
+        field = self.field(flux, jump) if near is None else self._far_field(flux, jump)[0] + near @ unknown
+        return field - np.where(self.border, 0.5 * unknown, 0.0)
+
+    def near_matrix(self) -> NearMatrix | None:
+        """The near part of the matrix, for ``apply`` to reuse; None where it would exceed ``NEAR_MATRIX_BYTES``."""
+        n = self.lattice.cells_per_side
+        return NearMatrix(self.segments, self.cell_start, n) if NearMatrix.fits(self.cell_start, n) else None
 
     def right_hand_side(self, jump: np.ndarray | None = None, mean: np.ndarray | None = None) -> np.ndarray:
         """``mean_i + sum over curves of D_ij C_j``, zero mean on the border rows.
@@ -224,11 +234,12 @@ def gmres(
     if not np.any(rhs):
         return np.zeros_like(rhs), SolveReport(0, 0.0, preconditioner)
     last = {}
+    near = operator.near_matrix()  # about one product's near field to compute; every solve takes two or more
 
     def product(vector: np.ndarray) -> np.ndarray:
         if "x" in last and np.array_equal(vector, last["x"]):  # a cycle starts where the last one ended
             return last["ax"].copy()
-        last["x"], last["ax"] = vector.copy(), operator.apply(vector.reshape(n, 3)).ravel()
+        last["x"], last["ax"] = vector.copy(), operator.apply(vector.reshape(n, 3), near).ravel()
         return last["ax"]
 
     shape = (3 * n, 3 * n)
