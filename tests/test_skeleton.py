@@ -112,11 +112,16 @@ def test_threads_give_the_serial_factorisation(system, monkeypatch):
     np.testing.assert_allclose(threaded.solve(rhs), x, rtol=0, atol=1e-13 * np.abs(x).max())
 
 
-def test_the_top_block_is_factorised_on_the_factorisation_threads_and_blas_is_limited_again_after(system, monkeypatch):
+@pytest.mark.parametrize("threaded_from", [0, 10**9], ids=["large", "small"])
+def test_a_large_top_block_is_factorised_on_the_factorisation_threads_and_blas_is_limited_again_after(
+        system, monkeypatch, threaded_from):
     """The top block is one large LU that no kernel runs beside (6,570 unknowns: 6.8 s on one BLAS thread, 4.0
-    on two); everything else keeps the engine's one BLAS thread."""
+    on two); below ``THREADED_LU`` it stays on one (the second thread's spinning after it would cost more), and
+    everything else keeps the engine's one BLAS thread."""
+    from fmr_editor.engine import threads
     from fmr_editor.engine.threads import BLAS_THREADS, FACTORISATION_THREADS, blas_threads
 
+    monkeypatch.setattr(threads, "THREADED_LU", threaded_from)
     seen = []
     top_factors = skeleton._top_factors
 
@@ -126,7 +131,7 @@ def test_the_top_block_is_factorised_on_the_factorisation_threads_and_blas_is_li
 
     monkeypatch.setattr(skeleton, "_top_factors", spy)
     SkeletonFactorization(system[0], 1e-6, leaf_size=24, top_size=100)
-    assert seen and set(seen[0]) == {FACTORISATION_THREADS}
+    assert seen and set(seen[0]) == {FACTORISATION_THREADS if threaded_from == 0 else BLAS_THREADS}
     assert set(blas_threads()) == {BLAS_THREADS}
 
 
@@ -134,20 +139,21 @@ def test_overlapping_factorisations_on_two_threads_leave_blas_as_it_was_only_whe
     """Two documents may be factorised at once, each on a job's thread (a job per tab): BLAS is raised from those
     threads (threadpoolctl alone ignores any but the main thread), the first one out does not lower it under the
     second, and the last one out does not leave it raised."""
+    from fmr_editor.engine import threads as policy
     from fmr_editor.engine.threads import BLAS_THREADS, FACTORISATION_THREADS, blas_threads, factorisation_threads
 
     first_in, second_in, first_out = threading.Event(), threading.Event(), threading.Event()
     seen = {}
 
     def first() -> None:
-        with factorisation_threads():
+        with factorisation_threads(policy.THREADED_LU):
             first_in.set()
             second_in.wait(10)
         first_out.set()
 
     def second() -> None:
         first_in.wait(10)
-        with factorisation_threads():
+        with factorisation_threads(policy.THREADED_LU):
             second_in.set()
             first_out.wait(10)
             seen["after the first left"] = set(blas_threads())

@@ -19,7 +19,7 @@ per core); ``blas_threads`` says what is in force.
 from __future__ import annotations
 
 import threading
-from contextlib import contextmanager
+from contextlib import contextmanager, nullcontext
 from functools import lru_cache
 
 import numpy  # noqa: F401  (loads numpy's BLAS, so that the limit reaches it)
@@ -31,6 +31,12 @@ BLAS_THREADS = 1
 #: BLAS threads for one large dense factorisation, which no compiled kernel runs beside: a dense LU of
 #: 1,451 unknowns (a clone's boundary) took 103 ms on one thread, 62-70 ms on two.
 FACTORISATION_THREADS = 2
+#: Unknowns from which a dense factorisation takes ``FACTORISATION_THREADS``.  OpenBLAS's second thread spins
+#: for about 0.1 s after the LU returns (2^28 cycles), and the compiled kernels that follow on both cores run
+#: at half speed or worse meanwhile: the LU must save more than that.  On lady_bug (its top block 1,691) a build
+#: took 469-629 ms (best-median of 10) with the LU on one thread and 575-655 on two, a paste of 1,451 boundary
+#: unknowns 255-337 against 278-320; from about 2,000 unknowns the second thread saves more than 0.1 s.
+THREADED_LU = 2000
 
 
 def limit_blas(threads: int = BLAS_THREADS) -> None:
@@ -95,7 +101,7 @@ def _shared_limit() -> _SharedLimit:
     return _SharedLimit()  # one per process, as BLAS's thread setting is
 
 
-def factorisation_threads():
-    """A context in which BLAS runs on ``FACTORISATION_THREADS`` threads (back to what it was once no thread is
-    inside one any more)."""
-    return _shared_limit().held()
+def factorisation_threads(unknowns: int):
+    """A context in which BLAS runs on ``FACTORISATION_THREADS`` threads for a dense factorisation of ``unknowns``
+    (back to what it was once no thread is inside one any more); below ``THREADED_LU`` it changes nothing."""
+    return _shared_limit().held() if unknowns >= THREADED_LU else nullcontext()

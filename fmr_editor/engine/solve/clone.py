@@ -166,7 +166,7 @@ class ClonedRegion:
         system = np.zeros((n + 1, n + 1))
         system[:n, :n], system[:n, n], system[n, :n] = single, 1.0, np.hypot(*(gq - gp).T)
         self._double = double
-        with factorisation_threads():
+        with factorisation_threads(n + 1):
             self._factors = scipy.linalg.lu_factor(system)
         self.copied_flux = (self.copied.flux * self.copied.lengths[:, None]).sum(axis=0)
 

@@ -254,7 +254,7 @@ class SkeletonFactorization:
         self.top = np.concatenate([b.indices for b in boxes.values()]) if boxes else np.zeros(0, np.int64)
         self._account(8 * len(self.top) ** 2)
         top_block = self._merged_block(list(boxes.values()))
-        with factorisation_threads():
+        with factorisation_threads(len(self.top)):
             self.top_lu = _top_factors(top_block, self.size) if len(self.top) else None
 
     def _account(self, size: int) -> None:
