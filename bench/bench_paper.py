@@ -120,6 +120,7 @@ def measure(iteration: int, level: int, args: argparse.Namespace) -> dict:
     from fmr_editor.engine import Representation, rasterise
     from fmr_editor.engine.cells import Cells
     from fmr_editor.engine.fmm.lattice import Lattice
+    from fmr_editor.engine.fmm.orders import sample_degrees
     from fmr_editor.engine.geometry.discretise import boundary_segments, curve_segments
     from fmr_editor.engine.kernels.local_grid import local_field_grid
     from fmr_editor.engine.raster import sample_coordinates
@@ -150,7 +151,8 @@ def measure(iteration: int, level: int, args: argparse.Namespace) -> dict:
         image = rasterise(rep, args.raster, args.raster, samples=1)
         rasters.append(time.perf_counter() - start)
         start = time.perf_counter()
-        local_field_grid(rep.local, rep.order, samples, samples, lattice.cell_size, out=np.empty_like(image))
+        local_field_grid(rep.local, rep.order, samples, samples, lattice.cell_size, out=np.empty_like(image),
+                         degrees=sample_degrees(rep.order))
         far.append(time.perf_counter() - start)
     rng = np.random.default_rng(args.seed)
     pixels = rng.uniform(0, args.size, (args.error_pixels, 2))

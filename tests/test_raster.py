@@ -12,10 +12,12 @@ from shapes import circle_points, straight_chain
 
 from fmr_editor.engine import Settings, build, raster, rasterise
 from fmr_editor.engine.fmm.lattice import Lattice, sort_into_cells
+from fmr_editor.engine.fmm.orders import sample_degrees
 from fmr_editor.engine.geometry.segments import Segments
 from fmr_editor.engine.kernels import grid
 from fmr_editor.engine.kernels.fastmath import atan2_poly, log_poly
 from fmr_editor.engine.kernels.grid import far_field_grid, near_field_grid
+from fmr_editor.engine.kernels.local_grid import local_field_reference
 from fmr_editor.engine.kernels.potentials import direct_sum_reference
 from fmr_editor.engine.kernels.segment_sums import near_sum
 from fmr_editor.engine.raster import far_field_reference, sample_coordinates
@@ -179,10 +181,11 @@ def small_rep():
 
 
 def old_rasterise(rep, width, height, samples):
-    """The previous path: far field by numpy, near field by ``near_sum`` at every sample."""
+    """The previous path: far field by numpy (at the degrees the samples' places need), near field by ``near_sum``
+    at every sample."""
     xs, ys = sample_coordinates(width, rep.width, samples), sample_coordinates(height, rep.height, samples)
     lattice, seg = rep.lattice, rep.segments
-    far = far_field_reference(rep.polynomials(), xs, ys, lattice.cell_size)
+    far = local_field_reference(rep.local, rep.order, xs, ys, lattice.cell_size, sample_degrees(rep.order))
     values = far + near_sum_on_grid(xs, ys, lattice, rep.cell_start, seg)
     return values.reshape(height, samples, width, samples, 3).mean(axis=(1, 3))
 

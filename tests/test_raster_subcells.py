@@ -7,8 +7,9 @@ import pytest
 from shapes import circle_points, straight_chain
 
 from fmr_editor.engine import Settings, build, raster, rasterise
+from fmr_editor.engine.fmm.orders import sample_degrees
 from fmr_editor.engine.kernels.grid import far_field_grid, near_field_grid
-from fmr_editor.engine.kernels.local_grid import local_field_grid, local_field_reference
+from fmr_editor.engine.kernels.local_grid import largest_offsets, local_field_grid, local_field_reference
 from fmr_editor.engine.kernels.potentials import direct_sum_reference
 from fmr_editor.engine.kernels.segment_sums import direct_sum
 from fmr_editor.engine.kernels.subcells import _p2l_state, _p2l_sums, p2l_reference, subcell_field_grid
@@ -67,6 +68,43 @@ def test_compiled_local_field_equals_the_reference(xs, ys):
         expected = local_field_reference(local, order, xs, ys, 8.0)
         got = local_field_grid(local, order, xs, ys, 8.0)
         np.testing.assert_allclose(got, expected, rtol=0, atol=1e-9 * np.abs(expected).max())
+
+
+def test_each_cell_takes_the_degree_its_samples_places_need():
+    """Cells whose samples lie nearer their centre take fewer terms (``orders.sample_degrees``): at the centre
+    the constant term alone (the higher terms, poisoned here, are never read), a band of a grid the whole
+    grid's degrees; and compiled and plain forms agree on every cell."""
+    rng = np.random.default_rng(39)
+    local = random_expansions(rng, 8, 9)
+    degrees = sample_degrees(8)
+    assert degrees[0] < degrees[len(degrees) // 2] < degrees[-1] == 8 and np.all(np.diff(degrees) >= 0)
+    centres = np.arange(8) * 8.0 + 4.0
+    poisoned = local.copy()
+    poisoned[..., 1:] = np.nan
+    at_centres = local_field_grid(poisoned, 8, centres, centres, 8.0, degrees=degrees)
+    np.testing.assert_allclose(at_centres, local[..., 0].real / (2 * np.pi), rtol=1e-15)
+    for samples in (2, 4, 8):  # a pixel each, at radii of 0.35, 0.53, 0.62 cells from the centres
+        xs = sample_coordinates(8 * samples, 64, 1)
+        expected = local_field_reference(local, 8, xs, xs, 8.0, degrees)
+        np.testing.assert_allclose(local_field_grid(local, 8, xs, xs, 8.0, degrees=degrees), expected,
+                                   rtol=0, atol=1e-12 * np.abs(expected).max())
+        full = local_field_reference(local, 8, xs, xs, 8.0)
+        assert (samples == 8) == np.array_equal(expected, full)
+        band = slice(samples // 2, samples * 3)  # rows cutting cells, their degrees the whole grid's
+        offsets = (largest_offsets(xs, 8.0, 8), largest_offsets(xs, 8.0, 8))
+        np.testing.assert_allclose(local_field_grid(local, 8, xs, xs[band], 8.0, degrees=degrees, offsets=offsets),
+                                   local_field_grid(local, 8, xs, xs, 8.0, degrees=degrees)[band], rtol=0, atol=1e-14)
+
+
+def test_fewer_terms_keep_the_raster_as_near_the_direct_sum(rep):
+    """The degrees chosen by the samples' places change the raster's error against the direct boundary sum by
+    no more than the pixels' own truncation makes it (and stay far under a level)."""
+    xs, ys = sample_coordinates(96, 96, 1), sample_coordinates(48, 96, 2)
+    seg = rep.segments
+    points = np.stack(np.broadcast_arrays(xs[None, :], ys[:, None]), axis=-1).reshape(-1, 2)
+    exact = direct_sum(points, seg.p, seg.q, seg.flux, seg.jump).reshape(len(ys), len(xs), 3)
+    errors = [np.abs(kernel(rep, xs, ys, degrees=chosen) - exact).max() for chosen in (None, sample_degrees(rep.order))]
+    assert errors[1] <= 2 * errors[0] and errors[1] < 0.1 / 255
 
 
 def test_compiled_local_field_overwrites_out_but_in_skipped_cells():

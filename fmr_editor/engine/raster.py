@@ -28,6 +28,8 @@ from collections.abc import Callable
 import numpy as np
 
 from .composite import Composite, compose
+from .fmm.orders import sample_degrees
+from .kernels.local_grid import largest_offsets
 from .kernels.segment_sums import direct_sum, near_sum
 from .kernels.subcells import SEPARATION, subcell_field_grid
 from .points.gauss import gaussian_sum_reference
@@ -191,7 +193,7 @@ def rasterise(
             if method == "direct":
                 out[...] = _direct_samples(source, xs, band_ys)
             else:
-                _fmr_samples(source, order, xs, band_ys, density, out)
+                _fmr_samples(source, order, xs, band_ys, ys, density, out)
             return out
 
         if isinstance(rep, Composite):
@@ -208,17 +210,21 @@ def rasterise(
     return image
 
 
-def _fmr_samples(rep: Representation, order: int | None, xs: np.ndarray, ys: np.ndarray, density: float,
-                 out: np.ndarray) -> None:
+def _fmr_samples(rep: Representation, order: int | None, xs: np.ndarray, ys: np.ndarray, whole_ys: np.ndarray,
+                 density: float, out: np.ndarray) -> None:
     """The FMR on the grid ``ys x xs`` into ``out (len(ys), len(xs), 3)``: far field, near segments and points.
 
-    ``density``: samples a document pixel of the whole raster (a band's sub-cells are the whole's).
+    ``whole_ys`` and ``density``: the rows and the samples a document pixel of the whole raster, of which this
+    is a band (its sub-cells and its cells' far-field degrees are the whole's).
     """
     seg, lattice = rep.segments, rep.lattice
     order = rep.order if order is None else order
     split, separation = split_for(lattice.cell_size * density)
-    subcell_field_grid(rep.local, order, xs, ys, lattice.cell_size, rep.cell_start, seg.p, seg.q, seg.flux, seg.jump,
-                       split=split, separation=separation, out=out, tables=rep.near_tables, precision=NEAR_PRECISION)
+    n, size = lattice.cells_per_side, lattice.cell_size
+    subcell_field_grid(rep.local, order, xs, ys, size, rep.cell_start, seg.p, seg.q, seg.flux, seg.jump,
+                       split=split, separation=separation, out=out, tables=rep.near_tables, precision=NEAR_PRECISION,
+                       degrees=sample_degrees(order),
+                       offsets=(largest_offsets(xs, size, n), largest_offsets(whole_ys, size, n)))
     if rep.points is not None:
         rep.points.add_grid(order, xs, ys, out)
 

@@ -36,6 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..kernels.local_grid import CORNER_RADIUS
 from .expansions import m2l_matrix
 from .lattice import offset_parities
 
@@ -125,6 +126,33 @@ def pixel_error(pixel_order: int) -> float:
     """Error of a unit source in the nearest member of a fine cell's list, from its local expansion of degree
     ``pixel_order`` (what the pixels make before any pass truncates)."""
     return float(truncation_errors(2, 0)[TABLE_ORDER, pixel_order])
+
+
+#: Bins of a cell's sample radius (its samples' largest distance from its centre, in cell sizes) over
+#: ``[0, sqrt(1/2)]``, the radii ``sample_degrees`` gives a degree for.
+RADIUS_BINS = 32
+
+
+@lru_cache(maxsize=None)
+def sample_degrees(pixel_order: int) -> np.ndarray:
+    """``(RADIUS_BINS,)``: the degree a cell's samples need when they lie within bin ``b``'s radius of its centre,
+    ``(b + 1) / RADIUS_BINS * CORNER_RADIUS``, for no more error than degree ``pixel_order`` makes on its boundary.
+
+    A cell's local expansion holds only sources outside the 3x3 cells around it, at least ``R = 1.5`` cells
+    from its centre.  Within radius ``r`` of the centre its tail after degree ``k`` is at most
+    ``rho^(k + 1) / ((k + 1) (1 - rho))`` for a unit logarithm and ``rho^(k + 1) / (R (1 - rho))`` for a unit
+    dipole, ``rho = r / R``; each bin gets the fewest terms whose bound is within ``pixel_error(pixel_order)``,
+    the nearest source's error on the boundary (at most ``pixel_order``).  Samples at the cells' centres (one a
+    cell of a raster matching the lattice) take the constant term alone.
+    """
+    nearest = 1.5
+    rho = (np.arange(1, RADIUS_BINS + 1) / RADIUS_BINS * CORNER_RADIUS / nearest)[:, None]
+    k = np.arange(pixel_order + 1)
+    bound = rho ** (k + 1) / (1 - rho) * np.maximum(1 / (k + 1), 1 / nearest)
+    within = bound <= pixel_error(pixel_order)
+    degrees = np.where(within.any(axis=1), within.argmax(axis=1), pixel_order)
+    degrees.flags.writeable = False
+    return degrees
 
 
 def tolerance(pixel_order: int, excess: int = 0) -> float:

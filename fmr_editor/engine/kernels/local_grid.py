@@ -21,6 +21,8 @@ import numpy as np
 from .fastmath import FAST_MATH, INV_TWO_PI
 from .grid import grid_arrays, grid_cell_runs
 
+#: The largest distance from its cell's centre a sample inside the cell can have (a corner's), in cell sizes.
+CORNER_RADIUS = np.sqrt(0.5)
 #: Cells of at least this many samples evaluate them all at once, samples innermost (a vector loop over the
 #: powers of ``w``); smaller ones sample by sample by Horner's rule.  Measured at 1024^2, levels 5-8: 8 -> 16 ms
 #: at 8 x 8 samples a cell, Horner faster at 2 x 2.
@@ -28,8 +30,9 @@ FLAT = 16
 
 
 def local_field_reference(local: np.ndarray, order: int, xs: np.ndarray, ys: np.ndarray,
-                          cell_size: float) -> np.ndarray:
-    """``(1/2pi) Re sum_{l <= order} L_l w^l`` of each sample's cell on the grid ``ys x xs``, ``(len(ys), len(xs), 3)``.
+                          cell_size: float, degrees: np.ndarray | None = None) -> np.ndarray:
+    """``(1/2pi) Re sum_{l <= d} L_l w^l`` of each sample's cell on the grid ``ys x xs``, ``(len(ys), len(xs), 3)``,
+    ``d`` the cell's degree as ``local_field_grid`` chooses it.
 
     Plain numpy (the far field alone; ``local_field_grid`` is the compiled twin); a sample's cell is
     ``floor(coord / cell_size)`` clamped to the lattice, as in ``grid.grid_cell_runs``; ``w`` is its offset from
@@ -38,8 +41,18 @@ def local_field_reference(local: np.ndarray, order: int, xs: np.ndarray, ys: np.
     n = local.shape[0]
     column = np.clip(np.floor(xs / cell_size).astype(np.int64), 0, n - 1)
     row = np.clip(np.floor(ys / cell_size).astype(np.int64), 0, n - 1)
-    w = (xs / cell_size - (column + 0.5))[None, :] + 1j * (ys / cell_size - (row + 0.5))[:, None]
-    coeffs = local[row[:, None], column[None, :], :, : order + 1]  # (ys, xs, 3, order + 1)
+    xi, eta = xs / cell_size - (column + 0.5), ys / cell_size - (row + 0.5)
+    across, down = np.zeros(n), np.zeros(n)
+    np.maximum.at(across, column, xi**2)
+    np.maximum.at(down, row, eta**2)
+    radius = np.sqrt(down[:, None] + across[None, :])  # (cells, cells): each cell's samples' largest |w|
+    degrees = np.full(1, order) if degrees is None else np.asarray(degrees)
+    bins = np.maximum(np.ceil(radius / CORNER_RADIUS * len(degrees)).astype(np.int64) - 1, 0)
+    degree = np.where(radius > CORNER_RADIUS, order, np.minimum(order, degrees[np.minimum(bins, len(degrees) - 1)]))
+    degree[radius == 0] = 0
+    w = xi[None, :] + 1j * eta[:, None]
+    kept = np.arange(order + 1) <= degree[row[:, None], column[None, :], None, None]
+    coeffs = np.where(kept, local[row[:, None], column[None, :], :, : order + 1], 0)  # (ys, xs, 3, order + 1)
     return (coeffs * w[..., None, None] ** np.arange(order + 1)).sum(-1).real / (2 * np.pi)
 
 
@@ -78,8 +91,38 @@ def _by_horner(coeffs, order, xi, eta):
     return r0, r1, r2
 
 
+@numba.njit(cache=True)
+def _largest_offsets(coordinates, start, inv):
+    out = np.zeros(len(start) - 1)
+    for c in range(len(start) - 1):
+        for i in range(start[c], start[c + 1]):
+            out[c] = max(out[c], (coordinates[i] * inv - (c + 0.5)) ** 2)
+    return out
+
+
+def largest_offsets(coordinates: np.ndarray, cell_size: float, cells: int) -> np.ndarray:
+    """Per cell along one axis (of ``cells``), the largest squared offset of the sorted sample ``coordinates`` in
+    it from its centre, in cell sizes (0 where it has none).  A cell's samples lie within the square root of its
+    column's plus its row's of its centre: what ``cell_degree`` reads."""
+    coordinates = np.ascontiguousarray(coordinates, np.float64)
+    return _largest_offsets(coordinates, grid_cell_runs(coordinates, cell_size, cells), 1.0 / cell_size)
+
+
+@numba.njit(cache=True, inline="always")
+def cell_degree(order, degrees, radius2):
+    """The degree of a cell whose samples lie within ``sqrt(radius2)`` of its centre: ``degrees``' bin of that
+    radius (bins of ``CORNER_RADIUS / len(degrees)``), 0 when they all lie on it (exactly: only the constant
+    term is not multiplied by 0), ``order`` beyond the corner radius."""
+    if radius2 == 0.0:
+        return 0
+    position = np.sqrt(radius2) / CORNER_RADIUS * len(degrees)
+    if position > len(degrees):
+        return order
+    return min(order, degrees[max(int(np.ceil(position)) - 1, 0)])
+
+
 @numba.njit(parallel=True, cache=True, fastmath=FAST_MATH, error_model="numpy")
-def _local_grid(local, order, xs, ys, x_start, y_start, cell_size, skip, skipping, out):
+def _local_grid(local, order, degrees, across, down, xs, ys, x_start, y_start, cell_size, skip, skipping, out):
     """Overwrite ``out``'s samples with their cell's expansion, except in cells where ``skipping and skip``."""
     n = local.shape[0]
     inv = 1.0 / cell_size
@@ -96,23 +139,24 @@ def _local_grid(local, order, xs, ys, x_start, y_start, cell_size, skip, skippin
             xa, width = x_start[cx], x_start[cx + 1] - x_start[cx]
             if width == 0 or (skipping and skip[cy, cx]):
                 continue
+            degree = cell_degree(order, degrees, across[cx] + down[cy])
             if rows * width < FLAT:  # from the coefficients as they are: a copy would cost as much again
                 for a in range(rows):
                     eta = ys[ya + a] * inv - (cy + 0.5)
                     for b in range(xa, xa + width):
-                        r0, r1, r2 = _by_horner(local[cy, cx], order, xs[b] * inv - (cx + 0.5), eta)
+                        r0, r1, r2 = _by_horner(local[cy, cx], degree, xs[b] * inv - (cx + 0.5), eta)
                         out[ya + a, b, 0], out[ya + a, b, 1] = r0 * INV_TWO_PI, r1 * INV_TWO_PI
                         out[ya + a, b, 2] = r2 * INV_TWO_PI
                 continue
             for c in range(3):
-                for l in range(order + 1):
+                for l in range(degree + 1):
                     coeffs[c, l] = local[cy, cx, c, l]
             xi, eta = scratch[5], scratch[6]
             for a in range(rows):
                 for b in range(width):
                     xi[a * width + b] = xs[xa + b] * inv - (cx + 0.5)
                     eta[a * width + b] = ys[ya + a] * inv - (cy + 0.5)
-            by_powers(coeffs, order, rows * width, xi, eta, INV_TWO_PI, scratch)
+            by_powers(coeffs, degree, rows * width, xi, eta, INV_TWO_PI, scratch)
             for a in range(rows):
                 for b in range(width):
                     i = a * width + b
@@ -121,8 +165,11 @@ def _local_grid(local, order, xs, ys, x_start, y_start, cell_size, skip, skippin
 
 
 def local_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.ndarray, cell_size: float,
-                     out: np.ndarray | None = None, skip: np.ndarray | None = None) -> np.ndarray:
-    """``(1/2pi) Re sum_{l <= order} L_l w^l`` of each sample's cell on the grid ``ys x xs``, ``(len(ys), len(xs), 3)``.
+                     out: np.ndarray | None = None, skip: np.ndarray | None = None,
+                     degrees: np.ndarray | None = None, offsets: tuple[np.ndarray, np.ndarray] | None = None
+                     ) -> np.ndarray:
+    """``(1/2pi) Re sum_{l <= d} L_l w^l`` of each sample's cell on the grid ``ys x xs``, ``(len(ys), len(xs), 3)``,
+    ``d`` the cell's degree (``cell_degree``: at most ``order``).
 
     Compiled twin of ``local_field_reference``.
 
@@ -142,9 +189,16 @@ def local_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.ndarr
         skipped cells) and returned; zeros when missing.
     skip : numpy.ndarray, optional
         ``(n, n)`` bool: cells whose samples are left as they are in ``out``.
+    degrees : numpy.ndarray, optional
+        The degree of a cell by its samples' largest distance from its centre, in bins up to ``CORNER_RADIUS``
+        (``fmm.orders.sample_degrees``); by default ``order`` wherever the samples are off the centre.
+    offsets : tuple of numpy.ndarray, optional
+        ``largest_offsets`` of the columns and rows of cells, when the grid is a band of a larger one (whose
+        cells' degrees must not depend on the band); by default of ``xs`` and ``ys``.
     """
     if not 0 <= order < local.shape[-1]:
         raise ValueError(f"order must be between 0 and {local.shape[-1] - 1}")
+    degrees = np.full(1, order, np.int64) if degrees is None else np.asarray(degrees, np.int64)
     xs, ys, out = grid_arrays(xs, ys, out)
     n = local.shape[0]
     if skip is not None and skip.shape != (n, n):
@@ -152,7 +206,9 @@ def local_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.ndarr
     if out.size == 0:
         return out
     flags = np.zeros((1, 1), np.bool_) if skip is None else np.ascontiguousarray(skip, np.bool_)
+    across, down = offsets or (largest_offsets(xs, cell_size, n), largest_offsets(ys, cell_size, n))
     with numba.parallel_chunksize(1):
-        _local_grid(np.asarray(local, np.complex128), int(order), xs, ys, grid_cell_runs(xs, cell_size, n),
-                    grid_cell_runs(ys, cell_size, n), float(cell_size), flags, skip is not None, out)
+        _local_grid(np.asarray(local, np.complex128), int(order), degrees, across, down, xs, ys,
+                    grid_cell_runs(xs, cell_size, n), grid_cell_runs(ys, cell_size, n), float(cell_size), flags,
+                    skip is not None, out)
     return out
