@@ -141,15 +141,17 @@ def sample_degrees(pixel_order: int) -> np.ndarray:
     A cell's local expansion holds only sources outside the 3x3 cells around it, at least ``R = 1.5`` cells
     from its centre.  Within radius ``r`` of the centre its tail after degree ``k`` is at most
     ``rho^(k + 1) / ((k + 1) (1 - rho))`` for a unit logarithm and ``rho^(k + 1) / (R (1 - rho))`` for a unit
-    dipole, ``rho = r / R``; each bin gets the fewest terms whose bound is within ``pixel_error(pixel_order)``,
-    the nearest source's error on the boundary (at most ``pixel_order``).  Samples at the cells' centres (one a
-    cell of a raster matching the lattice) take the constant term alone.
+    dipole, ``rho = r / R``; each bin gets the fewest terms whose bound is within ``ERROR_SHARE`` of
+    ``pixel_error(pixel_order)``, the nearest source's error on the boundary (and at most ``pixel_order``): the
+    terms left out add at most what one translation of the passes may.  (Within all of it, the largest error of
+    the raster against the direct sum fell only 2.6x from degree 6 to 8 on zephyr, where it had fallen 3x.)
+    Samples at the cells' centres (one a cell of a raster matching the lattice) take the constant term alone.
     """
     nearest = 1.5
     rho = (np.arange(1, RADIUS_BINS + 1) / RADIUS_BINS * CORNER_RADIUS / nearest)[:, None]
     k = np.arange(pixel_order + 1)
     bound = rho ** (k + 1) / (1 - rho) * np.maximum(1 / (k + 1), 1 / nearest)
-    within = bound <= pixel_error(pixel_order)
+    within = bound <= ERROR_SHARE * pixel_error(pixel_order)
     degrees = np.where(within.any(axis=1), within.argmax(axis=1), pixel_order)
     degrees.flags.writeable = False
     return degrees
