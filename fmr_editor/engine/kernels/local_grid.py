@@ -198,7 +198,8 @@ def local_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.ndarr
     """
     if not 0 <= order < local.shape[-1]:
         raise ValueError(f"order must be between 0 and {local.shape[-1] - 1}")
-    degrees = np.full(1, order, np.int64) if degrees is None else np.array(degrees, np.int64)  # writeable copy
+    # a writeable copy (a read-only array would compile the kernel anew)
+    degrees = np.full(1, order, np.int64) if degrees is None else np.array(degrees, np.int64)
     xs, ys, out = grid_arrays(xs, ys, out)
     n = local.shape[0]
     if skip is not None and skip.shape != (n, n):
