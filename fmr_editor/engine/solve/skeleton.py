@@ -57,6 +57,10 @@ from .linalg import SparseSign, dense_inverse, interpolative, sketch_rows
 PROXY_RADIUS = 1.25
 #: Charges on the proxy circle.
 PROXY_POINTS = 64
+#: Largest mean number of unknowns per occupied leaf box.  96 rather than 64 put lady_bug's leaves one level
+#: higher: its solve 504 -> 426 ms (best of 7, factorisation, right-hand side and GMRES, alternating) and an apply
+#: to 64 columns 43 -> 34 ms; zephyr, poivron and fruits the same within the noise, roses' boxes unchanged.
+LEAF_SIZE = 96
 #: Mean unknowns per box from which a level's boxes are compressed on several threads.  Smaller
 #: boxes spend most of their time in Python, holding the GIL: on two threads the finest levels
 #: (about 35 unknowns a box) ran 1.4x slower, levels of 80 unknowns and more 1.3-1.6x faster.
@@ -215,7 +219,7 @@ class SkeletonFactorization:
         self,
         segments: Segments,
         tolerance: float = 1e-8,
-        leaf_size: int = 64,
+        leaf_size: int = LEAF_SIZE,
         top_size: int = 1500,
         progress: Callable[[float], None] | None = None,
         workers: int | None = None,
