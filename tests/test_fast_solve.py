@@ -12,7 +12,7 @@ from fmr_editor.engine import build, rasterise
 from fmr_editor.engine.fmm.far_field import far_field_at, far_field_at_reference
 from fmr_editor.engine.fmm.lattice import Lattice, downward_pass, sort_into_cells, upward_pass
 from fmr_editor.engine.geometry.discretise import boundary_segments, curve_segments
-from fmr_editor.engine.kernels.segment_sums import near_sum
+from fmr_editor.engine.kernels.segment_sums import near_sum, pair_matrices
 from fmr_editor.engine.solve import solver as fast_solve
 from fmr_editor.engine.solve.dense import assemble, solve_dense
 from fmr_editor.engine.solve.skeleton import SkeletonFactorization
@@ -56,6 +56,14 @@ def test_the_kept_near_matrix_is_the_dense_matrix_on_neighbouring_cells(system):
     got = operator.apply(unknown, near)
     assert np.abs(got - matrix @ unknown).max() <= 1e-8 * np.abs(matrix @ unknown).max()
     np.testing.assert_allclose(got, operator.apply(unknown), rtol=0, atol=1e-12 * np.abs(got).max())
+    _, double = pair_matrices(segments.midpoints, segments.p, segments.q)
+    np.fill_diagonal(double, 0.0)  # the principal value
+    expected = np.where(near_pairs(segments, lattice) & ~segments.on_border, double, 0.0) @ unknown
+    kept = operator.near_matrix(curve_double=True)
+    np.testing.assert_array_equal(kept @ unknown, near @ unknown)
+    np.testing.assert_allclose(kept.double_layer(unknown), expected, rtol=0, atol=1e-12 * np.abs(expected).max())
+    with pytest.raises(ValueError, match="double layer"):
+        near.double_layer(unknown)
 
 
 @pytest.mark.parametrize("fits", [True, False], ids=["kept", "too large"])
@@ -94,10 +102,30 @@ def test_compiled_far_field_equals_the_numpy_reference(system):
                                atol=1e-12 * np.abs(expected).max())
 
 
-def test_fmm_right_hand_side_equals_the_dense_one(system):
+@pytest.mark.parametrize("kept", [False, True], ids=["summed", "from the kept near matrix"])
+def test_fmm_right_hand_side_equals_the_dense_one(system, kept):
     segments, cell_start, lattice, _, rhs = system
-    got = CollocationOperator(segments, cell_start, lattice, 20).right_hand_side()
+    operator = CollocationOperator(segments, cell_start, lattice, 20)
+    got = operator.right_hand_side(near=operator.near_matrix(curve_double=True) if kept else None)
     assert np.abs(got - rhs).max() <= 1e-8 * np.abs(rhs).max()
+
+
+def test_a_builds_solve_computes_the_near_entries_once_for_its_right_hand_side_and_products(system, monkeypatch):
+    """``solve_colours``: no near field summed afresh, one computation of the entries (with the double layer), and
+    the unknowns of the right-hand side and solve made apart."""
+    from fmr_editor.engine.solve import near_matrix
+
+    segments, cell_start, lattice, _, _ = system
+    monkeypatch.setattr(fast_solve, "DENSE_CROSSOVER", 0)  # the compressed factorisation and GMRES
+    solver = fast_solve.BoundarySolver(segments, lattice)
+    expected = solver.solve(solver.right_hand_side(segments.jump, segments.mean))
+    sums, made = [], []
+    monkeypatch.setattr(fast_solve, "near_sum", lambda *a, **k: sums.append(1) or near_sum(*a, **k))
+    entries = near_matrix._entries
+    monkeypatch.setattr(near_matrix, "_entries", lambda *a: made.append(len(a[-1])) or entries(*a))
+    got = solver.solve_colours(segments.jump, segments.mean)
+    assert not sums and len(made) == 1 and made[0] > 0
+    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-9 * np.abs(expected).max())
 
 
 @pytest.mark.parametrize("direct", [True, False], ids=["summed directly", "fmm"])

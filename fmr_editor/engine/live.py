@@ -218,8 +218,8 @@ class LiveRepresentation:
         solver = self._new_solver(boundary, lambda fraction: report("solve", 0.1 + 0.5 * fraction))
         self._solvers.reset(solver, boundary)
         self.approximate = False
-        rhs = solver.right_hand_side(boundary.jump, boundary.mean)
-        self._unknowns = solver.solve(rhs, lambda fraction: report("solve", 0.6 + 0.1 * fraction))
+        self._unknowns = solver.solve_colours(boundary.jump, boundary.mean,
+                                              lambda fraction: report("solve", 0.6 + 0.1 * fraction))
         lap("solve", 0.7)
         stages = {"upward": 0.8, "downward": 0.95 if document.points else 1.0}
         self._cells = Cells.build(boundary.with_unknowns(self._unknowns), self.lattice, settings.propagation_order,

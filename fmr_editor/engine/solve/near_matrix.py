@@ -57,20 +57,28 @@ def _cells(n, cell_start):
 
 
 @numba.njit(parallel=True, cache=True, fastmath=POLY_MATH, error_model="numpy")
-def _entries(n, cell_start, row_start, cell, midpoints, table, border, out):
+def _entries(n, cell_start, row_start, cell, midpoints, table, border, out, curve_double):
+    """``out``: the collocation entries; ``curve_double`` (unless empty): ``D_ij`` of curve segments, 0 on the
+    border's."""
+    doubles = len(curve_double) > 0
     for i in numba.prange(len(cell)):
         x, y = midpoints[i, 0], midpoints[i, 1]
         row0, row1, col0, col1 = _runs(cell[i], n)
         k = row_start[i]
         for row in range(row0, row1):
             first, last = cell_start[row * n + col0], cell_start[row * n + col1]
-            entries = out[k:k + last - first]
+            entries, double = out[k:k + last - first], curve_double[k:k + last - first] if doubles else out[:0]
             for j in range(first, last):  # branch-free, so that it vectorises
                 s, d = segment_potentials(x, y, table[0, j], table[1, j], table[2, j], table[3, j],
                                           table[4, j], table[5, j], table[6, j])
                 entries[j - first] = s - border[j] * (s + d)
-            if first <= i < last and border[i]:
-                entries[i - first] = 0.0  # the principal value on its own midpoint
+                if doubles:
+                    double[j - first] = d - border[j] * d
+            if first <= i < last:  # the principal value on its own midpoint
+                if border[i]:
+                    entries[i - first] = 0.0
+                if doubles:
+                    double[i - first] = 0.0
             k += last - first
 
 
@@ -99,6 +107,9 @@ class NearMatrix:
     ``-1/2`` is the operator's), for every j in the 3x3 cells around
     midpoint i's cell.
 
+    With ``curve_double``, it also keeps the curve segments' double layer ``D_ij`` over the same pairs (0 on
+    the border's and on a segment's own midpoint), the right-hand side's near part (``double_layer``).
+
     Parameters
     ----------
     segments : Segments
@@ -106,24 +117,37 @@ class NearMatrix:
     cell_start : numpy.ndarray
         CSR offsets of each cell's segments, ``(cells_per_side**2 + 1,)``.
     cells_per_side : int
+    curve_double : bool
     """
 
-    def __init__(self, segments: Segments, cell_start: np.ndarray, cells_per_side: int) -> None:
+    def __init__(self, segments: Segments, cell_start: np.ndarray, cells_per_side: int,
+                 curve_double: bool = False) -> None:
         self.n, self.cell_start = int(cells_per_side), np.asarray(cell_start, np.int64)
         self.row_start, self.cell = _row_starts(self.n, self.cell_start), _cells(self.n, self.cell_start)
         self.entries = np.empty(self.row_start[-1])
+        self.curve_double = np.empty(self.row_start[-1] if curve_double else 0)
         _entries(self.n, self.cell_start, self.row_start, self.cell,
                  np.ascontiguousarray(segments.midpoints, np.float64), segment_table(segments.p, segments.q),
-                 np.asarray(segments.on_border, np.float64), self.entries)
+                 np.asarray(segments.on_border, np.float64), self.entries, self.curve_double)
 
     @staticmethod
-    def fits(cell_start: np.ndarray, cells_per_side: int) -> bool:
-        """Whether the entries for these cells stay within ``NEAR_MATRIX_BYTES``."""
-        return 8 * _row_starts(int(cells_per_side), np.asarray(cell_start, np.int64))[-1] <= NEAR_MATRIX_BYTES
+    def fits(cell_start: np.ndarray, cells_per_side: int, arrays: int = 1) -> bool:
+        """Whether ``arrays`` arrays of entries for these cells stay within ``NEAR_MATRIX_BYTES``."""
+        pairs = _row_starts(int(cells_per_side), np.asarray(cell_start, np.int64))[-1]
+        return 8 * arrays * pairs <= NEAR_MATRIX_BYTES
 
     def __matmul__(self, x: np.ndarray) -> np.ndarray:
         """The near part of the product with ``x`` of shape ``(n, 3)`` (sorted like the segments)."""
+        return self._times(self.entries, x)
+
+    def double_layer(self, jump: np.ndarray) -> np.ndarray:
+        """The near part of ``sum_j D_ij jump_j`` over the curve segments, ``jump`` of shape ``(n, 3)``."""
+        if not len(self.curve_double):
+            raise ValueError("this near matrix keeps no double layer")
+        return self._times(self.curve_double, jump)
+
+    def _times(self, entries: np.ndarray, x: np.ndarray) -> np.ndarray:
         out = np.empty((len(x), 3))
-        _product(self.n, self.cell_start, self.row_start, self.cell, self.entries,
-                 np.ascontiguousarray(x, np.float64), out)
+        _product(self.n, self.cell_start, self.row_start, self.cell, entries, np.ascontiguousarray(x, np.float64),
+                 out)
         return out

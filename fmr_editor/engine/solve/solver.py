@@ -146,20 +146,30 @@ class CollocationOperator:
         field = self.field(flux, jump) if near is None else self._far_field(flux, jump)[0] + near @ unknown
         return field - np.where(self.border, 0.5 * unknown, 0.0)
 
-    def near_matrix(self) -> NearMatrix | None:
-        """The near part of the matrix, for ``apply`` to reuse; None where it would exceed ``NEAR_MATRIX_BYTES``."""
+    def near_matrix(self, curve_double: bool = False) -> NearMatrix | None:
+        """The near part of the matrix, for ``apply`` (and with ``curve_double``, ``right_hand_side``) to reuse; None
+        where it would exceed ``NEAR_MATRIX_BYTES``."""
         n = self.lattice.cells_per_side
-        return NearMatrix(self.segments, self.cell_start, n) if NearMatrix.fits(self.cell_start, n) else None
+        if not NearMatrix.fits(self.cell_start, n, 2 if curve_double else 1):
+            return None
+        return NearMatrix(self.segments, self.cell_start, n, curve_double)
 
-    def right_hand_side(self, jump: np.ndarray | None = None, mean: np.ndarray | None = None) -> np.ndarray:
+    def right_hand_side(self, jump: np.ndarray | None = None, mean: np.ndarray | None = None,
+                        near: NearMatrix | None = None) -> np.ndarray:
         """``mean_i + sum over curves of D_ij C_j``, zero mean on the border rows.
 
-        ``jump`` and ``mean`` (sorted like the segments) default to the segments' own.
+        ``jump`` and ``mean`` (sorted like the segments) default to the segments' own; ``near``, when given,
+        is ``near_matrix(curve_double=True)``'s.
         """
         jump = self.segments.jump if jump is None else jump
         mean = self.segments.mean if mean is None else mean
         curve_jump = np.where(self.border, 0.0, jump)
-        return np.where(self.border, 0.0, mean) - self.field(np.zeros_like(curve_jump), curve_jump)
+        no_flux = np.zeros_like(curve_jump)
+        if near is None:
+            field = self.field(no_flux, curve_jump)
+        else:
+            field = self._far_field(no_flux, curve_jump)[0] - near.double_layer(curve_jump)
+        return np.where(self.border, 0.0, mean) - field
 
 
 def solve_fmm(
@@ -221,11 +231,13 @@ def gmres(
     rtol: float = GMRES_RTOL,
     initial: np.ndarray | None = None,
     progress: Callable[[float], None] | None = None,
+    near: NearMatrix | None = None,
 ) -> tuple[np.ndarray, SolveReport]:
     """Unknowns ``(n, 3)`` with ``operator.apply(x) = rhs`` to ``rtol``, by preconditioned GMRES.
 
     ``initial`` defaults to the preconditioner's own solution; ``progress``
-    gets the fraction of the residual reduction reached.  Restarts every
+    gets the fraction of the residual reduction reached; ``near``, the
+    operator's ``near_matrix()`` when made already.  Restarts every
     ``GMRES_RESTART`` iterations, at most ``GMRES_CYCLES`` times, and stops
     after a cycle that cut the residual by less than ``STALLED_CYCLE``.
     """
@@ -234,7 +246,8 @@ def gmres(
     if not np.any(rhs):
         return np.zeros_like(rhs), SolveReport(0, 0.0, preconditioner)
     last = {}
-    near = operator.near_matrix()  # about one product's near field to compute; every solve takes two or more
+    if near is None:
+        near = operator.near_matrix()  # about one product's near field to compute; every solve takes two or more
 
     def product(vector: np.ndarray) -> np.ndarray:
         if "x" in last and np.array_equal(vector, last["x"]):  # a cycle starts where the last one ended
@@ -345,14 +358,24 @@ class BoundarySolver:
             return 1e-13
         return GMRES_RTOL if iterate else self.factors.tolerance
 
+    def solve_colours(self, jump: np.ndarray, mean: np.ndarray,
+                      progress: Callable[[float], None] | None = None) -> np.ndarray:
+        """``solve(right_hand_side(jump, mean))``, the near entries computed once for both (a build's solve)."""
+        if self.trivial or self.dense:
+            return self.solve(self.right_hand_side(jump, mean), progress)
+        near = self.operator.near_matrix(curve_double=True)
+        rhs = self._unsorted(self.operator.right_hand_side(jump[self.order], mean[self.order], near))
+        return self.solve(rhs, progress, near=near)
+
     def solve(self, rhs: np.ndarray, progress: Callable[[float], None] | None = None,
-              iterate: bool = True) -> np.ndarray:
+              iterate: bool = True, near: NearMatrix | None = None) -> np.ndarray:
         """Unknowns ``(n, 3)`` (E on curves, C on the border, input order) for ``rhs`` (input order).
 
         With ``iterate=False`` the compressed factorisation's own solution is
         returned, without GMRES (its products are most of a solve's time):
         accurate to about the compression tolerance, which is plenty for the
-        change of a few colours.  The dense solve is always exact.
+        change of a few colours.  The dense solve is always exact.  ``near``:
+        the operator's near matrix, when made already.
         """
         if self.trivial:
             return np.zeros((self.size, *rhs.shape[1:]))
@@ -361,7 +384,7 @@ class BoundarySolver:
             return self._unsorted(self.factors(ordered))
         if not iterate:
             return self._unsorted(self._finite(self.factors.solve(ordered)))
-        unknown, report = gmres(self.operator, ordered, self.factors, progress=progress)
+        unknown, report = gmres(self.operator, ordered, self.factors, progress=progress, near=near)
         if report.residual > UNUSABLE:
             raise SingularSystemError(
                 f"{len(self.order):,} boundary segments: the solve does not converge (relative residual "
@@ -429,5 +452,4 @@ def solve_boundary(
     """
     report = progress or (lambda fraction: None)
     solver = BoundarySolver(segments, lattice, lambda f: report(0.8 * f))
-    rhs = solver.right_hand_side(segments.jump, segments.mean)
-    return segments.with_unknowns(solver.solve(rhs, lambda f: report(0.8 + 0.2 * f)))
+    return segments.with_unknowns(solver.solve_colours(segments.jump, segments.mean, lambda f: report(0.8 + 0.2 * f)))

@@ -109,6 +109,6 @@ class SystemSolvers:
         def solve(solver: Solver) -> np.ndarray:
             if isinstance(solver, UpdatedSolver):
                 return solver.correct(initial, boundary.jump, boundary.mean)
-            return solver.solve(solver.right_hand_side(boundary.jump, boundary.mean))
+            return solver.solve_colours(boundary.jump, boundary.mean)
 
         return self.run(solve)
