@@ -32,10 +32,11 @@ BLAS_THREADS = 1
 #: 1,451 unknowns (a clone's boundary) took 103 ms on one thread, 62-70 ms on two.
 FACTORISATION_THREADS = 2
 #: Unknowns from which a dense factorisation takes ``FACTORISATION_THREADS``.  OpenBLAS's second thread spins
-#: for about 0.1 s after the LU returns (2^28 cycles), and the compiled kernels that follow on both cores run
-#: at half speed or worse meanwhile: the LU must save more than that.  On lady_bug (its top block 1,691) a build
-#: took 469-629 ms (best-median of 10) with the LU on one thread and 575-655 on two, a paste of 1,451 boundary
-#: unknowns 255-337 against 278-320; from about 2,000 unknowns the second thread saves more than 0.1 s.
+#: for about 0.1 s after the LU returns (2^28 cycles by default), and the compiled kernels that follow on both
+#: cores run at half speed or worse meanwhile: the LU must save more than that.  A lady_bug build (its top block
+#: about 1,060 unknowns) took 469-629 ms (best-median of 10, alternating) with the LU on one thread and 575-655
+#: on two, a paste of 1,451 boundary unknowns 255-337 against 278-320; from about 2,000 unknowns the second
+#: thread saves more than 0.1 s.
 THREADED_LU = 2000
 
 
