@@ -197,6 +197,19 @@ def test_a_solve_short_of_its_tolerance_says_so(system, monkeypatch):
         fast_solve.solve_boundary(segments, lattice)
 
 
+def test_densities_whose_colours_leave_the_curves_range_are_refused(system):
+    """The maximum principle: the dense solution's colours stay within the curves' side colours (at the
+    ``RANGE_POINTS`` points, within the check's margin), and densities blown up between the collocation points
+    (an alternating 1e4 on the curve segments) are refused."""
+    segments = system[0]
+    solved = solve_dense(segments).unknowns()
+    fast_solve.check_colour_range(segments, solved, segments.jump, segments.mean)
+    curve = ~segments.on_border
+    blown = solved + np.where(curve, 1e4 * (-1.0) ** np.arange(len(solved)), 0.0)[:, None]
+    with pytest.raises(fast_solve.SingularSystemError, match="beyond the curves' own"):
+        fast_solve.check_colour_range(segments, blown, segments.jump, segments.mean)
+
+
 def test_a_solve_far_from_converging_is_refused_not_shown(system, monkeypatch):
     segments, _, lattice, _, _ = system
     one_iteration_with(compressed(segments, 0.5), monkeypatch)
