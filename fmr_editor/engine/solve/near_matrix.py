@@ -68,7 +68,7 @@ def _entries(n, cell_start, row_start, cell, midpoints, table, border, out, curv
         for row in range(row0, row1):
             first, last = cell_start[row * n + col0], cell_start[row * n + col1]
             entries, double = out[k:k + last - first], curve_double[k:k + last - first] if doubles else out[:0]
-            for j in range(first, last):  # branch-free, so that it vectorises
+            for j in range(first, last):  # branch-free but for the loop's own ``doubles``: it vectorises
                 s, d = segment_potentials(x, y, table[0, j], table[1, j], table[2, j], table[3, j],
                                           table[4, j], table[5, j], table[6, j])
                 entries[j - first] = s - border[j] * (s + d)
