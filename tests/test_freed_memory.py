@@ -117,3 +117,22 @@ def test_the_undo_cache_gives_back_what_it_lets_go(monkeypatch):
     for size in (60, 30, 50):
         kept.keep(_FakeState(size))
     assert len(kept) == 2 and calls == [1]  # the third state (60 + 30 + 50 > 100) let the first go
+
+
+def test_setup_freezes_the_objects_alive_then_once_and_nothing_made_later():
+    """``setup_process`` (the session's, as the editor's before any document) froze the objects alive then out
+    of the collector's full passes; called again it freezes nothing made since: a cycle of a closed document's
+    objects must stay collectable."""
+    import gc
+
+    from fmr_editor.engine import setup_process
+
+    frozen = gc.get_freeze_count()
+    assert frozen > 10_000
+    cycles = [{} for _ in range(1000)]
+    for item in cycles:
+        item["self"] = item
+    setup_process()
+    assert gc.get_freeze_count() == frozen
+    del cycles, item
+    assert gc.collect() >= 1000

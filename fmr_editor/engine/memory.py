@@ -1,9 +1,11 @@
-"""How much memory this process may still take: what builds and readers check their estimates against; and
-the allocator set to give freed arrays back (``return_freed_arrays``, ``give_back_free_pages``)."""
+"""How much memory this process may still take: what builds and readers check their estimates against; the
+allocator set to give freed arrays back (``return_freed_arrays``, ``give_back_free_pages``); and the modules'
+objects kept out of the garbage collector's full passes (``freeze_loaded_objects``)."""
 
 from __future__ import annotations
 
 import ctypes
+import gc
 import os
 import resource
 import sys
@@ -188,3 +190,18 @@ def give_back_free_pages() -> bool:
         return False
     trim(0)
     return True
+
+
+@lru_cache(maxsize=1)
+def freeze_loaded_objects() -> int:
+    """Move the objects tracked so far out of the cyclic garbage collector's passes (``gc.freeze``), once per
+    process; the number frozen.
+
+    ``setup_process`` calls it before any document exists, when what is alive is the imported modules'
+    objects, which live as long as the process (so none of them is ever garbage the collector would miss).  Its
+    full passes traverse every tracked object and come every few builds or many edits: on repeated lady_bug
+    builds a pass every 7 builds took 99-150 ms over 138,000 objects, a hitch in a drag; with the 75,000 of the
+    modules frozen, 45-74 ms.  Objects made later, documents among them, are never frozen.
+    """
+    gc.freeze()
+    return gc.get_freeze_count()
