@@ -1,9 +1,11 @@
 """The far field of an FMR on a tensor grid of samples: each sample's cell local expansion, by Horner (compiled).
 
 A sample in fine cell ``(cy, cx)`` at ``w = xi + i eta`` (its offset from
-the cell centre in cell sizes) takes ``(1/2pi) Re sum_{l <= order} L_l w^l``
+the cell centre in cell sizes) takes ``(1/2pi) Re sum_{l <= d} L_l w^l``
 of that cell's scaled local expansion ``L`` (docs/design.md section 3), written
-straight into the image.  Threads take rows of cells; each cell's
+straight into the image; ``d`` is the degree the cell's samples need, by their
+largest distance from its centre (``cell_degree``: at most ``order``, the
+constant term alone at the centre).  Threads take rows of cells; each cell's
 samples are evaluated by Horner's rule in ``w``, the three channels side by side,
 or, in cells of many samples, all at once with the powers of ``w`` (a loop
 over the samples that vectorises).  The cost is pixels x order plus one read of the cells'
