@@ -121,20 +121,24 @@ class NearMatrix:
     """
 
     def __init__(self, segments: Segments, cell_start: np.ndarray, cells_per_side: int,
-                 curve_double: bool = False) -> None:
+                 curve_double: bool = False, row_start: np.ndarray | None = None) -> None:
         self.n, self.cell_start = int(cells_per_side), np.asarray(cell_start, np.int64)
-        self.row_start, self.cell = _row_starts(self.n, self.cell_start), _cells(self.n, self.cell_start)
+        self.row_start = _row_starts(self.n, self.cell_start) if row_start is None else row_start
+        self.cell = _cells(self.n, self.cell_start)
         self.entries = np.empty(self.row_start[-1])
         self.curve_double = np.empty(self.row_start[-1] if curve_double else 0)
         _entries(self.n, self.cell_start, self.row_start, self.cell,
                  np.ascontiguousarray(segments.midpoints, np.float64), segment_table(segments.p, segments.q),
                  np.asarray(segments.on_border, np.float64), self.entries, self.curve_double)
 
-    @staticmethod
-    def fits(cell_start: np.ndarray, cells_per_side: int, arrays: int = 1) -> bool:
-        """Whether ``arrays`` arrays of entries for these cells stay within ``NEAR_MATRIX_BYTES``."""
-        pairs = _row_starts(int(cells_per_side), np.asarray(cell_start, np.int64))[-1]
-        return 8 * arrays * pairs <= NEAR_MATRIX_BYTES
+    @classmethod
+    def within_budget(cls, segments: Segments, cell_start: np.ndarray, cells_per_side: int,
+                      curve_double: bool = False) -> NearMatrix | None:
+        """The near matrix, or None where its entries would exceed ``NEAR_MATRIX_BYTES``."""
+        row_start = _row_starts(int(cells_per_side), np.asarray(cell_start, np.int64))
+        if 8 * (2 if curve_double else 1) * row_start[-1] > NEAR_MATRIX_BYTES:
+            return None
+        return cls(segments, cell_start, cells_per_side, curve_double, row_start)
 
     def __matmul__(self, x: np.ndarray) -> np.ndarray:
         """The near part of the product with ``x`` of shape ``(n, 3)`` (sorted like the segments)."""

@@ -151,10 +151,7 @@ class CollocationOperator:
     def near_matrix(self, curve_double: bool = False) -> NearMatrix | None:
         """The near part of the matrix, for ``apply`` (and with ``curve_double``, ``right_hand_side``) to reuse; None
         where it would exceed ``NEAR_MATRIX_BYTES``."""
-        n = self.lattice.cells_per_side
-        if not NearMatrix.fits(self.cell_start, n, 2 if curve_double else 1):
-            return None
-        return NearMatrix(self.segments, self.cell_start, n, curve_double)
+        return NearMatrix.within_budget(self.segments, self.cell_start, self.lattice.cells_per_side, curve_double)
 
     def right_hand_side(self, jump: np.ndarray | None = None, mean: np.ndarray | None = None,
                         near: NearMatrix | None = None) -> np.ndarray:
@@ -435,8 +432,8 @@ def check_colour_range(segments: Segments, unknown: np.ndarray, jump: np.ndarray
     margin = max(float((high - low).max()), 1.0 / 255)
     ends = np.concatenate([segments.p, segments.q])
     points = np.random.default_rng(0).uniform(ends.min(axis=0), ends.max(axis=0), (RANGE_POINTS, 2))
-    values = direct_sum(points, segments.p, segments.q, np.where(curve[:, None], unknown, 0.0),
-                        np.where(curve[:, None], jump, unknown))
+    solved = replace(segments, jump=jump).with_unknowns(unknown)
+    values = direct_sum(points, solved.p, solved.q, solved.flux, solved.jump)
     beyond = float(np.max(np.maximum(low - values, values - high), initial=0.0))
     if not beyond <= margin:
         raise SingularSystemError(
