@@ -143,7 +143,8 @@ def measure(iteration: int, level: int, args: argparse.Namespace) -> dict:
         cells = Cells.build(segments, lattice, settings.propagation_order,
                             lambda stage: laps.append(time.perf_counter()), pixel_order=settings.order)
         passes.append(np.diff(laps))
-    rep = Representation(args.size, args.size, lattice, cells.segments, cells.cell_start, cells.local, settings.order)
+    rep = Representation(args.size, args.size, lattice, cells.segments, cells.cell_start, cells.local, settings.order,
+                         centres=cells.centres)
     far = []  # the far field alone, every cell's samples (the raster skips those its sub-cells redo)
     samples = sample_coordinates(args.raster, args.size, 1)
     for _ in range(args.repeat):
@@ -152,7 +153,7 @@ def measure(iteration: int, level: int, args: argparse.Namespace) -> dict:
         rasters.append(time.perf_counter() - start)
         start = time.perf_counter()
         local_field_grid(rep.local, rep.order, samples, samples, lattice.cell_size, out=np.empty_like(image),
-                         degrees=sample_degrees(rep.order))
+                         degrees=sample_degrees(rep.order), centres=rep.centres)
         far.append(time.perf_counter() - start)
     rng = np.random.default_rng(args.seed)
     pixels = rng.uniform(0, args.size, (args.error_pixels, 2))

@@ -24,6 +24,7 @@ from fmr_editor.engine.fmm.passes import build_passes, downward, level_sources
 from fmr_editor.engine.fmm.sparse_downward import delta_local
 from fmr_editor.engine.geometry.discretise import boundary_segments, curve_segments
 from fmr_editor.engine.geometry.segments import Segments
+from fmr_editor.engine.kernels.fastmath import INV_TWO_PI
 from fmr_editor.engine.kernels.segment_sums import direct_sum
 
 _PATH = Path(__file__).resolve().parents[1] / "bench" / "hilbert.py"
@@ -174,6 +175,25 @@ def test_propagated_equals_a_rebuild():
     rebuilt = Cells.build(edited, lattice, WIDTH, pixel_order=8)
     assert carried.orders is rebuilt.orders is not None
     assert relative(carried.local, rebuilt.local) < 1e-12
+
+
+def test_the_downward_pass_writes_each_fine_cells_centre_value():
+    """``Cells.centres``: the far field at each fine cell's centre, ``Re L_0 / 2 pi``, written by the downward pass
+    with the expansions (a build's and an edit's), not taken from them afterwards."""
+    rng = np.random.default_rng(6)
+    lattice = Lattice(5, SIDE)
+    segments, _ = random_segments(rng, 2000, lattice, 0.3)
+    cells = Cells.build(segments, lattice, WIDTH, pixel_order=8)
+    assert np.array_equal(cells.centres, cells.local[..., 0].real * INV_TWO_PI)
+    edited = Segments(p=segments.p, q=segments.q, jump=segments.jump, mean=segments.mean,
+                      on_border=segments.on_border, flux=segments.flux * 1.5)
+    carried = propagated(cells, edited, lattice, WIDTH, accuracy=1e-12)[0]
+    assert carried.centres is not cells.centres
+    assert np.array_equal(carried.centres, carried.local[..., 0].real * INV_TWO_PI)
+    sources = level_sources(cells.fine.reshape(-1, 3, WIDTH + 1), np.arange(32 * 32), np.arange(32 * 32), lattice,
+                            orders.uniform_orders(5, WIDTH))
+    with pytest.raises(ValueError, match="centres"):
+        downward(sources, lattice, orders.uniform_orders(5, WIDTH), centres=np.empty((16, 16, 3)))
 
 
 def test_cells_sort_as_a_stable_argsort():

@@ -22,6 +22,7 @@ from fmr_editor.engine.fmm.lattice import (
 from fmr_editor.engine.fmm.passes import HUGE_PAGE, downward_onto, huge_pages_empty, huge_pages_zeros, level_sources
 from fmr_editor.engine.fmm.sparse_downward import delta_local
 from fmr_editor.engine.geometry.segments import Segments
+from fmr_editor.engine.kernels.fastmath import INV_TWO_PI
 
 SIDE = 256.0
 WIDTH = 16
@@ -151,6 +152,7 @@ def assert_same_cells(got, expected):
     assert relative(cells.local, ref.local) < 1e-12
     assert np.abs(change - ref_change).max() <= 1e-12 * max(ref_change.max(), 1e-300)
     assert cells.orders is ref.orders
+    assert np.array_equal(cells.centres, cells.local[..., 0].real * INV_TWO_PI)  # written with the expansions
 
 
 @pytest.mark.parametrize("pixel_order", [8, None])

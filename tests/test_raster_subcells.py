@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from shapes import circle_points, straight_chain
 
 from fmr_editor.engine import Settings, build, raster, rasterise
 from fmr_editor.engine.fmm.orders import sample_degrees
+from fmr_editor.engine.kernels.fastmath import INV_TWO_PI
 from fmr_editor.engine.kernels.grid import far_field_grid, near_field_grid
 from fmr_editor.engine.kernels.local_grid import largest_offsets, local_field_grid, local_field_reference
 from fmr_editor.engine.kernels.potentials import direct_sum_reference
@@ -94,6 +97,36 @@ def test_each_cell_takes_the_degree_its_samples_places_need():
         offsets = (largest_offsets(xs, 8.0, 8), largest_offsets(xs, 8.0, 8))
         np.testing.assert_allclose(local_field_grid(local, 8, xs, xs[band], 8.0, degrees=degrees, offsets=offsets),
                                    local_field_grid(local, 8, xs, xs, 8.0, degrees=degrees)[band], rtol=0, atol=1e-14)
+
+
+def test_cells_of_degree_0_read_their_centre_values():
+    """Given ``centres`` (``Representation.centre_values``), cells whose samples all lie on their centre read
+    them, not their expansion (poisoned here), and give the values the expansion gives; other cells are not
+    touched by them."""
+    rng = np.random.default_rng(41)
+    local = random_expansions(rng, 8, 9)
+    centres = np.ascontiguousarray(local[..., 0].real) * INV_TWO_PI
+    on_centres = np.arange(8) * 8.0 + 4.0
+    expected = local_field_grid(local, 8, on_centres, on_centres, 8.0, degrees=sample_degrees(8))
+    poisoned = local.copy()
+    poisoned[...] = np.nan
+    got = local_field_grid(poisoned, 8, on_centres, on_centres, 8.0, degrees=sample_degrees(8), centres=centres)
+    assert np.array_equal(got, expected)
+    off = sample_coordinates(16, 64, 1)  # two samples a cell side, off the centres: the expansions, all of them
+    np.testing.assert_array_equal(local_field_grid(local, 8, off, off, 8.0, centres=np.full_like(centres, np.nan)),
+                                  local_field_grid(local, 8, off, off, 8.0))
+    with pytest.raises(ValueError, match="centres"):
+        local_field_grid(local, 8, off, off, 8.0, centres=centres[:4])
+
+
+def test_a_raster_on_the_cell_centres_reads_the_values_the_build_wrote(rep):
+    """One sample a cell, on its centre (the paper's level-10 case): the raster with the build's ``centres``
+    equals the raster of the same representation taking them from its expansions."""
+    assert rep.centres is not None
+    plain = replace(rep, centres=None)
+    assert np.array_equal(plain.centre_values, rep.centres)
+    cells = rep.lattice.cells_per_side
+    np.testing.assert_array_equal(rasterise(rep, cells, cells, samples=1), rasterise(plain, cells, cells, samples=1))
 
 
 def test_fewer_terms_keep_the_raster_as_near_the_direct_sum(rep):

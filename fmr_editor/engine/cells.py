@@ -66,6 +66,10 @@ class Cells:
         Flat fine cells (sorted) whose multipoles ``(len, 3, P + 1)`` are these
         instead of ``fine_base``'s: a preview changes a few cells of a shared
         ``fine_base`` instead of copying it (53 MB at roses' L8).
+    centres : numpy.ndarray or None
+        ``(2^L, 2^L, 3)`` the far field at each fine cell's centre, ``Re L_0 / 2 pi``, written by the downward
+        pass beside ``local`` (a raster whose samples lie on the centres reads these, not a cell's whole
+        expansion); None where not made (``Representation.centre_values`` takes them from ``local``).
     """
 
     segments: Segments
@@ -75,6 +79,7 @@ class Cells:
     orders: PassOrders | None = None
     patched_cells: np.ndarray | None = None
     patched_fine: np.ndarray | None = None
+    centres: np.ndarray | None = None
 
     @property
     def fine(self) -> np.ndarray:
@@ -133,9 +138,11 @@ class Cells:
         segments, cell_start = sort_into_cells(solved, lattice)
         orders = (uniform_orders(lattice.levels, order) if pixel_order is None
                   else pass_orders(lattice.levels, min(pixel_order, order), order))
-        fine, local = build_passes(segments, cell_start, lattice, orders, lap, _local_terms(order, pixel_order))
+        centres = _centres_for(lattice)
+        fine, local = build_passes(segments, cell_start, lattice, orders, lap, _local_terms(order, pixel_order),
+                                   centres)
         lap("downward")
-        return cls(segments, cell_start, fine, local, None if pixel_order is None else orders)
+        return cls(segments, cell_start, fine, local, None if pixel_order is None else orders, centres=centres)
 
     @classmethod
     def resume(cls, solved: Segments, lattice: Lattice, order: int, local: np.ndarray,
@@ -168,7 +175,9 @@ class Cells:
     def nbytes(self) -> int:
         """Bytes of the arrays held (shared ones counted too)."""
         patch = 0 if self.patched_cells is None else self.patched_cells.nbytes + self.patched_fine.nbytes
-        return self.segments.nbytes + self.cell_start.nbytes + self.fine_base.nbytes + patch + self.local.nbytes
+        centres = 0 if self.centres is None else self.centres.nbytes
+        return (self.segments.nbytes + self.cell_start.nbytes + self.fine_base.nbytes + patch + self.local.nbytes
+                + centres)
 
 
 def propagated(cells: Cells, solved: Segments, lattice: Lattice, order: int, accuracy: float,
@@ -234,7 +243,8 @@ def propagated(cells: Cells, solved: Segments, lattice: Lattice, order: int, acc
         return replace(cells, segments=segments, cell_start=cell_start), np.zeros((n, n)), moved
     orders = uniform_orders(lattice.levels, order) if cells.orders is None else cells.orders
     sources = level_sources(delta, np.arange(len(moved_cells)), moved_cells, lattice, orders)
-    local, local_change = downward_onto(sources, lattice, orders, cells.local)
+    centres = _centres_for(lattice)
+    local, local_change = downward_onto(sources, lattice, orders, cells.local, centres=centres)
     if only_moved:
         patched = _patched(cells, moved_cells, before + delta)
     else:  # into the pages P2M has touched
@@ -244,7 +254,8 @@ def propagated(cells: Cells, solved: Segments, lattice: Lattice, order: int, acc
             rows[cells.patched_cells] = cells.patched_fine
         rows[moved_cells] = before + delta
         patched = replace(cells, fine_base=whole, patched_cells=None, patched_fine=None)
-    return replace(patched, segments=segments, cell_start=cell_start, local=local), local_change, moved
+    return (replace(patched, segments=segments, cell_start=cell_start, local=local, centres=centres), local_change,
+            moved)
 
 
 #: A patch of more than this share of the fine cells is applied (a copy of the whole array).
@@ -286,6 +297,11 @@ def propagated_reference(cells: Cells, solved: Segments, lattice: Lattice, order
     local_change = local_change[..., : cells.local.shape[-1]]  # zero past the pixels' terms with chosen orders
     new = Cells(segments, cell_start, cells.fine + delta, cells.local + local_change, cells.orders)
     return new, largest_part(local_change, axis=(2, 3)), moved
+
+
+def _centres_for(lattice: Lattice) -> np.ndarray:
+    """An array for ``Cells.centres`` of ``lattice``, for the downward pass to fill."""
+    return np.empty((lattice.cells_per_side, lattice.cells_per_side, 3))
 
 
 def _local_terms(order: int, pixel_order: int | None) -> int:

@@ -302,7 +302,7 @@ class LiveRepresentation:
             self._handed_out = state, Representation(
                 document.width, document.height, self.lattice, self._cells.segments, self._cells.cell_start,
                 self._cells.local, self.settings.order, self.timings,
-                points.field() if points is not None else None,
+                points.field() if points is not None else None, self._cells.centres,
             )
         return self._handed_out[1]  # the same object while nothing changed: what it keeps (near_tables) is kept
 

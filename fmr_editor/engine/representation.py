@@ -17,6 +17,7 @@ import numpy as np
 from .fmm.expansions import local_polynomials
 from .fmm.lattice import Lattice
 from .geometry.segments import Segments
+from .kernels.fastmath import INV_TWO_PI
 from .kernels.segment_sums import near_tables
 from .points.field import PointField
 
@@ -97,6 +98,9 @@ class Representation:
         Seconds spent in each build stage.
     points : PointField or None
         The document's diffusion points, if any.
+    centres : numpy.ndarray or None
+        ``(2^L, 2^L, 3)`` each fine cell's far field at its centre as the build wrote it (``Cells.centres``);
+        None: taken from ``local`` when first read (``centre_values``).
     """
 
     width: int
@@ -108,6 +112,15 @@ class Representation:
     order: int
     timings: dict = field(default_factory=dict)
     points: PointField | None = None
+    centres: np.ndarray | None = field(default=None, repr=False, compare=False)
+
+    @cached_property
+    def centre_values(self) -> np.ndarray:
+        """``(2^L, 2^L, 3)`` float: each fine cell's far field at its centre, ``Re L_0 / 2 pi`` (its segments'
+        alone, as ``local``), contiguous: what a raster whose samples lie on the centres reads (``raster``)."""
+        if self.centres is not None:
+            return self.centres
+        return np.ascontiguousarray(self.local[..., 0].real) * INV_TWO_PI
 
     @cached_property
     def near_tables(self) -> tuple[np.ndarray, np.ndarray]:

@@ -26,7 +26,7 @@ from contextlib import contextmanager
 import numba
 import numpy as np
 
-from ..kernels.fastmath import FAST_MATH
+from ..kernels.fastmath import FAST_MATH, INV_TWO_PI
 
 #: Half-cells of zeros around each parity grid: members of an interaction list are at most 2 away.
 GRID_PAD = 2
@@ -126,11 +126,12 @@ def _sources_near(index, row):
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH, inline="always")
-def _write_fine(fine, base, change, acc_re, acc_im, row, terms):
+def _write_fine(fine, base, change, centres, acc_re, acc_im, row, terms):
     """Row ``row`` of the fine level from ``acc (2, terms, 3, half)`` (its cells of column parity 0, then 1), in
     the order of memory: ``fine = acc`` or, with a ``base``, ``base + acc`` (``base`` past ``terms``) and
-    ``change`` the largest part of ``acc``."""
+    ``change`` the largest part of ``acc``; ``centres`` (unless empty) the far field at each cell's centre."""
     added = base.size > 0
+    centred = centres.size > 0
     for column in range(fine.shape[1]):
         px, b = column % 2, column // 2
         largest = 0.0
@@ -145,13 +146,15 @@ def _write_fine(fine, base, change, acc_re, acc_im, row, terms):
             if added:
                 for l in range(terms, base.shape[3]):
                     fine[row, column, ch, l] = base[row, column, ch, l]
+            if centred:
+                centres[row, column, ch] = fine[row, column, ch, 0].real * INV_TWO_PI
         if added:
             change[row, column] = largest
 
 
 @numba.njit(parallel=True, cache=True, fastmath=FAST_MATH)
 def level_local(size, parent_re, parent_im, l2l_re, l2l_im, grid_re, grid_im, src_re, src_im, index,
-                table, starts, m2l_re, m2l_im, terms, coarse_re, coarse_im, fine, base, change):
+                table, starts, m2l_re, m2l_im, terms, coarse_re, coarse_im, fine, base, change, centres):
     """The local expansions of one level: L2L from the level above plus M2L, a row at a time (each column
     parity apart, then the row written whole).
 
@@ -181,6 +184,9 @@ def level_local(size, parent_re, parent_im, l2l_re, l2l_im, grid_re, grid_im, sr
         Empty, or (an edit's change) ``base (size, size, 3, K)`` complex, ``K >= terms``, and ``change (size,
         size)``: ``fine`` (``K`` terms) is then ``base`` plus the level's expansions, and ``change`` their
         largest real or imaginary part per cell (``cells.largest_part``).
+    centres : numpy.ndarray
+        Empty, or ``(size, size, 3)``: the fine level's far field at each cell's centre, ``Re L_0 / 2 pi``
+        (``Cells.centres``).
     """
     half = size // 2
     dense = grid_re.size > 0
@@ -209,7 +215,7 @@ def level_local(size, parent_re, parent_im, l2l_re, l2l_im, grid_re, grid_im, sr
                     _gather(acc_re, acc_im, b, row, 2 * b + px, index, src_re, src_im, table, starts[parity],
                             starts[parity + 1], m2l_re, m2l_im, buf_re, buf_im)
         if fine.size > 0:
-            _write_fine(fine, base, change, both_re, both_im, row, terms)
+            _write_fine(fine, base, change, centres, both_re, both_im, row, terms)
         else:
             for l in range(terms):
                 for ch in range(3):

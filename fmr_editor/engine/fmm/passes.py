@@ -52,6 +52,7 @@ _NO_INDEX = np.zeros((0, 0), np.int64)
 _NO_PLANES = np.zeros((0, 0, 0, 0))
 _NO_FINE = np.zeros((0, 0, 0, 0), complex)
 _NO_CHANGE = np.zeros((0, 0))
+_NO_CENTRES = np.zeros((0, 0, 3))
 
 
 @dataclass(frozen=True)
@@ -257,23 +258,26 @@ def _l2l_tables(parent_terms: int, child_terms: int, width: int) -> tuple[np.nda
 
 
 def downward(sources: list[LevelSources | None], lattice: Lattice, orders: PassOrders,
-             terms: int | None = None, lap: Callable[[str], None] | None = None) -> np.ndarray:
+             terms: int | None = None, lap: Callable[[str], None] | None = None,
+             centres: np.ndarray | None = None) -> np.ndarray:
     """M2L and L2L: the fine cells' local expansions ``(2^L, 2^L, 3, terms)`` complex, zero past ``kept``.
 
     ``terms`` (at least the fine level's ``kept + 1``) defaults to ``width + 1``; ``lap(f"L{level}")``, if
-    given, is called after each level's M2L and L2L.
+    given, is called after each level's M2L and L2L; ``centres``, if given (``(2^L, 2^L, 3)`` float), is filled
+    with the far field at each fine cell's centre as the expansions are written (``Cells.centres``).
 
     Each level's entry of ``sources`` is set to None once its translations are done, so that the coarse
     levels' grids are freed before the fine level's local expansions fill (77 MB of a 1.2 GB peak at L 9).
     """
     n = lattice.cells_per_side
     local = huge_pages_zeros((n, n, 3, orders.width + 1 if terms is None else terms), complex)
-    _downward(sources, lattice, orders, local, _NO_FINE, _NO_CHANGE, lap)
+    _downward(sources, lattice, orders, local, _NO_FINE, _NO_CHANGE, _centres_out(centres, n), lap)
     return local
 
 
 def downward_onto(sources: list[LevelSources | None], lattice: Lattice, orders: PassOrders,
-                  base: np.ndarray, out: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+                  base: np.ndarray, out: np.ndarray | None = None,
+                  centres: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """``base`` plus ``downward`` of ``sources`` (an edit's change), without the change as an array of its own.
 
     Parameters
@@ -284,6 +288,8 @@ def downward_onto(sources: list[LevelSources | None], lattice: Lattice, orders: 
         ``(2^L, 2^L, 3, K)`` complex fine local expansions, ``K`` at least the fine level's ``kept + 1``.
     out : numpy.ndarray, optional
         Where to write the sum (C-contiguous, ``base``'s shape and type, not ``base``); default a new array.
+    centres : numpy.ndarray, optional
+        ``(2^L, 2^L, 3)`` float, filled with the sum's far field at each cell's centre (``downward``'s).
 
     Returns
     -------
@@ -294,8 +300,17 @@ def downward_onto(sources: list[LevelSources | None], lattice: Lattice, orders: 
     """
     n = lattice.cells_per_side
     local, change = huge_pages_empty(base.shape, base.dtype) if out is None else out, np.empty((n, n))
-    _downward(sources, lattice, orders, local, np.ascontiguousarray(base), change, None)
+    _downward(sources, lattice, orders, local, np.ascontiguousarray(base), change, _centres_out(centres, n), None)
     return local, change
+
+
+def _centres_out(centres: np.ndarray | None, n: int) -> np.ndarray:
+    """``centres`` checked as the kernels' output of a lattice of ``n`` cells a side (None: none, empty)."""
+    if centres is None:
+        return _NO_CENTRES
+    if centres.shape != (n, n, 3) or centres.dtype != np.float64 or not centres.flags.c_contiguous:
+        raise ValueError(f"centres must be a C-contiguous float64 array of the shape {(n, n, 3)}")
+    return centres
 
 
 #: Bytes of a huge page, and the size from which ``huge_pages_empty`` places an array on them.
@@ -336,7 +351,7 @@ def huge_pages_zeros(shape: tuple[int, ...], dtype) -> np.ndarray:
 
 
 def _downward(sources: list[LevelSources | None], lattice: Lattice, orders: PassOrders, local: np.ndarray,
-              base: np.ndarray, change: np.ndarray, lap: Callable[[str], None] | None) -> None:
+              base: np.ndarray, change: np.ndarray, centres: np.ndarray, lap: Callable[[str], None] | None) -> None:
     """``downward`` into ``local``; with a ``base`` (not empty), ``downward_onto``."""
     if local.shape[-1] < orders.kept(lattice.levels) + 1:
         raise ValueError(f"the fine level keeps {orders.kept(lattice.levels) + 1} local terms, not {local.shape[-1]}")
@@ -355,7 +370,7 @@ def _downward(sources: list[LevelSources | None], lattice: Lattice, orders: Pass
             kernels.level_local(size, parent_re, parent_im, *l2l, level_sources.grid_re, level_sources.grid_im,
                                 level_sources.src_re, level_sources.src_im, level_sources.index, *tables, kept,
                                 *coarse, local if fine else _NO_FINE, base if fine else _NO_FINE,
-                                change if fine else _NO_CHANGE)
+                                change if fine else _NO_CHANGE, centres if fine else _NO_CENTRES)
         sources[level] = level_sources = None
         parent_re, parent_im = coarse
         if lap is not None:
@@ -363,9 +378,10 @@ def _downward(sources: list[LevelSources | None], lattice: Lattice, orders: Pass
 
 
 def build_passes(segments, cell_start: np.ndarray, lattice: Lattice, orders: PassOrders,
-                 lap=lambda stage: None, terms: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+                 lap=lambda stage: None, terms: int | None = None,
+                 centres: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Fine multipoles and fine local expansions (``terms`` of them, ``downward``'s) of sorted ``segments``
-    (``lap("upward")`` between the passes)."""
+    (``lap("upward")`` between the passes; ``centres`` as ``downward``'s)."""
     fine, sources = upward(segments, cell_start, lattice, orders)
     lap("upward")
-    return fine, downward(sources, lattice, orders, terms)
+    return fine, downward(sources, lattice, orders, terms, centres=centres)

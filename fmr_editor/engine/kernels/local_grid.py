@@ -23,6 +23,8 @@ import numpy as np
 from .fastmath import FAST_MATH, INV_TWO_PI
 from .grid import grid_arrays, grid_cell_runs
 
+_NO_CENTRES = np.zeros((0, 0, 3))
+
 #: The largest distance from its cell's centre a sample inside the cell can have (a corner's), in cell sizes.
 CORNER_RADIUS = np.sqrt(0.5)
 #: Cells of at least this many samples evaluate them all at once, samples innermost (a vector loop over the
@@ -124,9 +126,12 @@ def cell_degree(order, degrees, radius2):
 
 
 @numba.njit(parallel=True, cache=True, fastmath=FAST_MATH, error_model="numpy")
-def _local_grid(local, order, degrees, across, down, xs, ys, x_start, y_start, cell_size, skip, skipping, out):
-    """Overwrite ``out``'s samples with their cell's expansion, except in cells where ``skipping and skip``."""
+def _local_grid(local, centres, order, degrees, across, down, xs, ys, x_start, y_start, cell_size, skip, skipping,
+                out):
+    """Overwrite ``out``'s samples with their cell's expansion, except in cells where ``skipping and skip``; cells
+    of degree 0 read ``centres`` unless it is empty."""
     n = local.shape[0]
+    centred = centres.shape[0] > 0
     inv = 1.0 / cell_size
     widest = 0
     for cx in range(n):
@@ -142,6 +147,12 @@ def _local_grid(local, order, degrees, across, down, xs, ys, x_start, y_start, c
             if width == 0 or (skipping and skip[cy, cx]):
                 continue
             degree = cell_degree(order, degrees, across[cx] + down[cy])
+            if degree == 0 and centred:  # one contiguous read, not three terms 144 bytes apart
+                for a in range(rows):
+                    for b in range(xa, xa + width):
+                        out[ya + a, b, 0], out[ya + a, b, 1] = centres[cy, cx, 0], centres[cy, cx, 1]
+                        out[ya + a, b, 2] = centres[cy, cx, 2]
+                continue
             if rows * width < FLAT:  # from the coefficients as they are: a copy would cost as much again
                 for a in range(rows):
                     eta = ys[ya + a] * inv - (cy + 0.5)
@@ -168,8 +179,8 @@ def _local_grid(local, order, degrees, across, down, xs, ys, x_start, y_start, c
 
 def local_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.ndarray, cell_size: float,
                      out: np.ndarray | None = None, skip: np.ndarray | None = None,
-                     degrees: np.ndarray | None = None, offsets: tuple[np.ndarray, np.ndarray] | None = None
-                     ) -> np.ndarray:
+                     degrees: np.ndarray | None = None, offsets: tuple[np.ndarray, np.ndarray] | None = None,
+                     centres: np.ndarray | None = None) -> np.ndarray:
     """``(1/2pi) Re sum_{l <= d} L_l w^l`` of each sample's cell on the grid ``ys x xs``, ``(len(ys), len(xs), 3)``,
     ``d`` the cell's degree (``cell_degree``: at most ``order``).
 
@@ -197,6 +208,10 @@ def local_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.ndarr
     offsets : tuple of numpy.ndarray, optional
         ``largest_offsets`` of the columns and rows of cells, when the grid is a band of a larger one (whose
         cells' degrees must not depend on the band); by default of ``xs`` and ``ys``.
+    centres : numpy.ndarray, optional
+        ``(n, n, 3)`` float64 ``Re L_0 / 2pi`` of each cell (``Representation.centre_values``): what cells of
+        degree 0 read instead of ``local``, the same values from one contiguous row (at level 10, one sample a
+        cell at 1024^2, this far field went 12.5 -> 1.2 ms).
     """
     if not 0 <= order < local.shape[-1]:
         raise ValueError(f"order must be between 0 and {local.shape[-1] - 1}")
@@ -206,12 +221,15 @@ def local_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.ndarr
     n = local.shape[0]
     if skip is not None and skip.shape != (n, n):
         raise ValueError(f"skip must have the shape {(n, n)}")
+    if centres is not None and (centres.shape != (n, n, 3) or centres.dtype != np.float64):
+        raise ValueError(f"centres must be float64 of the shape {(n, n, 3)}")
     if out.size == 0:
         return out
     flags = np.zeros((1, 1), np.bool_) if skip is None else np.ascontiguousarray(skip, np.bool_)
     across, down = offsets or (largest_offsets(xs, cell_size, n), largest_offsets(ys, cell_size, n))
     with numba.parallel_chunksize(1):
-        _local_grid(np.asarray(local, np.complex128), int(order), degrees, across, down, xs, ys,
+        _local_grid(np.asarray(local, np.complex128), _NO_CENTRES if centres is None else np.ascontiguousarray(centres),
+                    int(order), degrees, across, down, xs, ys,
                     grid_cell_runs(xs, cell_size, n), grid_cell_runs(ys, cell_size, n), float(cell_size), flags,
                     skip is not None, out)
     return out

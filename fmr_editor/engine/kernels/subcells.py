@@ -322,8 +322,8 @@ def subcell_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.nda
                        cell_start: np.ndarray, p: np.ndarray, q: np.ndarray, flux: np.ndarray, jump: np.ndarray,
                        split: int = 1, separation: float = SEPARATION, out: np.ndarray | None = None,
                        tables: tuple[np.ndarray, np.ndarray] | None = None, precision: str = "double",
-                       degrees: np.ndarray | None = None, offsets: tuple[np.ndarray, np.ndarray] | None = None
-                       ) -> np.ndarray:
+                       degrees: np.ndarray | None = None, offsets: tuple[np.ndarray, np.ndarray] | None = None,
+                       centres: np.ndarray | None = None) -> np.ndarray:
     """The field of an FMR's segments (far and near) on the tensor grid ``ys x xs``, ``(len(ys), len(xs), 3)``.
 
     Parameters
@@ -348,9 +348,9 @@ def subcell_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.nda
         ``segment_sums.near_tables(p, q, flux, jump)``, when kept.
     precision : {"double", "single"}
         Of the near field of cells not split (``grid.near_field_grid``'s); sub-cells sum theirs in float64.
-    degrees, offsets : optional
-        The far field's degree by the samples' distance from their cell's centre, and those distances when the
-        grid is a band of a larger one (``local_grid.local_field_grid``).
+    degrees, offsets, centres : optional
+        The far field's degree by the samples' distance from their cell's centre, those distances when the
+        grid is a band of a larger one, and what cells of degree 0 read (``local_grid.local_field_grid``).
     """
     if not 0 <= order < local.shape[-1]:
         raise ValueError(f"order must be between 0 and {local.shape[-1] - 1}")
@@ -362,12 +362,13 @@ def subcell_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.nda
     n = local.shape[0]
     cell_start = np.asarray(cell_start, np.int64)
     if split == 1:
-        local_field_grid(local, order, xs, ys, cell_size, out=out, degrees=degrees, offsets=offsets)
+        local_field_grid(local, order, xs, ys, cell_size, out=out, degrees=degrees, offsets=offsets, centres=centres)
         return near_field_grid(xs, ys, n, cell_size, cell_start, p, q, flux, jump, out=out, tables=tables,
                                precision=precision)
     counts = np.pad(np.diff(cell_start).reshape(n, n), 1)
     near = sum(counts[1 + dy : 1 + dy + n, 1 + dx : 1 + dx + n] for dy in (-1, 0, 1) for dx in (-1, 0, 1)) > 0
-    local_field_grid(local, order, xs, ys, cell_size, out=out, skip=near, degrees=degrees, offsets=offsets)
+    local_field_grid(local, order, xs, ys, cell_size, out=out, skip=near, degrees=degrees, offsets=offsets,
+                     centres=centres)
     x_start, y_start = grid_cell_runs(xs, cell_size, n), grid_cell_runs(ys, cell_size, n)
     cells, group_start, capacity, most = _plan(n, cell_start, x_start, y_start,
                                                GROUPS_PER_THREAD * numba.get_num_threads())
