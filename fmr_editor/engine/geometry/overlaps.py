@@ -55,7 +55,7 @@ def overlapping_pairs(segments: Segments, tolerance: float = COINCIDENT_DISTANCE
         chosen = np.flatnonzero(searched)
     # The pairs of an STRtree query for dwithin (within_pairs), 1.5-2x faster (lady_bug, roses): the grown boxes
     # that meet, then shared_stretches' cheap tests, and GEOS's dwithin last, on the few pairs left.
-    low, high = np.minimum(segments.p[chosen], segments.q[chosen]), np.maximum(segments.p[chosen], segments.q[chosen])
+    low, high = _boxes(segments, chosen)
     grown = shapely.box(*(low - tolerance).T, *(high + tolerance).T)
     earlier, later = shapely.STRtree(segment_lines(segments, chosen)).query(grown)
     forward = earlier < later
@@ -65,6 +65,12 @@ def overlapping_pairs(segments: Segments, tolerance: float = COINCIDENT_DISTANCE
     repeated = np.flatnonzero(~searched)  # wholly covered by their last twin
     found = shared_stretches(segments, repeated, twin_of[repeated], tolerance)
     return tuple(np.concatenate([a[within], b]) for a, b in zip((earlier, later, start, end), found))
+
+
+def _boxes(segments: Segments, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Lower and upper corners ``(len(rows), 2)`` of the bounding boxes of the segments ``rows``."""
+    p, q = segments.p[rows], segments.q[rows]
+    return np.minimum(p, q), np.maximum(p, q)
 
 
 def segment_lines(segments: Segments, rows: np.ndarray) -> np.ndarray:
@@ -82,9 +88,7 @@ def dwithin_prepared(segments: Segments, earlier: np.ndarray, later: np.ndarray,
 def within_pairs(segments: Segments, earlier: np.ndarray, later: np.ndarray, tolerance: float):
     """The pairs an STRtree query for ``dwithin`` keeps: the box of ``earlier`` grown by ``tolerance`` meets
     ``later``'s, and GEOS's prepared ``dwithin`` of ``earlier`` accepts ``later``."""
-    low_e, high_e = np.minimum(segments.p[earlier], segments.q[earlier]), np.maximum(segments.p[earlier],
-                                                                                    segments.q[earlier])
-    low_l, high_l = np.minimum(segments.p[later], segments.q[later]), np.maximum(segments.p[later], segments.q[later])
+    (low_e, high_e), (low_l, high_l) = _boxes(segments, earlier), _boxes(segments, later)
     boxes = np.all((low_l <= high_e + tolerance) & (high_l >= low_e - tolerance), axis=1)
     earlier, later = earlier[boxes], later[boxes]
     within = dwithin_prepared(segments, earlier, later, tolerance)
