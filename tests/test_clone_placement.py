@@ -8,6 +8,7 @@ through ``LiveStack`` (moves, turns, scales, the canvas edge) to a fresh build o
 
 from __future__ import annotations
 
+import threading
 from dataclasses import replace
 
 import numpy as np
@@ -31,7 +32,8 @@ from fmr_editor.engine.fmm.sparse_downward import (
 )
 from fmr_editor.engine.kernels.segment_sums import direct_sum, near_sum, pair_matrices
 from fmr_editor.engine.representation import Settings
-from fmr_editor.engine.solve.clone import SCALE_STEPS, SeamlessClone, boundary_spacing
+from fmr_editor.engine.solve import clone as clone_solve
+from fmr_editor.engine.solve.clone import SCALE_STEPS, ClonedRegion, SeamlessClone, boundary_spacing
 from fmr_editor.model import Document
 from fmr_editor.model.clone import Similarity
 from fmr_editor.model.clone_edits import copy_region, paste_seamless, place_clone
@@ -118,6 +120,33 @@ def test_every_similarity_is_solved_through_the_source_pixel_factorisation(sourc
     np.testing.assert_allclose(flux, expected, rtol=0, atol=1e-9 * np.abs(expected).max())
     again = SeamlessClone(source.segments, HEXAGON, similarity, canvas=(SIZE, SIZE))
     np.testing.assert_array_equal(again.gamma(target).flux, flux)  # a fresh build: the very same numbers
+
+
+def test_the_region_is_clipped_while_its_boundary_is_factorised(source, monkeypatch):
+    """The factorisation runs on a thread of its own: the constructor returns (the copied segments clipped) while it
+    is held back, and the solve waits for it and gives what a factorisation in line gives."""
+    release, factorised = threading.Event(), clone_solve._factorised
+    monkeypatch.setattr(clone_solve, "_factorised", lambda system: release.wait(60) and factorised(system))
+    region = ClonedRegion(source.segments, HEXAGON, 1.0)
+    assert not region._factorising.done() and len(region.copied) > 0
+    release.set()
+    target = np.random.default_rng(2).random((len(region.gamma_p), 3))
+    flux = region.flux(target, region.copied_at_gamma)
+    n = len(region.gamma_p)
+    rhs = np.vstack([0.5 * target + region._double @ target - region.copied_at_gamma, -region.copied_flux])
+    single = pair_matrices(0.5 * (region.gamma_p + region.gamma_q), region.gamma_p, region.gamma_q)[0]
+    system = np.block([[single, np.ones((n, 1))], [np.hypot(*(region.gamma_q - region.gamma_p).T)[None], 0.0]])
+    np.testing.assert_array_equal(flux, scipy.linalg.lu_solve(scipy.linalg.lu_factor(system), rhs)[:n])
+
+
+def test_a_failed_factorisation_is_raised_where_the_solve_needs_it(source, monkeypatch):
+    def failing(system):
+        raise MemoryError("no room for the boundary system")
+
+    monkeypatch.setattr(clone_solve, "_factorised", failing)
+    region = ClonedRegion(source.segments, HEXAGON, 1.0)
+    with pytest.raises(MemoryError, match="boundary system"):
+        region.flux(np.zeros((len(region.gamma_p), 3)), region.copied_at_gamma)
 
 
 def test_a_placement_keeps_the_factorisation_within_a_step_of_scale_and_takes_a_new_one_beyond(source):

@@ -19,6 +19,8 @@ per core); ``blas_threads`` says what is in force.
 from __future__ import annotations
 
 import threading
+from collections.abc import Callable
+from concurrent.futures import Future
 from contextlib import contextmanager, nullcontext
 from functools import lru_cache
 
@@ -106,3 +108,23 @@ def factorisation_threads(unknowns: int):
     """A context in which BLAS runs on ``FACTORISATION_THREADS`` threads for a dense factorisation of ``unknowns``
     (back to what it was once no thread is inside one any more); below ``THREADED_LU`` it changes nothing."""
     return _shared_limit().held() if unknowns >= THREADED_LU else nullcontext()
+
+
+def started(work: Callable[[], object], name: str = "fmr-engine-background") -> Future:
+    """``work()`` running on a thread of its own; its result (or its exception) from the returned future.
+
+    For a dense factorisation (BLAS, which lets the interpreter go) while the
+    calling thread goes on with compiled kernels: the machine's second core
+    is otherwise idle under a one-thread LU.  The thread is a daemon: a
+    result nobody waits for does not hold the process open.
+    """
+    future: Future = Future()
+
+    def run() -> None:
+        try:
+            future.set_result(work())
+        except BaseException as error:  # handed to whoever waits for the result
+            future.set_exception(error)
+
+    threading.Thread(target=run, name=name, daemon=True).start()
+    return future
