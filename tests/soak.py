@@ -53,8 +53,9 @@ def random_step(session: Session, rng: np.random.Generator) -> str:
 
 
 def live_difference(session: Session) -> float:
-    """Largest difference between the live picture and a fresh build of the same document."""
-    fresh = LiveStack(session.document).composite
+    """Largest difference between the live picture and a fresh build of the same document, both with the curves'
+    blur (``Session.image`` draws it: a document with blur stops, as lady_bug, is compared blurred to blurred)."""
+    fresh = LiveStack(session.document, blur=True).composite
     return float(np.abs(session.image(PIXELS, PIXELS, samples=1) - rasterise(fresh, PIXELS, PIXELS, samples=1)).max())
 
 
