@@ -18,7 +18,6 @@ from ..model import Document
 from .cells import Cells
 from .fmm.lattice import Lattice
 from .geometry.segments import Segments
-from .memory import give_back_free_pages
 from .points.field import LivePoints
 
 #: Bytes the states of recent steps may take by default (a document's undo memory).
@@ -64,13 +63,9 @@ class KeptStates:
         self._states.pop(key, None)
         self._states[key] = state
         self._bytes[key] = state.nbytes
-        evicted = False
         while len(self._states) > 1 and sum(self._bytes.values()) > self.memory:
             oldest, _ = self._states.popitem(last=False)
             del self._bytes[oldest]
-            evicted = True
-        if evicted:
-            give_back_free_pages()  # the state's arrays leave holes between the kept ones
 
     def find(self, document: Document) -> State | None:
         """The kept state of ``document`` (this very object), or None."""

@@ -1,5 +1,5 @@
 """How much memory this process may still take: what builds and readers check their estimates against; the
-allocator set to give freed arrays back (``return_freed_arrays``, ``give_back_free_pages``); and the modules'
+allocator set to give freed arrays back (``return_freed_arrays``, ``give_back_spare_pages``); and the modules'
 objects kept out of the garbage collector's full passes (``freeze_loaded_objects``)."""
 
 from __future__ import annotations
@@ -9,6 +9,7 @@ import gc
 import os
 import resource
 import sys
+import threading
 from functools import lru_cache
 
 from ..model.limits import LimitError
@@ -126,26 +127,35 @@ def _gigabytes(count: int) -> str:
 
 
 #: Arrays of at least this many bytes get pages of their own from glibc's ``malloc`` (``mmap``), which go back
-#: to the system as soon as the array is freed.
-OWN_PAGES = 256 * 2**10
-#: ``mallopt``'s parameter number for that size (``M_MMAP_THRESHOLD`` in glibc's ``malloc.h``).
-_M_MMAP_THRESHOLD = -3
+#: to the system as soon as the array is freed (numpy asks the kernel for huge pages for them).  Smaller ones
+#: come from the heap, where a freed block is used again without new page faults.
+OWN_PAGES = 4 * 2**20
+#: Bytes by which the resident memory may grow before the heap's free pages go back (``give_back_spare_pages``).
+SPARE_HEAP = 64 * 2**20
+#: ``mallopt``'s parameter numbers (glibc's ``malloc.h``).
+_M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3
 
 
-def return_freed_arrays(threshold: int = OWN_PAGES) -> bool:
-    """Make glibc's ``malloc`` give every block of ``threshold`` bytes or more pages of its own, for the process.
+def return_freed_arrays(threshold: int = OWN_PAGES, spare: int = SPARE_HEAP) -> bool:
+    """Set glibc's ``malloc`` for the process: blocks of ``threshold`` bytes or more get pages of their own, and
+    the heap keeps up to ``spare`` free bytes at its top instead of returning them at every ``free``.
 
-    By default glibc raises that threshold itself after each such block is
+    glibc's own rule raises the first threshold after each such block is
     freed, up to 32 MB: after the first few-megabyte array is freed, arrays
-    smaller than it come from the heap, where a freed one is kept for reuse
-    and the pages of holes between live blocks are never returned.  The
-    engine's arrays of a few megabytes live as long as the undo cache keeps
-    their state (``kept_states``) and are freed in another order than they
-    were made, so the heap filled with holes: on lady_bug's soak
-    (``bench/soak.py``) 250-410 MB of it was free yet resident, and resident
-    memory grew by 629 MB after the first 1,000 steps while what was
-    allocated stayed flat.  A fixed threshold (which also stops the
-    raising) keeps the resident memory near what is allocated.
+    smaller than it come from the heap, and the engine's arrays of a few
+    megabytes, kept as long as the undo cache keeps their state
+    (``kept_states``) and freed in another order than they were made, filled
+    it with holes that stayed resident: on lady_bug's soak
+    (``bench/soak.py``) resident memory grew by 629 MB after the first 1,000
+    steps while what was allocated stayed flat.  A fixed threshold stops the
+    raising; the holes below it go back with ``give_back_spare_pages``,
+    which the engine calls after every job.
+
+    The threshold is not lower because a fresh page costs a page fault, and
+    on a virtual machine that gives free pages back to its host (this
+    project's: "free page reporting") one costs 2-3 ms a MB: with 256 KB,
+    the arrays of a paste of 20,000 segments faulted 23,000 pages (about
+    50 ms of 190), lady_bug's anchor move 88-93 ms against 67 with 4 MB.
 
     Does nothing, and returns False, where there is no glibc (other systems'
     allocators return large blocks themselves) or when the environment sets
@@ -154,12 +164,12 @@ def return_freed_arrays(threshold: int = OWN_PAGES) -> bool:
     Returns
     -------
     bool
-        True when the threshold was set.
+        True when the thresholds were set.
     """
     mallopt = _libc_function("mallopt", ctypes.c_int, ctypes.c_int)
     if mallopt is None or "MALLOC_MMAP_THRESHOLD_" in os.environ:
         return False
-    return bool(mallopt(_M_MMAP_THRESHOLD, int(threshold)))
+    return bool(mallopt(_M_MMAP_THRESHOLD, int(threshold))) and bool(mallopt(_M_TRIM_THRESHOLD, int(spare)))
 
 
 @lru_cache(maxsize=None)
@@ -178,18 +188,61 @@ def _libc_function(name: str, *argtypes):
 def give_back_free_pages() -> bool:
     """Give the whole free pages inside glibc's heaps back to the system (``malloc_trim``).
 
-    Blocks below ``OWN_PAGES`` (a small file's arrays) still come from the
-    heaps, and glibc returns only the free space at a heap's top by itself:
-    a freed block between live ones stays resident (on lady_bug's soak the
-    heap's free space grew from 22 to 126 MB over 6,500 steps).  Called
-    when the undo cache lets states go (``kept_states``); 0.6 ms in a fresh
-    process.  Returns False where there is no glibc.
+    Blocks below ``OWN_PAGES`` come from the heaps, and glibc returns only
+    the free space at a heap's top by itself: a freed block between live
+    ones stays resident (on lady_bug's soak the heap's free space grew from
+    22 to 126 MB over 6,500 steps).  0.6 ms in a fresh process.  Returns
+    False where there is no glibc.
     """
     trim = _libc_function("malloc_trim", ctypes.c_size_t)
     if trim is None:
         return False
     trim(0)
     return True
+
+
+class _SpareHeap:
+    """The lowest resident memory since the heap's free pages last went back (0 before they ever did): what
+    ``give_back_spare_pages`` measures growth from (one per process, as the heap is)."""
+
+    def __init__(self) -> None:
+        self.lock = threading.Lock()
+        self.lowest = 0
+
+
+@lru_cache(maxsize=1)
+def _spare_heap() -> _SpareHeap:
+    return _SpareHeap()
+
+
+def give_back_spare_pages(spare: int = SPARE_HEAP) -> bool:
+    """Give the heap's free pages back once the resident memory is ``spare`` bytes above its lowest since they last
+    went back; True when they did.
+
+    Called after each of the engine's jobs (``LiveStack``): within a job and
+    from one job to the next (the frames of a drag) freed blocks are used
+    again without page faults, while the holes that states let go by the
+    undo cache leave (``return_freed_arrays``) cannot pile up: resident
+    memory stays within ``spare`` of what is held.
+    """
+    held = _spare_heap()
+    with held.lock:
+        now = resident_bytes()
+        held.lowest = min(held.lowest, now)
+        if now - held.lowest <= spare:
+            return False
+        given = give_back_free_pages()
+        held.lowest = resident_bytes()
+        return given
+
+
+def resident_bytes() -> int:
+    """This process's resident memory (``/proc/self/statm``; 0 where there is none)."""
+    try:
+        with open("/proc/self/statm") as statm:
+            return int(statm.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+    except (OSError, ValueError, IndexError):
+        return 0
 
 
 @lru_cache(maxsize=1)

@@ -2,8 +2,9 @@
 
 ``setup_process`` limits BLAS to one thread (``threads``: on two cores, numba's
 kernels ran 20-50x slower right after a threaded BLAS call), gives large
-arrays pages of their own (``memory.return_freed_arrays``: freed arrays
-otherwise stayed resident) and keeps the modules' objects out of the garbage
+arrays pages of their own and keeps some free heap for reuse
+(``memory.return_freed_arrays``: freed arrays otherwise stayed resident, or
+paid page faults again) and keeps the modules' objects out of the garbage
 collector's full passes (``memory.freeze_loaded_objects``).  Importing the engine changes neither, so that a
 script that only reads a file keeps its process as it was; the command line,
 the editor, the benchmarks and the test suite call it before any work, and a

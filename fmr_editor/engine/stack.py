@@ -27,6 +27,7 @@ from .cloning import LiveClone
 from .composite import Composite, FieldKey, LayerFields, Role
 from .kept_states import DEFAULT_MEMORY
 from .live import LiveRepresentation, Progress, Update
+from .memory import give_back_spare_pages
 from .representation import Representation, Settings
 from .solve.system_solvers import SharedFactorisations
 
@@ -149,6 +150,7 @@ class LiveStack:
         self._saved_blurs = {key: rep for key, rep in kept.items() if key[1] is Role.BLUR}  # for set_blur
         self._follow(document, progress, kept, exact=True)
         self._blend(document, {})  # the clones not saved
+        give_back_spare_pages()
 
     @property
     def memory(self) -> int:
@@ -213,6 +215,7 @@ class LiveStack:
         start = time.perf_counter()
         updates = self._follow(document, progress, {}, exact)
         self._blend(document, updates)
+        give_back_spare_pages()
         return StackUpdate(updates, time.perf_counter() - start)
 
     def set_blur(self, shown: bool, progress: Progress | None = None) -> StackUpdate:
@@ -221,6 +224,7 @@ class LiveStack:
         self.show_blur = bool(shown)
         updates = self._follow(self.document, progress, self._saved_blurs, exact=True)
         self._saved_blurs = {}
+        give_back_spare_pages()
         return StackUpdate(updates, time.perf_counter() - start)
 
     def refine(self) -> StackUpdate:
@@ -228,6 +232,7 @@ class LiveStack:
         start = time.perf_counter()
         updates = {key: live.refine() for key, live in self.fields.items() if live.approximate}
         self._blend(self.document, updates)
+        give_back_spare_pages()
         return StackUpdate(updates, time.perf_counter() - start)
 
     @staticmethod
