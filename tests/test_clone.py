@@ -247,6 +247,23 @@ def test_the_compiled_pair_matrices_equal_the_numpy_reference():
         np.testing.assert_allclose(ours, reference, rtol=1e-12, atol=1e-12)
 
 
+def test_pair_matrices_write_s_into_a_larger_system_where_it_lies():
+    from fmr_editor.engine.kernels.segment_sums import pair_matrices
+
+    rng = np.random.default_rng(5)
+    p, q, targets = rng.uniform(0, 20, (7, 2)), rng.uniform(0, 20, (7, 2)), rng.uniform(-5, 25, (30, 2))
+    system = np.full((31, 8), 7.0)
+    single, double = pair_matrices(targets, p, q, single=system[:30])
+    alone = pair_matrices(targets, p, q)
+    assert np.shares_memory(single, system)
+    np.testing.assert_array_equal(system[:30, :7], alone[0])
+    np.testing.assert_array_equal(double, alone[1])
+    assert (system[:, 7] == 7.0).all() and (system[30] == 7.0).all()  # the rest as it was
+    for wrong in (system[:30, :6], system[:29], system[:30].astype(np.float32), np.asfortranarray(system[:30])):
+        with pytest.raises(ValueError, match="C-contiguous float64"):
+            pair_matrices(targets, p, q, single=wrong)
+
+
 def test_a_second_clone_over_the_first_blends_into_the_picture_with_it(images, below):
     source, _ = images
     first = SeamlessClone(source.segments, hexagon(60, 62, 30, 26), Similarity(offset=(-10.0, 0.0)),

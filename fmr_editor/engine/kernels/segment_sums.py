@@ -131,16 +131,26 @@ def _pair_matrices(targets, table, single, double):
                 x, y, table[0, j], table[1, j], table[2, j], table[3, j], table[4, j], table[5, j], table[6, j])
 
 
-def pair_matrices(targets: np.ndarray, p: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def pair_matrices(targets: np.ndarray, p: np.ndarray, q: np.ndarray,
+                  single: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """``S`` and ``D`` ``(m, n)`` of every segment at every target: the compiled ``potentials.pair_integrals``.
 
     Inside a segment the rounded cross product picks a side for ``D`` (see ``segment_potentials``): a caller
-    wanting the principal value at a segment's own midpoint sets it to 0.
+    wanting the principal value at a segment's own midpoint sets it to 0.  ``single``, when given, receives
+    ``S`` in its first ``n`` columns (C-contiguous float64, ``m`` rows, at least ``n`` columns; the others are
+    left as they are), so that a larger system is assembled where it lies; ``S`` is then a view of it.
     """
     targets = np.ascontiguousarray(targets, dtype=np.float64)
-    single, double = np.empty((len(targets), len(p))), np.empty((len(targets), len(p)))
+    m, n = len(targets), len(p)
+    if single is None:
+        single = np.empty((m, n))
+    elif not (single.dtype == np.float64 and single.flags.c_contiguous and single.ndim == 2
+              and single.shape[0] == m and single.shape[1] >= n):
+        raise ValueError(f"S needs a C-contiguous float64 array of {m} rows and {n} columns or more, "
+                         f"not {single.dtype} {single.shape}")
+    double = np.empty((m, n))
     _pair_matrices(targets, segment_table(p, q), single, double)
-    return single, double
+    return single[:, :n], double
 
 
 def direct_sum(targets: np.ndarray, p: np.ndarray, q: np.ndarray, flux: np.ndarray, jump: np.ndarray) -> np.ndarray:
