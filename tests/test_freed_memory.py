@@ -18,7 +18,7 @@ REPO = Path(__file__).resolve().parents[1]
 
 # In a fresh process: a 16 MB array freed (glibc's own rule would then raise its threshold to 16 MB), then 1 MB
 # arrays with 100 KB blocks between them, as kept undo states leave theirs; the arrays freed, the blocks kept, and
-# the end of an engine job (``give_back_spare_pages``).  Then 8 MB arrays (pages of their own) made and freed.
+# the end of an engine job (``give_back_spare_pages``).  Then 20 MB arrays (pages of their own) made and freed.
 HOLES = """
 import numpy as np
 import fmr_editor.engine
@@ -38,7 +38,7 @@ del arrays
 freed = resident_bytes()
 given = give_back_spare_pages()
 after_job = resident_bytes()
-large = [np.ones(2**20) for _ in range(10)]
+large = [np.ones(20 * 2**17) for _ in range(4)]
 del large
 print(held - start, freed - start, int(given), after_job - start, resident_bytes() - start)
 """

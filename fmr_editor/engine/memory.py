@@ -127,9 +127,10 @@ def _gigabytes(count: int) -> str:
 
 
 #: Arrays of at least this many bytes get pages of their own from glibc's ``malloc`` (``mmap``), which go back
-#: to the system as soon as the array is freed (numpy asks the kernel for huge pages for them).  Smaller ones
-#: come from the heap, where a freed block is used again without new page faults.
-OWN_PAGES = 4 * 2**20
+#: to the system as soon as the array is freed.  Smaller ones, a level-7 lattice's expansions among them (128^2
+#: cells, 3 channels, 17 terms: 13 MB), come from the heap, where a freed block is used again without new
+#: page faults.
+OWN_PAGES = 16 * 2**20
 #: Bytes by which the resident memory may grow before the heap's free pages go back (``give_back_spare_pages``).
 SPARE_HEAP = 64 * 2**20
 #: ``mallopt``'s parameter numbers (glibc's ``malloc.h``).
@@ -155,7 +156,9 @@ def return_freed_arrays(threshold: int = OWN_PAGES, spare: int = SPARE_HEAP) -> 
     on a virtual machine that gives free pages back to its host (this
     project's: "free page reporting") one costs 2-3 ms a MB: with 256 KB,
     the arrays of a paste of 20,000 segments faulted 23,000 pages (about
-    50 ms of 190), lady_bug's anchor move 88-93 ms against 67 with 4 MB.
+    50 ms of 190), lady_bug's anchor move took 88-93 ms against 67 with
+    4 MB, and P2M of 2,048 curves at level 7 5.9-6.6 ms with 4 MB against
+    1.7-1.8 with 16 MB (roses' edits alike with either).
 
     Does nothing, and returns False, where there is no glibc (other systems'
     allocators return large blocks themselves) or when the environment sets

@@ -11,7 +11,7 @@ bit) rows of an old one, and ``RowCache`` keeps the last few inputs and
 outputs of such a row-wise function for callers that know nothing of the edit.
 
 Everything here works on runs of rows, not on arrays with an entry per row:
-the engine gives arrays of 4 MB or more pages of their own
+the engine gives arrays of 16 MB or more pages of their own
 (``memory.return_freed_arrays``), so each such temporary costs its page
 faults, and on roses those cost an edit more than the copying itself.
 """
