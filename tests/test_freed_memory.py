@@ -44,6 +44,28 @@ print(held - start, freed - start, int(given), after_job - start, resident_bytes
 """
 
 
+# Arrays held across the end of a job (the resident memory grew: the first rule gives back, and the arrays are
+# the new lowest), then freed, as the undo cache lets states go: the resident memory does not grow, the heap's
+# bytes in use fall, and the end of the next job gives their pages back.
+LET_GO = """
+import numpy as np
+import fmr_editor.engine
+from fmr_editor.engine.memory import give_back_spare_pages, heap_in_use, resident_bytes
+
+fmr_editor.engine.setup_process()
+give_back_spare_pages()
+start = resident_bytes()
+states = [np.ones(2**17) for _ in range(100)]
+kept = [bytearray(100_000) for _ in range(100)]
+give_back_spare_pages()
+held, in_use = resident_bytes(), heap_in_use()
+del states
+freed = resident_bytes()
+given = give_back_spare_pages()
+print(held - start, in_use - heap_in_use(), freed - start, int(given), resident_bytes() - start)
+"""
+
+
 # Freed blocks below the threshold are used again: 30 arrays of 1 MB made, written and freed, then 30 more; the
 # end of a job between them gives nothing back (30 MB is within ``SPARE_HEAP``).  Minor page faults of each round.
 REUSED = """
@@ -112,6 +134,14 @@ def test_freed_arrays_leave_no_resident_holes_after_a_job():
     assert freed > 90 * 2**20  # freed between kept blocks: resident, for reuse, until the job's end
     assert given and after_job < 30 * 2**20, f"{after_job / 2**20:.0f} MB stayed resident after the job"
     assert after_large < after_job + 10 * 2**20  # 80 MB in arrays of pages of their own: gone when freed
+
+
+@pytest.mark.skipif(not GLIBC, reason="glibc's allocator")
+def test_arrays_freed_after_a_job_go_back_at_the_next_job_s_end():
+    held, fell, freed, given, after_job = _printed(LET_GO)
+    assert held > 100 * 2**20 and fell > 95 * 2**20  # held across a job's end, then freed from the heap
+    assert freed > 90 * 2**20  # resident between the kept blocks until the next job's end
+    assert given and after_job < 30 * 2**20, f"{after_job / 2**20:.0f} MB stayed resident after the next job"
 
 
 @pytest.mark.skipif(not GLIBC, reason="glibc's allocator")

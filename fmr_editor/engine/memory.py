@@ -176,15 +176,15 @@ def return_freed_arrays(threshold: int = OWN_PAGES, spare: int = SPARE_HEAP) -> 
 
 
 @lru_cache(maxsize=None)
-def _libc_function(name: str, *argtypes):
-    """The C library's function ``name`` (returning int) on Linux, or None where there is none."""
+def _libc_function(name: str, *argtypes, restype=ctypes.c_int):
+    """The C library's function ``name`` on Linux, or None where there is none."""
     if not sys.platform.startswith("linux"):
         return None
     try:
         function = getattr(ctypes.CDLL(None), name)
     except (OSError, AttributeError):
         return None
-    function.argtypes, function.restype = list(argtypes), ctypes.c_int
+    function.argtypes, function.restype = list(argtypes), restype
     return function
 
 
@@ -205,12 +205,13 @@ def give_back_free_pages() -> bool:
 
 
 class _SpareHeap:
-    """The lowest resident memory since the heap's free pages last went back (0 before they ever did): what
-    ``give_back_spare_pages`` measures growth from (one per process, as the heap is)."""
+    """What ``give_back_spare_pages`` measures from since the heap's free pages last went back (one per process, as
+    the heap is): the lowest resident memory and the most bytes in use in the heap (0 before they ever went back)."""
 
     def __init__(self) -> None:
         self.lock = threading.Lock()
         self.lowest = 0
+        self.most_in_use = 0
 
 
 @lru_cache(maxsize=1)
@@ -219,24 +220,39 @@ def _spare_heap() -> _SpareHeap:
 
 
 def give_back_spare_pages(spare: int = SPARE_HEAP) -> bool:
-    """Give the heap's free pages back once the resident memory is ``spare`` bytes above its lowest since they last
-    went back; True when they did.
+    """Give the heap's free pages back once ``spare`` bytes of them may be resident; True when they went back.
 
-    Called after each of the engine's jobs (``LiveStack``): within a job and
-    from one job to the next (the frames of a drag) freed blocks are used
-    again without page faults, while the holes that states let go by the
-    undo cache leave (``return_freed_arrays``) cannot pile up: resident
-    memory stays within ``spare`` of what is held.
+    That is when, since they last went back, the resident memory grew
+    ``spare`` above its lowest (blocks freed and not used again, between
+    live ones), or the bytes in use in the heap fell ``spare`` below their
+    most (arrays freed: the states the undo cache lets go), both as seen at
+    the calls.  Called after each of the engine's jobs (``LiveStack``):
+    within a job and from one job to the next (the frames of a drag) freed
+    blocks are used again without page faults, while resident memory stays
+    within about ``spare`` of what is held.
     """
     held = _spare_heap()
     with held.lock:
-        now = resident_bytes()
-        held.lowest = min(held.lowest, now)
-        if now - held.lowest <= spare:
+        now, in_use = resident_bytes(), heap_in_use()
+        held.lowest, held.most_in_use = min(held.lowest, now), max(held.most_in_use, in_use)
+        if now - held.lowest <= spare and held.most_in_use - in_use <= spare:
             return False
         given = give_back_free_pages()
-        held.lowest = resident_bytes()
+        held.lowest, held.most_in_use = resident_bytes(), heap_in_use()
         return given
+
+
+class _MallocInfo(ctypes.Structure):
+    """glibc's ``struct mallinfo2``."""
+
+    _fields_ = [(name, ctypes.c_size_t) for name in ("arena", "ordblks", "smblks", "hblks", "hblkhd", "usmblks",
+                                                     "fsmblks", "uordblks", "fordblks", "keepcost")]
+
+
+def heap_in_use() -> int:
+    """Bytes of glibc's heaps in use (``mallinfo2``'s ``uordblks``, every arena; 0 where there is no glibc 2.33)."""
+    info = _libc_function("mallinfo2", restype=_MallocInfo)
+    return int(info().uordblks) if info is not None else 0
 
 
 def resident_bytes() -> int:
