@@ -10,6 +10,7 @@ from collections.abc import Callable
 import numpy as np
 
 from fmr_editor.engine import LiveStack, rasterise
+from fmr_editor.engine.memory import resident_bytes
 from fmr_editor.model import DiffusionPoint, Document, edits
 from fmr_editor.session import Session
 
@@ -57,15 +58,6 @@ def live_difference(session: Session) -> float:
     blur (``Session.image`` draws it: a document with blur stops, as lady_bug, is compared blurred to blurred)."""
     fresh = LiveStack(session.document, blur=True).composite
     return float(np.abs(session.image(PIXELS, PIXELS, samples=1) - rasterise(fresh, PIXELS, PIXELS, samples=1)).max())
-
-
-def resident_bytes() -> int:
-    """This process's resident memory."""
-    with open("/proc/self/status") as status:
-        for line in status:
-            if line.startswith("VmRSS:"):
-                return int(line.split()[1]) * 1024
-    return 0
 
 
 def soak(document: Document, steps: int, check_every: int, seed: int = 0,

@@ -256,12 +256,8 @@ def heap_in_use() -> int:
 
 
 def resident_bytes() -> int:
-    """This process's resident memory (``/proc/self/statm``; 0 where there is none)."""
-    try:
-        with open("/proc/self/statm") as statm:
-            return int(statm.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
-    except (OSError, ValueError, IndexError):
-        return 0
+    """This process's resident memory (``VmRSS``; 0 where there is no ``/proc``)."""
+    return _status("VmRSS")
 
 
 @lru_cache(maxsize=1)
