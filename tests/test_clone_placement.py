@@ -11,6 +11,7 @@ from __future__ import annotations
 import threading
 from dataclasses import replace
 
+import numba
 import numpy as np
 import pytest
 import scipy.linalg
@@ -18,10 +19,12 @@ from shapes import scattered_document
 
 from fmr_editor.engine import LiveStack, Representation, build, evaluate_points
 from fmr_editor.engine.cloning import CopiedCells
+from fmr_editor.engine.cloning import layer as clone_layer_module
 from fmr_editor.engine.cloning.layer import layer_lattice
 from fmr_editor.engine.fmm.expansions import m2l_matrix
 from fmr_editor.engine.fmm.far_field import far_field_at
 from fmr_editor.engine.fmm.lattice import Lattice, coarser_multipoles, downward_pass, fine_multipoles
+from fmr_editor.engine.fmm.orders import pass_orders
 from fmr_editor.engine.fmm.sparse_downward import (
     _m2l_tables,
     cascade,
@@ -87,6 +90,24 @@ def test_the_pass_to_wanted_cells_equals_the_whole_level_pass_there_and_leaves_z
     np.testing.assert_allclose(few, expected.reshape(n * n, 3, -1)[targets], rtol=0, atol=1e-13 * scale)
 
 
+def test_with_a_builds_orders_the_pass_to_wanted_cells_truncates_each_translation_as_the_whole_level_pass_does(
+        sources):
+    """Each translation keeps its level's and offset's terms (a build's ``pass_orders``): the reference is
+    ``downward_pass`` with the same orders, whose fine level keeps the pixels' terms only."""
+    lattice, order, delta, cells, every_term = sources
+    n = lattice.cells_per_side
+    orders = pass_orders(lattice.levels, 8, order)
+    expected = downward_pass(coarser_multipoles(delta, order), lattice, order, orders)
+    wanted = np.random.default_rng(7).random((n, n)) < 0.35
+    local = sparse_local(cells, delta.reshape(n * n, 3, -1)[cells], lattice, order, wanted, orders)
+    assert local.shape[-1] == orders.kept(lattice.levels) + 1 == 9
+    assert not expected[..., 9:].any()
+    scale = np.abs(expected).max()
+    np.testing.assert_allclose(local[wanted], expected[wanted, :, :9], rtol=0, atol=1e-13 * scale)
+    assert not local[~wanted].any()
+    assert np.abs(local[wanted] - every_term[wanted, :, :9]).max() > 1e-6 * scale  # terms were dropped
+
+
 # -- one factorisation for every similarity -------------------------------------------------------------------------
 
 
@@ -140,6 +161,26 @@ def test_the_region_is_clipped_while_its_boundary_is_factorised(source, monkeypa
     np.testing.assert_allclose(flux, expected, rtol=0, atol=1e-12 * np.abs(expected).max())
 
 
+def test_the_copied_cells_are_expanded_on_one_core_while_the_boundary_is_factorised_on_the_other(source, monkeypatch):
+    release, factorised = threading.Event(), clone_solve._factorised
+    monkeypatch.setattr(clone_solve, "_factorised", lambda system: release.wait(60) and factorised(system))
+    threads, seen, levels = numba.get_num_threads(), [], clone_layer_module.pass_levels
+    monkeypatch.setattr(clone_layer_module, "pass_levels", lambda *args: seen.append(numba.get_num_threads())
+                        or levels(*args))
+    clone = SeamlessClone(source.segments, HEXAGON, Similarity(1.0, 0.0, (6.0, -4.0)), canvas=(SIZE, SIZE))
+    lattice = Lattice(5, float(SIZE))
+    held = CopiedCells.build(clone, lattice, Settings())
+    assert not clone.cloned.factorising.done() and numba.get_num_threads() == threads
+    release.set()
+    clone.cloned.factorising.result()
+    again = CopiedCells.build(clone, lattice, Settings())
+    assert seen == [1, threads]
+    for level, other in zip(held.m2l, again.m2l):
+        assert (level is None) == (other is None)
+        if level is not None:
+            np.testing.assert_allclose(level, other, rtol=0, atol=1e-13 * np.abs(other).max())
+
+
 def test_a_failed_factorisation_is_raised_where_the_solve_needs_it(source, monkeypatch):
     def failing(system):
         raise MemoryError("no room for the boundary system")
@@ -166,18 +207,19 @@ def test_the_copied_sum_at_gamma_from_their_expansions_is_the_direct_sum_shifted
     similarity = Similarity().about((60.0, 62.0), 1.3, 25.0)
     clone = SeamlessClone(source.segments, HEXAGON, similarity, canvas=(SIZE, SIZE))
     picture = LiveStack(scattered_document(SIZE, seed=8)).composite
-    copied = CopiedCells.build(clone, layer_lattice(clone, picture, Settings()), Settings().propagation_order)
+    copied = CopiedCells.build(clone, layer_lattice(clone, picture, Settings()), Settings())
     order, lattice, mids = Settings().propagation_order, copied.lattice, clone.midpoints
-    ours = copied.at(mids, order)
+    ours = copied.at(mids)
     local = downward_pass(coarser_multipoles(fine_multipoles(copied.segments, copied.cell_start, lattice, order),
-                                             order), lattice, order)  # the whole-level passes
+                                             order), lattice, order, copied.orders)  # the whole-level passes
     seg = copied.segments
     whole = far_field_at(local, lattice, lattice.cell_of(mids), mids) + near_sum(
         mids, lattice.cells_per_side, lattice.cell_size, copied.cell_start, seg.p, seg.q, seg.flux, seg.jump)
     np.testing.assert_allclose(ours, whole, rtol=0, atol=1e-13 * np.abs(whole).max())
     placed = clone.copied
     direct = direct_sum(mids, placed.p, placed.q, placed.flux, placed.jump)
-    np.testing.assert_allclose(ours, direct, rtol=0, atol=1e-8 * np.abs(direct).max())  # the expansions' truncation
+    # the truncation at the pixels' orders: what the pixels read there too, within a hundredth of a colour level
+    np.testing.assert_allclose(ours, direct, rtol=0, atol=0.01 / 255)
     shift = np.log(similarity.scale) / (2 * np.pi) * clone.cloned.copied_flux  # the sum in source pixels, scaled
     np.testing.assert_allclose(direct, clone.cloned.copied_at_gamma + shift, rtol=0, atol=1e-10 * np.abs(direct).max())
 
@@ -195,9 +237,9 @@ def test_a_clone_layers_fields_are_the_whole_level_fmr_of_their_segments_in_its_
     at = lattice.cell_of(GRID)
     mine = cells[at[:, 0], at[:, 1]]
     order = Settings().propagation_order
-    for rep in (live.image, live.mask):
+    for rep, orders in ((live.image, live._copied.orders), (live.mask, None)):  # the mask with every term
         fine = fine_multipoles(rep.segments, rep.cell_start, lattice, order)
-        whole = replace(rep, local=downward_pass(coarser_multipoles(fine, order), lattice, order))
+        whole = replace(rep, local=downward_pass(coarser_multipoles(fine, order), lattice, order, orders))
         shown, expected = evaluate_points(rep, GRID), evaluate_points(whole, GRID)
         np.testing.assert_allclose(shown[mine], expected[mine], rtol=0, atol=1e-12)
         assert not shown[~mine].any()

@@ -22,6 +22,7 @@ pass, follows the solve.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from functools import cached_property
 
 import numpy as np
 import shapely
@@ -31,6 +32,7 @@ from ...model.clone import Clone, Similarity, region_on_canvas
 from ..composite import Composite, LayerFields
 from ..fmm.far_field import far_field_at
 from ..fmm.lattice import Lattice, cut_into_cells, dilated, fine_multipoles, merged
+from ..fmm.orders import PassOrders, pass_orders
 from ..fmm.sparse_downward import cascade, interactions, pass_levels
 from ..geometry.segments import Segments
 from ..kernels.segment_sums import near_sum
@@ -39,6 +41,7 @@ from ..points.gauss import GaussPoints, gaussian_sum_reference
 from ..raster import evaluate_points
 from ..representation import CLONE_SEGMENTS_PER_CELL, Representation, Settings, choose_levels
 from ..solve.clone import SeamlessClone
+from ..threads import beside
 
 
 def _reaching(points: tuple[DiffusionPoint, ...], similarity: Similarity,
@@ -147,6 +150,9 @@ class CopiedCells:
     cell_start : numpy.ndarray
     m2l : list of numpy.ndarray
         ``sparse_downward.interactions`` of the copied segments at ``levels`` (no L2L yet).
+    orders : PassOrders
+        The terms each translation keeps, as a build's for the pixels' degree (``orders.pass_orders``): what
+        the solve reads at ``Gamma`` is what the pixels read there.
     gamma : Segments
         ``Gamma`` cut at the cells, sorted by cell: the geometry, with ``origin[:, 0]`` the segment each piece is of.
     gamma_start : numpy.ndarray
@@ -161,31 +167,41 @@ class CopiedCells:
     segments: Segments
     cell_start: np.ndarray
     m2l: list
+    orders: PassOrders
     gamma: Segments
     gamma_start: np.ndarray
     edges: Segments
     edge_start: np.ndarray
 
     @classmethod
-    def build(cls, clone: SeamlessClone, lattice: Lattice, order: int) -> CopiedCells:
+    def build(cls, clone: SeamlessClone, lattice: Lattice, settings: Settings) -> CopiedCells:
+        """The cells of ``clone`` placed on ``lattice``; on one core while its boundary system is factorised on
+        the other (``threads.beside``)."""
+        with beside(clone.cloned.factorising):
+            return cls._build(clone, lattice, settings)
+
+    @classmethod
+    def _build(cls, clone: SeamlessClone, lattice: Lattice, settings: Settings) -> CopiedCells:
+        order = settings.propagation_order
+        orders = pass_orders(lattice.levels, min(settings.order, order), order)
         gamma, gamma_start = cut_into_cells(_boundary(clone), lattice)
         cells = region_cells(gamma, clone.region, lattice)
         levels = pass_levels(cells, lattice)
         segments, cell_start = cut_into_cells(clone.copied, lattice)
         occupied = np.flatnonzero(np.diff(cell_start))
         moments = fine_multipoles(segments, cell_start, lattice, order, occupied)
-        m2l = interactions(occupied, moments, lattice, order, levels)
+        m2l = interactions(occupied, moments, lattice, order, levels, orders)
         edges, edge_start = cut_into_cells(region_edges(clone), lattice)
-        return cls(lattice, cells, levels, segments, cell_start, m2l, gamma, gamma_start, edges, edge_start)
+        return cls(lattice, cells, levels, segments, cell_start, m2l, orders, gamma, gamma_start, edges, edge_start)
 
-    def at(self, points: np.ndarray, order: int) -> np.ndarray:
-        """The copied segments' sum at ``points (m, 2)`` in ``cells``, ``(m, 3)``: near segments and all terms of the
-        expansions (L2L down to the points' cells only)."""
+    def at(self, points: np.ndarray) -> np.ndarray:
+        """The copied segments' sum at ``points (m, 2)`` in ``cells``, ``(m, 3)``, as the pixels read it: near
+        segments and the fine cells' expansions (L2L down to the points' cells only)."""
         lattice = self.lattice
         n = lattice.cells_per_side
         cells = lattice.cell_of(points)
         flat = cells[:, 0] * n + cells[:, 1]
-        targets, local = cascade(self.m2l, self.levels, order, np.unique(flat))
+        targets, local = cascade(self.m2l, self.levels, self.orders.width, np.unique(flat))
         row_of = self.levels[-1].row_of  # the cascade keeps the order of the level's rows
         far = far_field_at(local, lattice, cells, points, rows=np.searchsorted(row_of[targets], row_of[flat]))
         near = np.zeros((n, n), bool)
@@ -196,6 +212,17 @@ class CopiedCells:
         start = np.concatenate([[0], np.cumsum(counts)])
         return far + near_sum(points, n, lattice.cell_size, start, seg.p, seg.q, seg.flux, seg.jump)
 
+    @cached_property
+    def mask_local(self) -> np.ndarray:
+        """The mask's local expansions ``(2^L, 2^L, 3, P + 1)``, every term: the indicator of the region is 1 inside
+        it to their accuracy, so a placement that keeps a cell inside both regions changes it by rounding only
+        (``LiveClone.follow``)."""
+        start, lattice, order = self.edge_start, self.lattice, self.orders.width
+        occupied = np.flatnonzero(np.diff(start))
+        moments = fine_multipoles(self.edges, start, lattice, order, occupied)[:, :1]
+        targets, local = cascade(interactions(occupied, moments, lattice, order, self.levels), self.levels, order)
+        return _dense(targets, local, lattice.cells_per_side)
+
     def gamma_with(self, jump: np.ndarray, flux: np.ndarray) -> Segments:
         """``Gamma``'s pieces carrying ``C = jump`` and ``E = flux``, ``(n, 3)`` each by segment of ``Gamma``."""
         owner = self.gamma.origin[:, 0].astype(np.int64)
@@ -203,7 +230,7 @@ class CopiedCells:
 
 
 def _dense(targets: np.ndarray, local: np.ndarray, n: int) -> np.ndarray:
-    """``local`` ``(cells, 1 or 3, P + 1)`` of the flat cells ``targets`` on a whole ``n x n`` level of three
+    """``local`` ``(cells, 1 or 3, K)`` of the flat cells ``targets`` on a whole ``n x n`` level of three
     channels, zero elsewhere."""
     dense = np.zeros((n * n, 3, local.shape[-1]), complex)
     dense[targets] = local
@@ -214,22 +241,21 @@ def _layer_fields(clone: SeamlessClone, copied: CopiedCells, target: np.ndarray,
                   size: tuple[int, int], points: tuple[DiffusionPoint, ...]) -> tuple[Representation, Representation]:
     """The image and the mask of the clone layer for the colours ``target`` its segments must make at ``Gamma``."""
     lattice, order, start = copied.lattice, settings.propagation_order, copied.gamma_start
-    gamma = copied.gamma_with(target, clone.gamma(target, copied.at(clone.midpoints, order)).flux)
-    occupied = np.flatnonzero(np.diff(start) + np.diff(copied.edge_start))
-    moments = np.concatenate([fine_multipoles(gamma, start, lattice, order, occupied),
-                              fine_multipoles(copied.edges, copied.edge_start, lattice, order, occupied)[:, :1]],
-                             axis=1)
-    m2l = interactions(occupied, moments, lattice, order, copied.levels)  # image and mask: four channels, one pass
+    mask_local = copied.mask_local  # needs no solve: made while the boundary system may still be factorised
+    gamma = copied.gamma_with(target, clone.gamma(target, copied.at(clone.midpoints)).flux)
+    occupied = np.flatnonzero(np.diff(start))
+    m2l = interactions(occupied, fine_multipoles(gamma, start, lattice, order, occupied), lattice, order,
+                       copied.levels, copied.orders)
     for level, mine in zip(m2l, copied.m2l):
         if level is not None:
-            level[:, :3] += mine
+            level += mine
     targets, local = cascade(m2l, copied.levels, order)
     n = lattice.cells_per_side
     image_segments, image_start = merged(copied.segments, copied.cell_start, gamma, start)
     field = PointField.build(tuple(points), lattice, settings.order) if points else None
-    image = Representation(*size, lattice, image_segments, image_start, _dense(targets, local[:, :3], n),
+    image = Representation(*size, lattice, image_segments, image_start, _dense(targets, local, n),
                            settings.order, {}, field)
-    mask = Representation(*size, lattice, copied.edges, copied.edge_start, _dense(targets, local[:, 3:], n),
+    mask = Representation(*size, lattice, copied.edges, copied.edge_start, mask_local,
                           settings.order, {})
     return image, mask
 
@@ -248,7 +274,7 @@ def clone_layer(clone: SeamlessClone, below: Composite, settings: Settings = Set
     """
     placed = placed_points(points, clone) if placed is None else placed
     if copied is None:
-        copied = CopiedCells.build(clone, layer_lattice(clone, below, settings), settings.propagation_order)
+        copied = CopiedCells.build(clone, layer_lattice(clone, below, settings), settings)
     target = evaluate_points(below, clone.midpoints)
     if placed:
         packed = GaussPoints.from_points(placed)

@@ -58,8 +58,7 @@ class LiveClone:
         before = self._copied  # the cells of the fields shown now (None: not made here)
         seamless = self._seamless_for(clone, source, canvas)
         if self._copied is None:
-            self._copied = CopiedCells.build(seamless, layer_lattice(seamless, below, settings),
-                                             settings.propagation_order)
+            self._copied = CopiedCells.build(seamless, layer_lattice(seamless, below, settings), settings)
         points = clone_points(clone, *canvas)
         fields = clone_layer(seamless, below, settings, layer_id, placed=points, copied=self._copied)
         comparable = before is not None and before.lattice == self._copied.lattice and not (points or self._points)

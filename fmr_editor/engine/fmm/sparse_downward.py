@@ -30,7 +30,7 @@ from scipy.special import comb
 
 from .expansions import l2l_matrix, m2m_matrix
 from .lattice import Lattice, child_offset, coarser_multipoles, distinct_cells, downward_pass, offset_parities, times
-from .orders import uniform_orders
+from .orders import PassOrders, uniform_orders
 from .passes import downward, level_sources
 
 #: Targets per task of the compiled M2L loop.
@@ -64,17 +64,17 @@ def _m2l_tables(order: int, log_size: float) -> tuple[np.ndarray, ...]:
 
 
 @numba.njit(cache=True, fastmath=True, inline="always")
-def _scaled_pascal(ar, ai, pre, pascal, post, out_r, out_i, br, bi):
-    """``out += post * (P^T (pre * a))``: complex vectors as planes ``(re, im)``, ``P`` as its transpose."""
-    terms = out_r.shape[0]
-    for k in range(terms):
+def _scaled_pascal(ar, ai, pre, pascal, post, multipole_terms, local_terms, out_r, out_i, br, bi):
+    """``out += post * (P^T (pre * a))`` over the first ``multipole_terms`` of ``a`` and ``local_terms`` of ``out``:
+    complex vectors as planes ``(re, im)``, ``P`` as its transpose."""
+    for k in range(multipole_terms):
         br[k] = ar[k] * pre[0, k] - ai[k] * pre[1, k]
         bi[k] = ar[k] * pre[1, k] + ai[k] * pre[0, k]
-    for l in range(terms):
+    for l in range(local_terms):
         sr = 0.0
         si = 0.0
         row = pascal[l]
-        for k in range(terms):
+        for k in range(multipole_terms):
             sr += row[k] * br[k]
             si += row[k] * bi[k]
         out_r[l] += sr * post[0, l] - si * post[1, l]
@@ -82,17 +82,18 @@ def _scaled_pascal(ar, ai, pre, pascal, post, out_r, out_i, br, bi):
 
 
 @numba.njit(parallel=True, cache=True, fastmath=True)
-def _gathered_m2l(size, targets, source_index, moments, offsets, masks, pre, pascal, post, log, out):
+def _gathered_m2l(size, targets, source_index, moments, offsets, masks, terms_of, pre, pascal, post, log, out):
     """``out[t] +=`` M2L from every source in target ``t``'s interaction list.
 
-    ``moments`` as planes ``(sources, channels, 2, P + 1)``, ``out`` complex ``(targets, channels, P + 1)``,
+    ``moments`` as planes ``(sources, channels, 2, P + 1)``, ``out`` complex ``(targets, channels, Q + 1)``,
+    ``terms_of (offsets, 2)`` the multipole and local terms each offset's translation keeps (``Q + 1`` at most),
     ``pascal`` transposed.
     """
-    channels, terms = out.shape[1], out.shape[2]
+    channels, terms = out.shape[1], moments.shape[3]
     count = targets.shape[0]
     for chunk in numba.prange((count + _CHUNK - 1) // _CHUNK):
         br, bi = np.empty(terms), np.empty(terms)
-        sums = np.empty((channels, 2, terms))
+        sums = np.empty((channels, 2, out.shape[2]))
         for t in range(chunk * _CHUNK, min(count, (chunk + 1) * _CHUNK)):
             row, column = divmod(targets[t], size)
             sums[:] = 0.0
@@ -105,11 +106,12 @@ def _gathered_m2l(size, targets, source_index, moments, offsets, masks, pre, pas
                     continue
                 for channel in range(channels):
                     ar, ai = moments[s, channel, 0], moments[s, channel, 1]
-                    _scaled_pascal(ar, ai, pre[o], pascal, post[o], sums[channel, 0], sums[channel, 1], br, bi)
+                    _scaled_pascal(ar, ai, pre[o], pascal, post[o], terms_of[o, 0], terms_of[o, 1], sums[channel, 0],
+                                   sums[channel, 1], br, bi)
                     sums[channel, 0, 0] += ar[0] * log[o, 0] - ai[0] * log[o, 1]
                     sums[channel, 1, 0] += ar[0] * log[o, 1] + ai[0] * log[o, 0]
             for channel in range(channels):
-                for l in range(terms):
+                for l in range(out.shape[2]):
                     out[t, channel, l] += complex(sums[channel, 0, l], sums[channel, 1, l])
 
 
@@ -161,7 +163,7 @@ def pass_levels(wanted: np.ndarray | None, lattice: Lattice) -> list[_Level | No
 
 
 def interactions(cells: np.ndarray, moments: np.ndarray, lattice: Lattice, order: int,
-                 levels: list[_Level | None]) -> list[np.ndarray | None]:
+                 levels: list[_Level | None], orders: PassOrders | None = None) -> list[np.ndarray | None]:
     """The M2L part of a downward pass: at each level, what the interaction lists give ``levels``' cells.
 
     Parameters
@@ -174,31 +176,43 @@ def interactions(cells: np.ndarray, moments: np.ndarray, lattice: Lattice, order
     order : int
     levels : list
         ``pass_levels`` of the wanted cells.
+    orders : PassOrders, optional
+        The terms each translation keeps, as a build's (``orders.pass_orders``); default every term.
 
     Returns
     -------
     list of numpy.ndarray
-        Indexed by level: ``(len(levels[l].cells), channels, order + 1)`` complex (None below level 2).
-        ``cascade`` adds L2L; passes of one ``levels`` add up (the FMR is linear).
+        Indexed by level: ``(len(levels[l].cells), channels, orders.kept(l) + 1)`` complex (None below level 2).
+        ``cascade`` (with the same ``orders``) adds L2L; passes of one ``levels`` add up (the FMR is linear).
     """
+    orders = uniform_orders(lattice.levels, order) if orders is None else orders
+    if orders.width != order:
+        raise ValueError(f"orders of width {orders.width} for expansions of order {order}")
     sources = _upward(cells, moments, lattice, order)
     offsets, masks = offset_parities()
     out: list[np.ndarray | None] = [None] * len(levels)
     for depth in range(2, lattice.levels + 1):
         level, (source_level, multipoles) = levels[depth], sources[depth]
-        out[depth] = np.zeros((len(level.cells), moments.shape[1], order + 1), complex)
+        out[depth] = np.zeros((len(level.cells), moments.shape[1], orders.kept(depth) + 1), complex)
         _gathered_m2l(level.size, level.cells, source_level.row_of, _planes(multipoles), offsets, masks,
-                      *_m2l_tables(order, float(np.log(lattice.level_size(depth)))), out[depth])
+                      _terms_of(orders, depth), *_m2l_tables(order, float(np.log(lattice.level_size(depth)))),
+                      out[depth])
     return out
+
+
+@lru_cache(maxsize=256)
+def _terms_of(orders: PassOrders, level: int) -> np.ndarray:
+    """``(offsets, 2)`` the multipole and local terms of each translation of ``level`` (``_gathered_m2l``)."""
+    return np.ascontiguousarray(np.stack([orders.multipole[level], orders.local[level]], axis=1) + 1, np.int64)
 
 
 def cascade(m2l: list[np.ndarray | None], levels: list[_Level | None], order: int,
             only: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """The fine cells' local expansions: ``interactions`` carried down the levels by L2L.
 
-    ``only`` (flat fine cells among ``levels``' own) limits the work to them
-    and their ancestors.  Returns the fine cells (flat) and their expansions
-    ``(cells, channels, order + 1)``.
+    Each level keeps the terms ``interactions`` gave it (``orders.kept``).  ``only`` (flat fine cells among
+    ``levels``' own) limits the work to them and their ancestors.  Returns the fine cells (flat) and their
+    expansions ``(cells, channels, kept + 1)``.
     """
     fine, local, above_rows = levels[-1], None, None
     for depth in range(2, len(levels)):
@@ -214,8 +228,8 @@ def cascade(m2l: list[np.ndarray | None], levels: list[_Level | None], order: in
             parent_rows = above_rows[levels[depth - 1].row_of[level.parents[rows]]]
             for start, stop, px, py in level.blocks():
                 a, b = np.searchsorted(rows, (start, stop))  # rows are sorted and each parity's block contiguous
-                level_local[a:b] += times(np.take(local, parent_rows[a:b], axis=0),
-                                          l2l_matrix(child_offset(px, py), order))
+                matrix = l2l_matrix(child_offset(px, py), order)[: local.shape[-1], : level_local.shape[-1]]
+                level_local[a:b] += times(np.take(local, parent_rows[a:b], axis=0), matrix)
         above_rows = np.full(len(level.cells), -1, np.int64)
         above_rows[rows] = np.arange(len(rows))
         local = level_local
@@ -223,12 +237,12 @@ def cascade(m2l: list[np.ndarray | None], levels: list[_Level | None], order: in
 
 
 def sparse_local(cells: np.ndarray, moments: np.ndarray, lattice: Lattice, order: int,
-                 wanted: np.ndarray | None = None) -> np.ndarray:
+                 wanted: np.ndarray | None = None, orders: PassOrders | None = None) -> np.ndarray:
     """The local expansions of sources in a few fine cells (``interactions``' parameters) at the ``wanted`` fine
-    cells (bool ``(2^L, 2^L)``; default all): ``(2^L, 2^L, channels, order + 1)`` complex, zero elsewhere."""
+    cells (bool ``(2^L, 2^L)``; default all): ``(2^L, 2^L, channels, kept + 1)`` complex, zero elsewhere."""
     n = lattice.cells_per_side
     levels = pass_levels(wanted, lattice)
-    targets, local = cascade(interactions(cells, moments, lattice, order, levels), levels, order)
+    targets, local = cascade(interactions(cells, moments, lattice, order, levels, orders), levels, order)
     dense = np.zeros((n * n,) + local.shape[1:], complex)
     dense[targets] = local
     return dense.reshape((n, n) + local.shape[1:])

@@ -31,6 +31,7 @@ hold both to a raster oracle).
 from __future__ import annotations
 
 import math
+from concurrent.futures import Future
 from dataclasses import replace
 from functools import cached_property
 
@@ -176,8 +177,13 @@ class ClonedRegion:
         self.copied_flux = (self.copied.flux * self.copied.lengths[:, None]).sum(axis=0)
 
     @property
+    def factorising(self) -> Future:
+        """The LU factorisation of the boundary system, made on a thread of its own."""
+        return self._factorising
+
+    @property
     def _factors(self) -> tuple[np.ndarray, np.ndarray]:
-        """The LU factorisation of the boundary system (waited for: it is made on a thread of its own)."""
+        """The LU factorisation of the boundary system (waited for)."""
         return self._factorising.result()
 
     def fits(self, source: Segments, region: np.ndarray, spacing: float) -> bool:
