@@ -1,6 +1,6 @@
 #version 410 core
 // One layer of a layered picture drawn over what lies below (fmr_editor/render/picture_renderer.py):
-//     out = m S(V) + (1 - m) below,  m = clamp(a, 0, 1) * opacity * clamp(M, 0, 1),
+//     out = m S(V) + (1 - m) below,  m = clamp(a, 0, 1) * opacity * clamp(M, 0, 1), 0 or 1 within u_negligible,
 //     M = base + luma . mask colour (or 1 - that),  a = the alpha field's first channel (1 for an opaque layer),
 //     S(V) = clamp(T(clamp(V, 0, 1)), 0, 1)  (what the layer shows),
 // as fmr_editor/engine/composite.py computes it on the CPU.  V and the mask colour are the layer's and its mask's
@@ -19,6 +19,7 @@ uniform int u_translucent;     // 1: read u_alpha
 uniform float u_mask_base;
 uniform int u_inverted;
 uniform float u_opacity;
+uniform float u_negligible;    // a weight within it of 0 or 1 is 0 or 1 (engine.composite.NEGLIGIBLE_WEIGHT)
 uniform mat3 u_matrix;         // the colour transform T(v) = u_matrix v + u_offset
 uniform vec3 u_offset;
 uniform dvec2 u_origin;        // as canvas.frag: the same test of which pixels lie on the canvas
@@ -58,5 +59,6 @@ void main() {
     }
     vec3 shown = clamp(u_matrix * clamp(value, 0.0, 1.0) + u_offset, 0.0, 1.0);
     float a = u_translucent != 0 ? clamp(texelFetch(u_alpha, texel, 0).r, 0.0, 1.0) : 1.0;
-    colour = vec4(shown, a * u_opacity * clamp(m, 0.0, 1.0));
+    float weight = a * u_opacity * clamp(m, 0.0, 1.0);
+    colour = vec4(shown, weight <= u_negligible ? 0.0 : weight >= 1.0 - u_negligible ? 1.0 : weight);
 }

@@ -16,9 +16,35 @@ def _clamped(value: float) -> float:
     return min(max(value, 0.0), 1.0)
 
 
+@numba.njit(inline="always")
+def _weight(i, mask, luma, mask_base, mask_enabled, mask_inverted, negligible, alpha, opacity):
+    """Sample ``i``'s weight ``clamp(a, 0, 1) opacity clamp(M, 0, 1)``, 0 or 1 within ``negligible`` of them
+    (``composite.snapped``; ``blend_layer``'s parameters)."""
+    weight = opacity
+    if mask_enabled:
+        value = mask_base
+        if mask.shape[0] > 0:
+            value += mask[i, 0] * luma[0] + mask[i, 1] * luma[1] + mask[i, 2] * luma[2]
+        if mask_inverted:
+            value = 1.0 - value
+        weight *= _clamped(value)
+    if alpha.shape[0] > 0:
+        weight *= _clamped(alpha[i, 0])
+    if weight <= negligible:
+        return 0.0
+    return 1.0 if weight >= 1.0 - negligible else weight
+
+
+@numba.njit(parallel=True, cache=True)
+def layer_weights(weights, mask, luma, mask_base, mask_enabled, mask_inverted, negligible, alpha, opacity):
+    """``weights (n,)``: each sample's weight, as ``blend_layer`` blends with it (its parameters)."""
+    for i in numba.prange(weights.shape[0]):
+        weights[i] = _weight(i, mask, luma, mask_base, mask_enabled, mask_inverted, negligible, alpha, opacity)
+
+
 @numba.njit(parallel=True, cache=True)
 def blend_layer(out, coverage, colour, matrix, offset, transformed, mask, luma, mask_base, mask_enabled,
-                mask_inverted, alpha, opacity, covers):
+                mask_inverted, negligible, alpha, opacity, covers):
     """``out``, ``coverage`` with one layer over them, in place (``composite.compose_reference``'s loop body).
 
     Parameters
@@ -33,31 +59,27 @@ def blend_layer(out, coverage, colour, matrix, offset, transformed, mask, luma, 
         ``(n, 3)`` the mask's values, or ``(0, 3)``: none (``mask_base`` alone, when ``mask_enabled``).
     luma : numpy.ndarray
         ``(3,)`` weights of the mask's luminance.
+    negligible : float
+        Weights within it of 0 or 1 are 0 or 1 (``composite.NEGLIGIBLE_WEIGHT``): the layer leaves the colour
+        below as it is, or replaces it, whatever its image's (finite) values are there.
     alpha : numpy.ndarray
         ``(n, 3)`` the alpha field's values (its first channel), or ``(0, 3)``: opaque.
     covers : bool
         The layer hides everything below: ``out`` becomes what it shows, ``coverage`` 1.
     """
-    masked, translucent = mask.shape[0] > 0, alpha.shape[0] > 0
     for i in numba.prange(out.shape[0]):
+        weight = 1.0 if covers else _weight(i, mask, luma, mask_base, mask_enabled, mask_inverted, negligible, alpha,
+                                            opacity)
+        if weight == 0.0:
+            continue
         r, g, b = _clamped(colour[i, 0]), _clamped(colour[i, 1]), _clamped(colour[i, 2])
         if transformed:
             r, g, b = (_clamped(matrix[0, 0] * r + matrix[0, 1] * g + matrix[0, 2] * b + offset[0]),
                        _clamped(matrix[1, 0] * r + matrix[1, 1] * g + matrix[1, 2] * b + offset[1]),
                        _clamped(matrix[2, 0] * r + matrix[2, 1] * g + matrix[2, 2] * b + offset[2]))
-        if covers:
+        if weight == 1.0:
             out[i, 0], out[i, 1], out[i, 2], coverage[i] = r, g, b, 1.0
             continue
-        weight = opacity
-        if mask_enabled:
-            value = mask_base
-            if masked:
-                value += mask[i, 0] * luma[0] + mask[i, 1] * luma[1] + mask[i, 2] * luma[2]
-            if mask_inverted:
-                value = 1.0 - value
-            weight *= _clamped(value)
-        if translucent:
-            weight *= _clamped(alpha[i, 0])
         out[i, 0] += weight * (r - out[i, 0])
         out[i, 1] += weight * (g - out[i, 1])
         out[i, 2] += weight * (b - out[i, 2])

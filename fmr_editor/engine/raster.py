@@ -16,7 +16,9 @@ cells holding many samples with segments near are cut into sub-cells
 expansion and summing only the others per sample.  Diffusion points add their polynomials by Horner's rule
 (``grid.far_field_grid``) and their near sum.  ``far_field_reference``
 here is the numpy form of a polynomial far field (two small matrix products
-per cell, batched), kept as a reference.  Work proceeds in bands of rows;
+per cell, batched), kept as a reference.  Of a layered picture, each layer's image is
+evaluated only in the cells where it shows (``composite.hidden``): not where its mask hides it nor where
+a layer above covers it.  Work proceeds in bands of rows;
 with one sample a pixel the bands are written into the image directly, with
 more each band's samples go through one buffer and are averaged into it.
 """
@@ -27,8 +29,9 @@ from collections.abc import Callable
 
 import numpy as np
 
-from .composite import Composite, compose
+from .composite import Composite, compose, hidden
 from .fmm.orders import sample_degrees
+from .kernels.grid import cells_all, grid_cell_runs
 from .kernels.local_grid import largest_offsets
 from .kernels.segment_sums import direct_sum, near_sum
 from .kernels.subcells import SEPARATION, subcell_field_grid
@@ -188,16 +191,16 @@ def rasterise(
         band_ys = ys[rows.start * samples : rows.stop * samples]
         target = image[rows] if samples == 1 else buffer[: len(band_ys)]
 
-        def field(source: Representation, out: np.ndarray | None = None) -> np.ndarray:
+        def field(source: Representation, out: np.ndarray | None = None, skip: np.ndarray | None = None) -> np.ndarray:
             out = np.empty((len(band_ys), len(xs), 3)) if out is None else out
             if method == "direct":
                 out[...] = _direct_samples(source, xs, band_ys)
             else:
-                _fmr_samples(source, order, xs, band_ys, ys, density, out)
+                _fmr_samples(source, order, xs, band_ys, ys, density, out, skip)
             return out
 
         if isinstance(rep, Composite):
-            target[...] = compose(rep, field, target.shape[:-1] + (3,), coverage)
+            target[...] = _composed(rep, field, xs, band_ys, coverage)
         elif coverage:
             target[..., :3] = field(rep)
             target[..., 3] = 1.0
@@ -210,12 +213,38 @@ def rasterise(
     return image
 
 
+def _composed(composite: Composite, field: Callable, xs: np.ndarray, ys: np.ndarray, coverage: bool) -> np.ndarray:
+    """``compose`` of the grid ``ys x xs``, each layer's image evaluated only in the cells where it can show
+    (``composite.hidden``): a layer under a mask that hides it there, or under a layer that covers it, costs
+    nothing there.  ``field(rep, skip=cells)`` evaluates a representation but in ``cells``."""
+    evaluated: dict[int, np.ndarray] = {}
+
+    def values(source: Representation, skip: np.ndarray | None = None) -> np.ndarray:
+        if id(source) not in evaluated:
+            evaluated[id(source)] = field(source, skip=skip)
+        return evaluated[id(source)]
+
+    shape = (len(ys), len(xs))
+    for layer, where in zip(composite.shown, hidden(composite, values, len(ys) * len(xs))):
+        if where.any():
+            values(layer.image, hidden_cells(where.reshape(shape), xs, ys, layer.image.lattice))
+    return compose(composite, values, shape + (3,), coverage)
+
+
+def hidden_cells(hidden_samples: np.ndarray, xs: np.ndarray, ys: np.ndarray, lattice) -> np.ndarray:
+    """``(2^L, 2^L)`` bool: the cells of ``lattice`` all of whose samples of the grid ``ys x xs`` are
+    ``hidden_samples (len(ys), len(xs))`` (and those with none)."""
+    n, size = lattice.cells_per_side, lattice.cell_size
+    return cells_all(hidden_samples, grid_cell_runs(xs, size, n), grid_cell_runs(ys, size, n))
+
+
 def _fmr_samples(rep: Representation, order: int | None, xs: np.ndarray, ys: np.ndarray, whole_ys: np.ndarray,
-                 density: float, out: np.ndarray) -> None:
+                 density: float, out: np.ndarray, skip: np.ndarray | None = None) -> None:
     """The FMR on the grid ``ys x xs`` into ``out (len(ys), len(xs), 3)``: far field, near segments and points.
 
     ``whole_ys`` and ``density``: the rows and the samples a document pixel of the whole raster, of which this
-    is a band (its sub-cells and its cells' far-field degrees are the whole's).
+    is a band (its sub-cells and its cells' far-field degrees are the whole's).  ``skip``: cells whose samples
+    are not needed (``subcell_field_grid``'s: finite, not their field).
     """
     seg, lattice = rep.segments, rep.lattice
     order = rep.order if order is None else order
@@ -225,7 +254,8 @@ def _fmr_samples(rep: Representation, order: int | None, xs: np.ndarray, ys: np.
     centred = rep.centres is not None or all(np.any(axis == 0.0) for axis in offsets)  # samples on cell centres
     subcell_field_grid(rep.local, order, xs, ys, size, rep.cell_start, seg.p, seg.q, seg.flux, seg.jump,
                        split=split, separation=separation, out=out, tables=rep.near_tables, precision=NEAR_PRECISION,
-                       degrees=sample_degrees(order), offsets=offsets, centres=rep.centre_values if centred else None)
+                       degrees=sample_degrees(order), offsets=offsets, centres=rep.centre_values if centred else None,
+                       skip=skip)
     if rep.points is not None:
         rep.points.add_grid(order, xs, ys, out)
 

@@ -13,7 +13,8 @@ import numpy as np
 
 from ..model.color_transform import IDENTITY
 from ..model.layer import MASK_LUMA
-from .blending import blend_layer
+from .blending import blend_layer, layer_weights
+from .composite import NEGLIGIBLE_WEIGHT
 from .fmm.lattice import Lattice, sort_into_cells
 from .geometry.segments import Segments
 from .kernels.segment_sums import near_tables
@@ -52,7 +53,8 @@ def blending() -> None:
     """The composition of a layered picture (``blending``), with the arguments ``composite.compose`` gives."""
     samples = np.zeros((1, 3))
     blend_layer(np.zeros((1, 3)), np.zeros(1), samples, IDENTITY.matrix, IDENTITY.offset, False, samples, MASK_LUMA,
-                1.0, True, False, samples, 1.0, False)
+                1.0, True, False, NEGLIGIBLE_WEIGHT, samples, 1.0, False)
+    layer_weights(np.zeros(1), samples, MASK_LUMA, 1.0, True, False, NEGLIGIBLE_WEIGHT, samples, 1.0)
 
 
 def load_raster_kernels() -> None:

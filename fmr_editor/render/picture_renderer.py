@@ -22,7 +22,7 @@ from dataclasses import replace
 import numpy as np
 from OpenGL import GL
 
-from ..engine import Composite, FieldKey, LayerFields, Representation, Role
+from ..engine import NEGLIGIBLE_WEIGHT, Composite, FieldKey, LayerFields, Representation, Role
 from ..engine.blur import largest_blur
 from .blur_filter import BlurFilter, BlurPlan, FramebufferPool, read_first_channel
 from .cached_image import CachedImage, show_scaled, union
@@ -378,7 +378,7 @@ class PictureRenderer:
             GL.glBindTexture(GL.GL_TEXTURE_2D, blurred.output.texture if blurred else self.renderers[key].image_texture)
         program.set(u_masked=int(reads_mask), u_translucent=int(reads_alpha),
                     u_mask_base=layer.mask_base if enabled else 1.0, u_inverted=int(enabled and layer.mask_inverted),
-                    u_opacity=layer.opacity,
+                    u_opacity=layer.opacity, u_negligible=NEGLIGIBLE_WEIGHT,
                     u_matrix=layer.transform.matrix, u_offset=layer.transform.offset, u_tint=int(tint))
         GL.glDrawArrays(GL.GL_TRIANGLE_STRIP, 0, 4)
 

@@ -52,19 +52,27 @@ def _samples_single(m, count, xc, yc, cell_size, seg, shares_p, flux_free, sx, s
 
 
 @numba.njit(cache=True, fastmath=GRID_MATH, error_model="numpy")
-def _near_row(cy, xs, ys, x_start, y_start, n, cell_start, cell_size, table, weights, single, out, seg, shares_p,
-              flux_free, sx, sy, acc, logs, doubtful, scratch):
+def _near_row(cy, xs, ys, x_start, y_start, n, cell_start, cell_size, table, weights, single, skip, out, seg,
+              shares_p, flux_free, sx, sy, acc, logs, doubtful, scratch):
     """Add the near field of the samples of cell row ``cy``, one column of segments at a time.
 
     The samples of cells ``cx - 1`` to ``cx + 1`` of the row (a window) see the
     segments of cells ``cx`` in rows ``cy - 1`` to ``cy + 1`` (a column): over
     all ``cx`` that is each sample against its 3x3 block.  ``single[cy, cx]``:
-    the visit runs in float32.  The rest are the thread's scratch arrays.
+    the visit runs in float32.  A window leaves out the cells at its ends where ``skip`` (``(n, n)``, or
+    ``(0, 0)``: none).  The rest are the thread's scratch arrays.
     """
     ya, yb = y_start[cy], y_start[cy + 1]
     rows = yb - ya
+    skipping = skip.shape[0] > 0
     for cx in range(n):
-        xa, xb = x_start[max(cx - 1, 0)], x_start[min(cx + 2, n)]
+        first, last = max(cx - 1, 0), min(cx + 2, n)
+        if skipping:
+            while first < last and skip[cy, first]:
+                first += 1
+            while last > first and skip[cy, last - 1]:
+                last -= 1
+        xa, xb = x_start[first], x_start[last]
         width = xb - xa
         if width == 0:
             continue
@@ -89,7 +97,7 @@ def _near_row(cy, xs, ys, x_start, y_start, n, cell_start, cell_size, table, wei
 
 @numba.njit(parallel=True, cache=True, error_model="numpy")
 def _near_grid(xs, ys, x_start, y_start, n, cell_start, cell_size, table, weights, capacity, most, single, any_single,
-               out):
+               skip, out):
     """Threads take rows of cells (dynamically: ``numba.parallel_chunksize(1)``); each writes its own samples."""
     for cy in numba.prange(n):
         lo, hi = max(cy - 1, 0), min(cy + 2, n)
@@ -102,8 +110,8 @@ def _near_grid(xs, ys, x_start, y_start, n, cell_start, cell_size, table, weight
         most32 = most if any_single else 0
         scratch = (np.empty((BLOCK_ROWS, capacity), np.float32), np.empty(most32, np.float32),
                    np.empty(most32, np.float32), np.empty((3, most32), np.float32), np.empty((2, most32), np.float32))
-        _near_row(cy, xs, ys, x_start, y_start, n, cell_start, cell_size, table, weights, single, out, seg, shares_p,
-                  flux_free, sx, sy, acc, logs, doubtful, scratch)
+        _near_row(cy, xs, ys, x_start, y_start, n, cell_start, cell_size, table, weights, single, skip, out, seg,
+                  shares_p, flux_free, sx, sy, acc, logs, doubtful, scratch)
 
 
 def grid_arrays(xs: np.ndarray, ys: np.ndarray, out: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -122,6 +130,23 @@ def grid_arrays(xs: np.ndarray, ys: np.ndarray, out: np.ndarray | None) -> tuple
     elif out.shape != shape or out.dtype != np.float64 or not out.flags.c_contiguous:
         raise ValueError(f"out must be a C-contiguous float64 array of shape {shape}")
     return xs, ys, out
+
+
+@numba.njit(cache=True)
+def cells_all(flags: np.ndarray, x_start: np.ndarray, y_start: np.ndarray) -> np.ndarray:
+    """``(n, n)`` bool: cells all of whose samples are ``flags (len(ys), len(xs))`` (those with none too), the cells'
+    runs of samples ``x_start``, ``y_start`` (``grid_cell_runs``)."""
+    n = len(x_start) - 1
+    cells = np.ones((n, n), np.bool_)
+    for cy in range(n):
+        for i in range(y_start[cy], y_start[cy + 1]):
+            for cx in range(n):
+                if cells[cy, cx]:
+                    for j in range(x_start[cx], x_start[cx + 1]):
+                        if not flags[i, j]:
+                            cells[cy, cx] = False
+                            break
+    return cells
 
 
 def grid_cell_runs(coords: np.ndarray, cell_size: float, cells_per_side: int) -> np.ndarray:
@@ -148,6 +173,7 @@ def near_field_grid(
     out: np.ndarray | None = None,
     tables: tuple[np.ndarray, np.ndarray] | None = None,
     precision: str = "double",
+    skip: np.ndarray | None = None,
 ) -> np.ndarray:
     """``near_sum`` on the tensor grid ``ys x xs``, ``(len(ys), len(xs), 3)``.
 
@@ -174,6 +200,10 @@ def near_field_grid(
         ``"single"``: a visit runs in float32 (``single``) where every sample of its window has an error bound
         (``single.error_bounds``) within ``single.SINGLE_BUDGET``, samples with a pair in doubt summed again
         in float64; the float32 field is then within that budget of the float64 one.
+    skip : numpy.ndarray, optional
+        ``(cells_per_side,) * 2`` bool: cells whose samples need no near field (``raster``: a layer hidden
+        there); theirs get a part of it or none, the other samples all of it, as without ``skip``.  Lattices
+        of at most ``ROW_SAMPLES`` samples a cell side sum every cell.
     """
     if precision not in ("double", "single"):
         raise ValueError(f"unknown precision {precision!r}; use 'double' or 'single'")
@@ -194,10 +224,15 @@ def near_field_grid(
         bounded = np.pad(error_bounds(n, cell_size, cell_start, flux, jump) <= SINGLE_BUDGET, ((0, 0), (1, 1)),
                          constant_values=True)
         single = bounded[:, :-2] & bounded[:, 1:-1] & bounded[:, 2:]  # every cell of the visit's window
+    if skip is not None and skip.shape != (n, n):
+        raise ValueError(f"skip must have the shape {(n, n)}")
     with numba.parallel_chunksize(1):
         _near_grid(xs, ys, x_start, y_start, n, cell_start, float(cell_size), table, weights, capacity, most,
-                   single, bool(single.any()), out)
+                   single, bool(single.any()), _NO_SKIP if skip is None else np.ascontiguousarray(skip, np.bool_), out)
     return out
+
+
+_NO_SKIP = np.zeros((0, 0), np.bool_)
 
 
 def _column_sizes(n: int, cell_start: np.ndarray, x_start: np.ndarray, y_start: np.ndarray) -> tuple[int, int]:

@@ -127,9 +127,9 @@ def cell_degree(order, degrees, radius2):
 
 @numba.njit(parallel=True, cache=True, fastmath=FAST_MATH, error_model="numpy")
 def _local_grid(local, centres, order, degrees, across, down, xs, ys, x_start, y_start, cell_size, skip, skipping,
-                out):
-    """Overwrite ``out``'s samples with their cell's expansion, except in cells where ``skipping and skip``; cells
-    of degree 0 read ``centres`` unless it is empty."""
+                zero_skipped, out):
+    """Overwrite ``out``'s samples with their cell's expansion, except in cells where ``skipping and skip`` (with
+    ``zero_skipped``, 0 there); cells of degree 0 read ``centres`` unless it is empty."""
     n = local.shape[0]
     centred = centres.shape[0] > 0
     inv = 1.0 / cell_size
@@ -144,7 +144,11 @@ def _local_grid(local, centres, order, degrees, across, down, xs, ys, x_start, y
         scratch = np.empty((7, rows * widest if rows * widest >= FLAT else 0))
         for cx in range(n):
             xa, width = x_start[cx], x_start[cx + 1] - x_start[cx]
-            if width == 0 or (skipping and skip[cy, cx]):
+            if width == 0:
+                continue
+            if skipping and skip[cy, cx]:
+                if zero_skipped:
+                    out[ya : ya + rows, xa : xa + width] = 0.0
                 continue
             degree = cell_degree(order, degrees, across[cx] + down[cy])
             if degree == 0 and centred:  # one contiguous read, not three terms 144 bytes apart
@@ -180,7 +184,7 @@ def _local_grid(local, centres, order, degrees, across, down, xs, ys, x_start, y
 def local_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.ndarray, cell_size: float,
                      out: np.ndarray | None = None, skip: np.ndarray | None = None,
                      degrees: np.ndarray | None = None, offsets: tuple[np.ndarray, np.ndarray] | None = None,
-                     centres: np.ndarray | None = None) -> np.ndarray:
+                     centres: np.ndarray | None = None, zero_skipped: bool = False) -> np.ndarray:
     """``(1/2pi) Re sum_{l <= d} L_l w^l`` of each sample's cell on the grid ``ys x xs``, ``(len(ys), len(xs), 3)``,
     ``d`` the cell's degree (``cell_degree``: at most ``order``).
 
@@ -201,7 +205,7 @@ def local_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.ndarr
         C-contiguous float64 ``(len(ys), len(xs), 3)``, *overwritten* (but in
         skipped cells) and returned; zeros when missing.
     skip : numpy.ndarray, optional
-        ``(n, n)`` bool: cells whose samples are left as they are in ``out``.
+        ``(n, n)`` bool: cells whose samples are left as they are in ``out`` (``zero_skipped``: made 0).
     degrees : numpy.ndarray, optional
         The degree of a cell by its samples' largest distance from its centre, in bins up to ``CORNER_RADIUS``
         (``fmm.orders.sample_degrees``); by default ``order`` wherever the samples are off the centre.
@@ -231,5 +235,5 @@ def local_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.ndarr
         _local_grid(np.asarray(local, np.complex128), _NO_CENTRES if centres is None else np.ascontiguousarray(centres),
                     int(order), degrees, across, down, xs, ys,
                     grid_cell_runs(xs, cell_size, n), grid_cell_runs(ys, cell_size, n), float(cell_size), flags,
-                    skip is not None, out)
+                    skip is not None, bool(zero_skipped), out)
     return out

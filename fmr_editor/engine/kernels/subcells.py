@@ -282,16 +282,17 @@ def _subcell_grid(local, order, xs, ys, x_start, y_start, n, cell_size, split, r
 
 
 @numba.njit(cache=True)
-def _plan(n, cell_start, x_start, y_start, groups):
-    """Cells with samples and block segments in runs of about equal cost, the most segments in a block and samples in
-    a cell."""
+def _plan(n, cell_start, x_start, y_start, groups, skip):
+    """Cells with samples and block segments, but those ``skip`` names (``(n, n)`` or ``(0, 0)``), in runs of about
+    equal cost, the most segments in a block and samples in a cell."""
     cost = np.zeros(n * n)
     total, capacity, most = 0.0, 1, 1
+    skipping = skip.shape[0] > 0
     for cy in range(n):
         rows = y_start[cy + 1] - y_start[cy]
         for cx in range(n):
             samples = rows * (x_start[cx + 1] - x_start[cx])
-            if samples == 0:
+            if samples == 0 or (skipping and skip[cy, cx]):
                 continue
             m = 0
             for row in range(max(cy - 1, 0), min(cy + 2, n)):
@@ -316,6 +317,7 @@ def _plan(n, cell_start, x_start, y_start, groups):
 
 #: Groups of cells per thread (taken dynamically).
 GROUPS_PER_THREAD = 8
+_NO_SKIP = np.zeros((0, 0), np.bool_)
 
 
 def subcell_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.ndarray, cell_size: float,
@@ -323,7 +325,7 @@ def subcell_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.nda
                        split: int = 1, separation: float = SEPARATION, out: np.ndarray | None = None,
                        tables: tuple[np.ndarray, np.ndarray] | None = None, precision: str = "double",
                        degrees: np.ndarray | None = None, offsets: tuple[np.ndarray, np.ndarray] | None = None,
-                       centres: np.ndarray | None = None) -> np.ndarray:
+                       centres: np.ndarray | None = None, skip: np.ndarray | None = None) -> np.ndarray:
     """The field of an FMR's segments (far and near) on the tensor grid ``ys x xs``, ``(len(ys), len(xs), 3)``.
 
     Parameters
@@ -351,6 +353,9 @@ def subcell_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.nda
     degrees, offsets, centres : optional
         The far field's degree by the samples' distance from their cell's centre, those distances when the
         grid is a band of a larger one, and what cells of degree 0 read (``local_grid.local_field_grid``).
+    skip : numpy.ndarray, optional
+        ``(n, n)`` bool: cells whose samples are not needed (``raster``: a layer hidden there).  They are 0 plus
+        a part of their near field or none; the other samples are as without ``skip``.
     """
     if not 0 <= order < local.shape[-1]:
         raise ValueError(f"order must be between 0 and {local.shape[-1] - 1}")
@@ -362,16 +367,18 @@ def subcell_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.nda
     n = local.shape[0]
     cell_start = np.asarray(cell_start, np.int64)
     if split == 1:
-        local_field_grid(local, order, xs, ys, cell_size, out=out, degrees=degrees, offsets=offsets, centres=centres)
+        local_field_grid(local, order, xs, ys, cell_size, out=out, skip=skip, degrees=degrees, offsets=offsets,
+                         centres=centres, zero_skipped=True)
         return near_field_grid(xs, ys, n, cell_size, cell_start, p, q, flux, jump, out=out, tables=tables,
-                               precision=precision)
+                               precision=precision, skip=skip)
     counts = np.pad(np.diff(cell_start).reshape(n, n), 1)
     near = sum(counts[1 + dy : 1 + dy + n, 1 + dx : 1 + dx + n] for dy in (-1, 0, 1) for dx in (-1, 0, 1)) > 0
-    local_field_grid(local, order, xs, ys, cell_size, out=out, skip=near, degrees=degrees, offsets=offsets,
-                     centres=centres)
+    local_field_grid(local, order, xs, ys, cell_size, out=out, skip=near if skip is None else near | skip,
+                     degrees=degrees, offsets=offsets, centres=centres, zero_skipped=skip is not None)
     x_start, y_start = grid_cell_runs(xs, cell_size, n), grid_cell_runs(ys, cell_size, n)
     cells, group_start, capacity, most = _plan(n, cell_start, x_start, y_start,
-                                               GROUPS_PER_THREAD * numba.get_num_threads())
+                                               GROUPS_PER_THREAD * numba.get_num_threads(),
+                                               _NO_SKIP if skip is None else np.ascontiguousarray(skip, np.bool_))
     if len(cells) == 0:
         return out
     table, weights = tables or near_tables(p, q, flux, jump)
