@@ -196,6 +196,30 @@ def test_the_downward_pass_writes_each_fine_cells_centre_value():
         downward(sources, lattice, orders.uniform_orders(5, WIDTH), centres=np.empty((16, 16, 3)))
 
 
+def test_a_builds_levels_of_some_work_take_both_cores_and_an_edits_keep_one(monkeypatch):
+    """``passes.BUILD_PARALLEL_CELLS``: a build's whole-level M2L runs on every thread from 256 cells of work (a
+    level of 16 x 16 coarse cells), an edit's change below ``PARALLEL_CELLS`` (4,096) on one; the threads are
+    given back after each level."""
+    import numba
+
+    from fmr_editor.engine.fmm import level_kernels, passes
+
+    threads, seen, level_local = numba.get_num_threads(), [], level_kernels.level_local
+    monkeypatch.setattr(level_kernels, "level_local", lambda size, *args: seen.append((size, numba.get_num_threads()))
+                        or level_local(size, *args))
+    rng = np.random.default_rng(8)
+    lattice = Lattice(5, SIDE)
+    segments, _ = random_segments(rng, 4000, lattice, 1.0)
+    cells = Cells.build(segments, lattice, WIDTH, pixel_order=8)
+    assert seen == [(4, 1), (8, 1), (16, threads), (32, threads)] and numba.get_num_threads() == threads
+    seen.clear()
+    edited = Segments(p=segments.p, q=segments.q, jump=segments.jump, mean=segments.mean,
+                      on_border=segments.on_border, flux=segments.flux * 1.5)
+    propagated(cells, edited, lattice, WIDTH, accuracy=1e-12)
+    assert seen == [(4, 1), (8, 1), (16, 1), (32, 1)] and numba.get_num_threads() == threads
+    assert passes.BUILD_PARALLEL_CELLS < 16 * 16 * passes._term_pairs(cells.orders, 4) / passes.CELL_TERM_PAIRS
+
+
 def test_cells_sort_as_a_stable_argsort():
     rng = np.random.default_rng(2)
     lattice = Lattice(5, SIDE)

@@ -44,9 +44,9 @@ PARALLEL_CELLS = 4096
 
 
 @contextmanager
-def threads_for(cells: int) -> Iterator[None]:
-    """Within the block, numba's parallel loops run on one thread when ``cells < PARALLEL_CELLS``."""
-    if cells >= PARALLEL_CELLS:
+def threads_for(cells: float, parallel_from: float = PARALLEL_CELLS) -> Iterator[None]:
+    """Within the block, numba's parallel loops run on one thread when ``cells < parallel_from``."""
+    if cells >= parallel_from:
         yield
         return
     before = numba.get_num_threads()

@@ -46,6 +46,12 @@ DENSE_SIDE = 32
 #: work ``level_kernels.PARALLEL_CELLS`` counts in.  A cell of the solve's products (order 20) is 6 of them.
 CELL_TERM_PAIRS = 2868
 
+#: Cells of work from which a build's whole-level M2L and L2L run on both cores (an edit's change of the
+#: levels, mostly gathers skipped, keeps ``level_kernels.PARALLEL_CELLS``).  A level of 256 cells takes
+#: 0.8-2.5 ms on one core, 0.4-1.1 on two (the Hilbert scenes' L4 and L5 at L5-L7); the second thread's wake-up,
+#: 4-8 ms while another process holds a core, is paid once a level where it is late, not once an edit's call.
+BUILD_PARALLEL_CELLS = 256
+
 _NO_GRID = np.zeros((0,) * 6)
 _NO_SOURCES = np.zeros((0, 0, 0))
 _NO_INDEX = np.zeros((0, 0), np.int64)
@@ -271,7 +277,8 @@ def downward(sources: list[LevelSources | None], lattice: Lattice, orders: PassO
     """
     n = lattice.cells_per_side
     local = huge_pages_zeros((n, n, 3, orders.width + 1 if terms is None else terms), complex)
-    _downward(sources, lattice, orders, local, _NO_FINE, _NO_CHANGE, _centres_out(centres, n), lap)
+    _downward(sources, lattice, orders, local, _NO_FINE, _NO_CHANGE, _centres_out(centres, n), lap,
+              BUILD_PARALLEL_CELLS)
     return local
 
 
@@ -351,8 +358,10 @@ def huge_pages_zeros(shape: tuple[int, ...], dtype) -> np.ndarray:
 
 
 def _downward(sources: list[LevelSources | None], lattice: Lattice, orders: PassOrders, local: np.ndarray,
-              base: np.ndarray, change: np.ndarray, centres: np.ndarray, lap: Callable[[str], None] | None) -> None:
-    """``downward`` into ``local``; with a ``base`` (not empty), ``downward_onto``."""
+              base: np.ndarray, change: np.ndarray, centres: np.ndarray, lap: Callable[[str], None] | None,
+              parallel_from: float = kernels.PARALLEL_CELLS) -> None:
+    """``downward`` into ``local``; with a ``base`` (not empty), ``downward_onto``.  A level runs on both cores
+    from ``parallel_from`` cells of work."""
     if local.shape[-1] < orders.kept(lattice.levels) + 1:
         raise ValueError(f"the fine level keeps {orders.kept(lattice.levels) + 1} local terms, not {local.shape[-1]}")
     parent_re = parent_im = _NO_PLANES
@@ -366,7 +375,7 @@ def _downward(sources: list[LevelSources | None], lattice: Lattice, orders: Pass
         coarse = (_NO_PLANES, _NO_PLANES) if fine else (np.zeros((size, _even(kept), 3, size)),
                                                          np.zeros((size, _even(kept), 3, size)))
         tables = _level_tables(orders, level, float(np.log(lattice.level_size(level))))
-        with kernels.threads_for(size * size * _term_pairs(orders, level) / CELL_TERM_PAIRS):
+        with kernels.threads_for(size * size * _term_pairs(orders, level) / CELL_TERM_PAIRS, parallel_from):
             kernels.level_local(size, parent_re, parent_im, *l2l, level_sources.grid_re, level_sources.grid_im,
                                 level_sources.src_re, level_sources.src_im, level_sources.index, *tables, kept,
                                 *coarse, local if fine else _NO_FINE, base if fine else _NO_FINE,
