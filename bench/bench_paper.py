@@ -106,7 +106,8 @@ def pass_parts(segments, lattice, propagation_order: int, pixel_order: int, repe
         fine, sources = passes.upward(segments, cell_start, lattice, orders, lap)
         lap("M2M")
         del fine
-        passes.downward(sources, lattice, orders, min(pixel_order, propagation_order) + 1, lap)
+        passes.downward(sources, lattice, orders, min(pixel_order, propagation_order) + 1, lap,
+                        parallel_from=passes.BUILD_PARALLEL_CELLS)  # as build_passes
         parts = {"coarse": 0.0}
         for (_, before), (stage, after) in zip(laps, laps[1:]):
             name = "fine" if stage == f"L{lattice.levels}" else "coarse" if stage.startswith("L") else stage

@@ -7,12 +7,14 @@ kernels' ``skip`` leaves those cells out and every other sample as without it.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from layered import SIZE, three_layers
 
 from fmr_editor.engine import LiveStack, Settings, build, raster, rasterise
-from fmr_editor.engine.composite import NEGLIGIBLE_WEIGHT, compose_reference, hidden
+from fmr_editor.engine.composite import NEGLIGIBLE_WEIGHT, Composite, compose_reference, hidden
 from fmr_editor.engine.kernels.grid import cells_all, grid_cell_runs, near_field_grid
 from fmr_editor.engine.kernels.subcells import subcell_field_grid
 from fmr_editor.engine.raster import sample_coordinates
@@ -62,6 +64,16 @@ def test_a_layered_raster_leaves_hidden_cells_out_and_equals_the_composition_of_
     assert 0.1 < bottom.mean() < 0.5 and 0.3 < top.mean() < 0.8  # cells left out: under the circle, outside it
     assert middle is None or not middle.all()
     assert all(skips[id(layer.mask.local)] is None for layer in picture.shown if layer.masked)  # masks whole
+
+
+def test_an_image_two_layers_show_is_evaluated_wherever_either_shows_it(stack, fields):
+    """One representation under two layers: hidden under the top one inside its circle (covered), hidden as the
+    top one outside it (its mask 0); it is left out only where both hide it, here nowhere."""
+    bottom, top = stack.composite.shown[0], stack.composite.shown[2]
+    twice = Composite(SIZE, SIZE, (bottom, replace(top, image=bottom.image)))
+    got = rasterise(twice, PIXELS, PIXELS, samples=1)
+    expected = compose_reference(twice, lambda rep: fields[id(rep)], (PIXELS, PIXELS, 3))
+    assert np.abs(got - expected).max() <= NEGLIGIBLE_WEIGHT
 
 
 def test_a_layer_its_mask_hides_everywhere_evaluates_no_cell(monkeypatch):

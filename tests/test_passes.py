@@ -198,8 +198,8 @@ def test_the_downward_pass_writes_each_fine_cells_centre_value():
 
 def test_a_builds_levels_of_some_work_take_both_cores_and_an_edits_keep_one(monkeypatch):
     """``passes.BUILD_PARALLEL_CELLS``: a build's whole-level M2L runs on every thread from 256 cells of work (a
-    level of 16 x 16 coarse cells), an edit's change below ``PARALLEL_CELLS`` (4,096) on one; the threads are
-    given back after each level."""
+    level of 16 x 16 coarse cells), an edit's change and a solve's product below ``PARALLEL_CELLS`` (4,096) on
+    one; the threads are given back after each level."""
     import numba
 
     from fmr_editor.engine.fmm import level_kernels, passes
@@ -217,6 +217,9 @@ def test_a_builds_levels_of_some_work_take_both_cores_and_an_edits_keep_one(monk
                       on_border=segments.on_border, flux=segments.flux * 1.5)
     propagated(cells, edited, lattice, WIDTH, accuracy=1e-12)
     assert seen == [(4, 1), (8, 1), (16, 1), (32, 1)] and numba.get_num_threads() == threads
+    seen.clear()
+    delta_local(cells.fine, lattice, WIDTH, cells.orders)  # a solve's product
+    assert seen == [(4, 1), (8, 1), (16, 1), (32, 1)]
     assert passes.BUILD_PARALLEL_CELLS < 16 * 16 * passes._term_pairs(cells.orders, 4) / passes.CELL_TERM_PAIRS
 
 

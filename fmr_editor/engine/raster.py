@@ -225,9 +225,13 @@ def _composed(composite: Composite, field: Callable, xs: np.ndarray, ys: np.ndar
         return evaluated[id(source)]
 
     shape = (len(ys), len(xs))
+    unseen: dict[int, tuple[Representation, np.ndarray]] = {}  # an image two layers show: where neither does
     for layer, where in zip(composite.shown, hidden(composite, values, len(ys) * len(xs))):
+        image = layer.image
+        unseen[id(image)] = image, where & unseen[id(image)][1] if id(image) in unseen else where
+    for image, where in unseen.values():
         if where.any():
-            values(layer.image, hidden_cells(where.reshape(shape), xs, ys, layer.image.lattice))
+            values(image, hidden_cells(where.reshape(shape), xs, ys, image.lattice))
     return compose(composite, values, shape + (3,), coverage)
 
 

@@ -46,10 +46,11 @@ DENSE_SIDE = 32
 #: work ``level_kernels.PARALLEL_CELLS`` counts in.  A cell of the solve's products (order 20) is 6 of them.
 CELL_TERM_PAIRS = 2868
 
-#: Cells of work from which a build's whole-level M2L and L2L run on both cores (an edit's change of the
-#: levels, mostly gathers skipped, keeps ``level_kernels.PARALLEL_CELLS``).  A level of 256 cells takes
-#: 0.8-2.5 ms on one core, 0.4-1.1 on two (the Hilbert scenes' L4 and L5 at L5-L7); the second thread's wake-up,
-#: 4-8 ms while another process holds a core, is paid once a level where it is late, not once an edit's call.
+#: Cells of work from which a build's whole-level M2L and L2L run on both cores (``build_passes``; an edit's
+#: change of the levels and a solve's products, many calls, keep ``level_kernels.PARALLEL_CELLS``).  A level of
+#: 256 cells takes 0.8-2.5 ms on one core, 0.4-1.1 on two (the Hilbert scenes' L4 and L5 at L5-L7); the second
+#: thread's wake-up, 4-8 ms while another process holds a core, is paid once a level where it is late, not once
+#: a call of an edit's.
 BUILD_PARALLEL_CELLS = 256
 
 _NO_GRID = np.zeros((0,) * 6)
@@ -265,20 +266,20 @@ def _l2l_tables(parent_terms: int, child_terms: int, width: int) -> tuple[np.nda
 
 def downward(sources: list[LevelSources | None], lattice: Lattice, orders: PassOrders,
              terms: int | None = None, lap: Callable[[str], None] | None = None,
-             centres: np.ndarray | None = None) -> np.ndarray:
+             centres: np.ndarray | None = None, parallel_from: float = kernels.PARALLEL_CELLS) -> np.ndarray:
     """M2L and L2L: the fine cells' local expansions ``(2^L, 2^L, 3, terms)`` complex, zero past ``kept``.
 
     ``terms`` (at least the fine level's ``kept + 1``) defaults to ``width + 1``; ``lap(f"L{level}")``, if
     given, is called after each level's M2L and L2L; ``centres``, if given (``(2^L, 2^L, 3)`` float), is filled
-    with the far field at each fine cell's centre as the expansions are written (``Cells.centres``).
+    with the far field at each fine cell's centre as the expansions are written (``Cells.centres``).  A level runs
+    on both cores from ``parallel_from`` cells of work (a build's: ``BUILD_PARALLEL_CELLS``).
 
     Each level's entry of ``sources`` is set to None once its translations are done, so that the coarse
     levels' grids are freed before the fine level's local expansions fill (77 MB of a 1.2 GB peak at L 9).
     """
     n = lattice.cells_per_side
     local = huge_pages_zeros((n, n, 3, orders.width + 1 if terms is None else terms), complex)
-    _downward(sources, lattice, orders, local, _NO_FINE, _NO_CHANGE, _centres_out(centres, n), lap,
-              BUILD_PARALLEL_CELLS)
+    _downward(sources, lattice, orders, local, _NO_FINE, _NO_CHANGE, _centres_out(centres, n), lap, parallel_from)
     return local
 
 
@@ -393,4 +394,4 @@ def build_passes(segments, cell_start: np.ndarray, lattice: Lattice, orders: Pas
     (``lap("upward")`` between the passes; ``centres`` as ``downward``'s)."""
     fine, sources = upward(segments, cell_start, lattice, orders)
     lap("upward")
-    return fine, downward(sources, lattice, orders, terms, centres=centres)
+    return fine, downward(sources, lattice, orders, terms, centres=centres, parallel_from=BUILD_PARALLEL_CELLS)
