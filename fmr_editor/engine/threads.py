@@ -132,13 +132,9 @@ def started(work: Callable[[], object], name: str = "fmr-engine-background") -> 
 
 
 @contextmanager
-def beside(work: Future):
-    """Within the block, numba's parallel loops run on one thread while ``work`` (a ``started`` job) runs.
-
-    A one-thread factorisation holds one core: kernels on both cores beside it slow it down as much as they
-    gain, and what waits for it waits longer (a paste of 20,191 segments: 89-110 ms against 84-99).
-    """
-    if work.done():
+def one_thread(when: bool = True):
+    """Within the block, numba's parallel loops run on one thread (if ``when``); as many as before afterwards."""
+    if not when:
         yield
         return
     before = numba.get_num_threads()
@@ -147,3 +143,12 @@ def beside(work: Future):
         yield
     finally:
         numba.set_num_threads(before)
+
+
+def beside(work: Future):
+    """Within the block, numba's parallel loops run on one thread while ``work`` (a ``started`` job) runs.
+
+    A one-thread factorisation holds one core: kernels on both cores beside it slow it down as much as they
+    gain, and what waits for it waits longer (a paste of 20,191 segments: 89-110 ms against 84-99).
+    """
+    return one_thread(not work.done())

@@ -20,13 +20,11 @@ keeps LLVM from vectorising).
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-from contextlib import contextmanager
-
 import numba
 import numpy as np
 
 from ..kernels.fastmath import FAST_MATH, INV_TWO_PI
+from ..threads import one_thread
 
 #: Half-cells of zeros around each parity grid: members of an interaction list are at most 2 away.
 GRID_PAD = 2
@@ -43,18 +41,9 @@ FULL, UPPER, LOWER = 0, 1, 2
 PARALLEL_CELLS = 4096
 
 
-@contextmanager
-def threads_for(cells: float, parallel_from: float = PARALLEL_CELLS) -> Iterator[None]:
+def threads_for(cells: float, parallel_from: float = PARALLEL_CELLS):
     """Within the block, numba's parallel loops run on one thread when ``cells < parallel_from``."""
-    if cells >= parallel_from:
-        yield
-        return
-    before = numba.get_num_threads()
-    numba.set_num_threads(1)
-    try:
-        yield
-    finally:
-        numba.set_num_threads(before)
+    return one_thread(cells < parallel_from)
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH, inline="always")
