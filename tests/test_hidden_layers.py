@@ -66,6 +66,20 @@ def test_a_layered_raster_leaves_hidden_cells_out_and_equals_the_composition_of_
     assert all(skips[id(layer.mask.local)] is None for layer in picture.shown if layer.masked)  # masks whole
 
 
+def test_bands_of_any_height_leave_hidden_cells_out_and_give_the_same_picture(stack, monkeypatch):
+    """Each band finds its own hidden cells; the picture does not depend on them (a hidden sample's value is not
+    read; bands change the rest by rounding, as in a one-layer raster), and a band holds its masks and one image
+    at a time: its rows shrink with the masks it holds."""
+    whole = rasterise(stack.composite, PIXELS, PIXELS, samples=1)
+    heights, evaluate = [], raster.subcell_field_grid
+    monkeypatch.setattr(raster, "subcell_field_grid", lambda local, order, xs, ys, *args, **kwargs:
+                        heights.append(len(ys)) or evaluate(local, order, xs, ys, *args, **kwargs))
+    monkeypatch.setattr(raster, "BAND_SAMPLES", 30 * PIXELS)
+    np.testing.assert_allclose(rasterise(stack.composite, PIXELS, PIXELS, samples=1), whole, rtol=0, atol=1e-12)
+    masks = len(raster._weighing(stack.composite))
+    assert masks == 2 and set(heights) == {30 // (1 + masks), PIXELS % (30 // (1 + masks))}
+
+
 def test_an_image_two_layers_show_is_evaluated_wherever_either_shows_it(stack, fields):
     """One representation under two layers: hidden under the top one inside its circle (covered), hidden as the
     top one outside it (its mask 0); it is left out only where both hide it, here nowhere."""

@@ -29,7 +29,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from .composite import Composite, compose, hidden
+from .composite import Composite, Role, compose, hidden
 from .fmm.orders import sample_degrees
 from .kernels.grid import cells_all, grid_cell_runs
 from .kernels.local_grid import largest_offsets
@@ -184,7 +184,8 @@ def rasterise(
     density = min(len(xs) / rep.width, len(ys) / rep.height)  # samples a document pixel
     channels = 4 if coverage else 3
     image = np.empty((height, width, channels))
-    band = max(1, BAND_SAMPLES // (len(xs) * samples))
+    held = 1 + (len(_weighing(rep)) if isinstance(rep, Composite) else 0)  # fields of a band held at once
+    band = max(1, BAND_SAMPLES // (len(xs) * samples * held))
     buffer = None if samples == 1 else np.empty((band * samples, len(xs), channels))
     for row in range(0, height, band):
         rows = slice(row, min(row + band, height))
@@ -216,23 +217,38 @@ def rasterise(
 def _composed(composite: Composite, field: Callable, xs: np.ndarray, ys: np.ndarray, coverage: bool) -> np.ndarray:
     """``compose`` of the grid ``ys x xs``, each layer's image evaluated only in the cells where it can show
     (``composite.hidden``): a layer under a mask that hides it there, or under a layer that covers it, costs
-    nothing there.  ``field(rep, skip=cells)`` evaluates a representation but in ``cells``."""
-    evaluated: dict[int, np.ndarray] = {}
+    nothing there.  ``field(rep, skip=cells)`` evaluates a representation but in ``cells``.
 
-    def values(source: Representation, skip: np.ndarray | None = None) -> np.ndarray:
-        if id(source) not in evaluated:
-            evaluated[id(source)] = field(source, skip=skip)
-        return evaluated[id(source)]
+    The masks and alpha fields (``_weighing``) are evaluated once and held until ``compose`` reads them; each
+    image when ``compose`` reads it, so that the band holds one image at a time.
+    """
+    weighing = {id(source) for source in _weighing(composite)}
+    held: dict[int, np.ndarray] = {}
+
+    def weights_of(source: Representation) -> np.ndarray:
+        if id(source) not in held:
+            held[id(source)] = field(source)
+        return held[id(source)]
 
     shape = (len(ys), len(xs))
     unseen: dict[int, tuple[Representation, np.ndarray]] = {}  # an image two layers show: where neither does
-    for layer, where in zip(composite.shown, hidden(composite, values, len(ys) * len(xs))):
+    for layer, where in zip(composite.shown, hidden(composite, weights_of, len(ys) * len(xs))):
         image = layer.image
         unseen[id(image)] = image, where & unseen[id(image)][1] if id(image) in unseen else where
-    for image, where in unseen.values():
-        if where.any():
-            values(image, hidden_cells(where.reshape(shape), xs, ys, image.lattice))
+    skips = {key: hidden_cells(where.reshape(shape), xs, ys, image.lattice) for key, (image, where) in unseen.items()
+             if where.any()}
+
+    def values(source: Representation) -> np.ndarray:
+        if id(source) in weighing:
+            return held.pop(id(source)) if id(source) in held else field(source)
+        return field(source, skip=skips.get(id(source)))
+
     return compose(composite, values, shape + (3,), coverage)
+
+
+def _weighing(composite: Composite) -> tuple[Representation, ...]:
+    """The masks and alpha fields that weigh the layers ``composite`` shows (read twice: ``_composed``)."""
+    return tuple(rep for layer in composite.shown for role, rep in layer.read if role is not Role.IMAGE)
 
 
 def hidden_cells(hidden_samples: np.ndarray, xs: np.ndarray, ys: np.ndarray, lattice) -> np.ndarray:
