@@ -4,7 +4,8 @@
 alpha's, opacity and colour transform; ``compose`` blends their values sample
 by sample, ``out = m S(V) + (1 - m) out_below`` with ``m = clamp(a, 0, 1)
 opacity clamp(M, 0, 1)`` (``a`` the layer's alpha field, 1 for an opaque
-layer) and ``S(V) = clamp(T(clamp(V, 0, 1)), 0, 1)`` what the layer shows,
+layer; 0 or 1 within ``NEGLIGIBLE_WEIGHT`` of them, ``snapped``) and
+``S(V) = clamp(T(clamp(V, 0, 1)), 0, 1)`` what the layer shows,
 from the topmost layer that covers everything (what lies below it cannot
 show).
 Clamping each layer before blending makes the picture below a layer what the

@@ -222,7 +222,6 @@ def _composed(composite: Composite, field: Callable, xs: np.ndarray, ys: np.ndar
     The masks and alpha fields (``_weighing``) are evaluated once and held until ``compose`` reads them; each
     image when ``compose`` reads it, so that the band holds one image at a time.
     """
-    weighing = {id(source) for source in _weighing(composite)}
     held: dict[int, np.ndarray] = {}
 
     def weights_of(source: Representation) -> np.ndarray:
@@ -239,8 +238,8 @@ def _composed(composite: Composite, field: Callable, xs: np.ndarray, ys: np.ndar
              if where.any()}
 
     def values(source: Representation) -> np.ndarray:
-        if id(source) in weighing:
-            return held.pop(id(source)) if id(source) in held else field(source)
+        if id(source) in held:
+            return held.pop(id(source))
         return field(source, skip=skips.get(id(source)))
 
     return compose(composite, values, shape + (3,), coverage)
