@@ -30,6 +30,7 @@ from collections.abc import Callable
 import numpy as np
 
 from .composite import Composite, Role, compose, hidden
+from .fmm.lattice import Lattice
 from .fmm.orders import sample_degrees
 from .kernels.grid import cells_all, grid_cell_runs
 from .kernels.local_grid import largest_offsets
@@ -250,7 +251,7 @@ def _weighing(composite: Composite) -> tuple[Representation, ...]:
     return tuple(rep for layer in composite.shown for role, rep in layer.read if role is not Role.IMAGE)
 
 
-def hidden_cells(hidden_samples: np.ndarray, xs: np.ndarray, ys: np.ndarray, lattice) -> np.ndarray:
+def hidden_cells(hidden_samples: np.ndarray, xs: np.ndarray, ys: np.ndarray, lattice: Lattice) -> np.ndarray:
     """``(2^L, 2^L)`` bool: the cells of ``lattice`` all of whose samples of the grid ``ys x xs`` are
     ``hidden_samples (len(ys), len(xs))`` (and those with none)."""
     n, size = lattice.cells_per_side, lattice.cell_size

@@ -177,21 +177,17 @@ class CopiedCells:
     def build(cls, clone: SeamlessClone, lattice: Lattice, settings: Settings) -> CopiedCells:
         """The cells of ``clone`` placed on ``lattice``; on one core while its boundary system is factorised on
         the other (``threads.beside``)."""
-        with beside(clone.cloned.factorising):
-            return cls._build(clone, lattice, settings)
-
-    @classmethod
-    def _build(cls, clone: SeamlessClone, lattice: Lattice, settings: Settings) -> CopiedCells:
         order = settings.propagation_order
         orders = pass_orders(lattice.levels, min(settings.order, order), order)
-        gamma, gamma_start = cut_into_cells(_boundary(clone), lattice)
-        cells = region_cells(gamma, clone.region, lattice)
-        levels = pass_levels(cells, lattice)
-        segments, cell_start = cut_into_cells(clone.copied, lattice)
-        occupied = np.flatnonzero(np.diff(cell_start))
-        moments = fine_multipoles(segments, cell_start, lattice, order, occupied)
-        m2l = interactions(occupied, moments, lattice, order, levels, orders)
-        edges, edge_start = cut_into_cells(region_edges(clone), lattice)
+        with beside(clone.cloned.factorising):
+            gamma, gamma_start = cut_into_cells(_boundary(clone), lattice)
+            cells = region_cells(gamma, clone.region, lattice)
+            levels = pass_levels(cells, lattice)
+            segments, cell_start = cut_into_cells(clone.copied, lattice)
+            occupied = np.flatnonzero(np.diff(cell_start))
+            moments = fine_multipoles(segments, cell_start, lattice, order, occupied)
+            m2l = interactions(occupied, moments, lattice, order, levels, orders)
+            edges, edge_start = cut_into_cells(region_edges(clone), lattice)
         return cls(lattice, cells, levels, segments, cell_start, m2l, orders, gamma, gamma_start, edges, edge_start)
 
     def at(self, points: np.ndarray) -> np.ndarray:
