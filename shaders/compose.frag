@@ -7,15 +7,18 @@
 // evaluated window images (float, unclamped); the blend unit does the mixing (SRC_ALPHA, ONE_MINUS_SRC_ALPHA),
 // so this writes (S(V), m).  Outside the canvas it writes the checkerboard, as canvas.frag does (a blurred
 // layer's image holds its reflection there).
-// u_tint = 1 draws the tint of a mask being edited over the result: red, half strength where it hides all.
-// u_base = 1 draws the checkerboard under the layers when the bottom one does not cover the canvas: where the
-// picture is not opaque, it shows through (the colour over black plus (1 - coverage) checkerboard).
+// The loader (picture_renderer.py) inserts after the #version line, one program for each kind of pass (llvmpipe
+// runs both sides of a branch, so what a pass does not read costs nothing only when it is compiled out):
+//     #define PASS 0|1|2       0: the checkerboard under the layers, when the bottom one does not cover the
+//                              canvas (where the picture is not opaque, it shows through: the colour over black
+//                              plus (1 - coverage) checkerboard); 1: a layer; 2: the tint of a mask being edited,
+//                              over the result (red, half strength where it hides all)
+//     #define MASKED 0|1       1: read u_mask
+//     #define TRANSLUCENT 0|1  1: read u_alpha
 
 uniform sampler2D u_image;
 uniform sampler2D u_mask;
 uniform sampler2D u_alpha;
-uniform int u_masked;          // 1: read u_mask
-uniform int u_translucent;     // 1: read u_alpha
 uniform float u_mask_base;
 uniform int u_inverted;
 uniform float u_opacity;
@@ -26,9 +29,7 @@ uniform dvec2 u_origin;        // as canvas.frag: the same test of which pixels 
 uniform double u_step;
 uniform float u_window_height;
 uniform vec2 u_canvas;
-uniform int u_tint;            // 1: instead, tint red what the mask hides (the mask being edited)
-uniform int u_base;            // 1: instead, the checkerboard that a picture not opaque everywhere is drawn over
-uniform float u_checker;       // its square, window pixels (as canvas.frag's outside the canvas)
+uniform float u_checker;       // the checkerboard's square, window pixels (as canvas.frag's outside the canvas)
 
 const vec3 LUMA = vec3(0.2126, 0.7152, 0.0722);
 
@@ -36,29 +37,33 @@ out vec4 colour;
 
 void main() {
     ivec2 texel = ivec2(gl_FragCoord.xy);
-    vec3 value = texelFetch(u_image, texel, 0).rgb;
     vec2 window = vec2(gl_FragCoord.x, u_window_height - gl_FragCoord.y);
+    ivec2 square = ivec2(floor(window / u_checker));
+    vec4 checker = vec4(vec3(((square.x + square.y) & 1) == 0 ? 0.8 : 0.6), 1.0);
+#if PASS == 0
+    colour = checker;
+#else
     dvec2 position = u_origin + dvec2(window) * u_step;
     bool outside = position.x < 0.0 || position.y < 0.0 || position.x > double(u_canvas.x)
                    || position.y > double(u_canvas.y);
-    if (u_base != 0 || outside) {
-        ivec2 square = ivec2(floor(window / u_checker));
-        colour = vec4(vec3(((square.x + square.y) & 1) == 0 ? 0.8 : 0.6), 1.0);
-        return;
-    }
     float m = u_mask_base;
-    if (u_masked != 0) {
-        m += dot(texelFetch(u_mask, texel, 0).rgb, LUMA);
-    }
+#if MASKED
+    m += dot(texelFetch(u_mask, texel, 0).rgb, LUMA);
+#endif
     if (u_inverted != 0) {
         m = 1.0 - m;
     }
-    if (u_tint != 0) {
-        colour = vec4(1.0, 0.1, 0.1, 0.5 * (1.0 - clamp(m, 0.0, 1.0)));
-        return;
-    }
-    vec3 shown = clamp(u_matrix * clamp(value, 0.0, 1.0) + u_offset, 0.0, 1.0);
-    float a = u_translucent != 0 ? clamp(texelFetch(u_alpha, texel, 0).r, 0.0, 1.0) : 1.0;
+#if PASS == 2
+    colour = outside ? checker : vec4(1.0, 0.1, 0.1, 0.5 * (1.0 - clamp(m, 0.0, 1.0)));
+#else
+    vec3 shown = clamp(u_matrix * clamp(texelFetch(u_image, texel, 0).rgb, 0.0, 1.0) + u_offset, 0.0, 1.0);
+#if TRANSLUCENT
+    float a = clamp(texelFetch(u_alpha, texel, 0).r, 0.0, 1.0);
+#else
+    float a = 1.0;
+#endif
     float weight = a * u_opacity * clamp(m, 0.0, 1.0);
-    colour = vec4(shown, weight <= u_negligible ? 0.0 : weight >= 1.0 - u_negligible ? 1.0 : weight);
+    colour = outside ? checker : vec4(shown, weight <= u_negligible ? 0.0 : weight >= 1.0 - u_negligible ? 1.0 : weight);
+#endif
+#endif
 }

@@ -73,6 +73,8 @@ def test_the_canvas_shows_the_composite_and_follows_edits_of_one_layer(canvas, q
     check(canvas, stack.composite)
     since = {key: renderers[key].evaluations - before[key] for key in before}
     assert since.pop((middle.id, "mask")) == {"cells": 1}  # the dab's cells only
+    # its image where the dab's near points leave the mask unbounded (render.culling), if hidden there before
+    assert set(since.pop((middle.id, "image"))) <= {"none", "cells"}
     assert all(set(counts) <= {"none"} for counts in since.values())  # the others evaluated nothing
 
     recoloured = layer_edits.set_transform(dabbed, 0, hue_rotation(200))

@@ -14,6 +14,10 @@ For a cell, with ``|xi|, |eta| <= 1/2`` inside it:
   most ``|dE| max|S| + |dC| / 2``, ``|S| <= (h ln+ R + 2m (1 - ln m)) / 2pi``
   with ``R = 2 sqrt(2)`` cells the farthest a pixel of the cell gets from its
   block and ``m = min(h / 2, 1)`` (the logarithm's integrable singularity).
+
+The same sums bound a cell's value about its centre (``value_bounds``) where no
+segment or near point adds to it (``near_items``): where a mask surely hides a
+layer, or surely shows it whole (``culling``).
 """
 
 from __future__ import annotations
@@ -21,6 +25,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..engine import Representation
+from . import packing
 
 
 def far_bound(delta: np.ndarray, order: int, harmonic: bool) -> np.ndarray:
@@ -33,19 +38,74 @@ def far_bound(delta: np.ndarray, order: int, harmonic: bool) -> np.ndarray:
     order : int
     harmonic : bool
     """
-    delta = np.asarray(delta, np.float32)
-    terms = order + 1
-    if harmonic:
-        square = (delta * delta).reshape(-1, terms, 8)  # per l: Re rgb 0, Im rgb 0
-        size = np.sqrt(square[:, :, 0:3] + square[:, :, 4:7])  # |dK_l| per channel, (m, l, channel)
-        weight = 2.0 ** (-0.5 * np.arange(terms))
-    else:
-        size = np.abs(delta.reshape(-1, terms**2, 4)[:, :, :3])
-        degree = np.add.outer(np.arange(terms), np.arange(terms)).ravel()
-        weight = 2.0 ** (-degree.astype(np.float64))
+    size, weight = _term_sizes(delta, order, harmonic)
     # float32 sums of at most a few hundred terms: within 1e-5 relative, covered by the last factor
     per_channel = np.tensordot(size, weight.astype(np.float32), axes=([1], [0]))
     return per_channel.max(axis=1, initial=0.0).astype(np.float64) * 1.0001
+
+
+def value_bounds(rows: np.ndarray, order: int, harmonic: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Each cell's far field at its centre and how far any of its pixels may get from that, per channel.
+
+    The spread holds the shader's float32 rounding too: each of Horner's ``2 (order + 1)`` steps rounds by at
+    most ``2^-24`` of the terms' sizes, so the shader's value at any pixel of the cell lies within it as well.
+
+    Parameters
+    ----------
+    rows : numpy.ndarray
+        ``(m, floats)`` packed coefficients of cells (``packing.cell_coefficients``, one row a cell).
+    order : int
+    harmonic : bool
+
+    Returns
+    -------
+    centre, spread : numpy.ndarray
+        ``(m, 3)`` float64.
+    """
+    rows = np.asarray(rows, np.float32)
+    size, weight = _term_sizes(rows, order, harmonic)
+    centre = rows.reshape(len(rows), -1, 4)[:, 0, :3].astype(np.float64)  # Re K_0, or c_00
+    tail = np.tensordot(size[:, 1:].astype(np.float64), weight[1:], axes=([1], [0]))
+    rounding = 4 * (order + 1) * 2.0**-24
+    return centre, tail * 1.0001 + (np.abs(centre) + tail) * rounding
+
+
+def _term_sizes(rows: np.ndarray, order: int, harmonic: bool) -> tuple[np.ndarray, np.ndarray]:
+    """``(m, terms, 3)`` float32 sizes of the packed coefficients' terms per channel, and ``(terms,)`` the largest
+    each term's monomial gets over a cell: with ``|xi|, |eta| <= 1/2``, ``|z^l| <= 2^(-l/2)`` and
+    ``|xi^i eta^j| <= 2^(-i-j)``."""
+    rows = np.asarray(rows, np.float32)
+    terms = order + 1
+    if harmonic:
+        square = (rows * rows).reshape(-1, terms, 8)  # per l: Re rgb 0, Im rgb 0
+        return np.sqrt(square[:, :, 0:3] + square[:, :, 4:7]), 2.0 ** (-0.5 * np.arange(terms))  # |K_l|
+    degree = np.add.outer(np.arange(terms), np.arange(terms)).ravel()
+    return np.abs(rows.reshape(-1, terms**2, 4)[:, :, :3]), 2.0 ** (-degree.astype(np.float64))
+
+
+def cell_value_bounds(rep: Representation) -> tuple[np.ndarray, np.ndarray]:
+    """``value_bounds`` of every cell of ``rep`` as the canvas packs it, flat cells, and an infinite spread where
+    segments or near points add to the far field (``near_items``): what ``CanvasData.value_bounds`` keeps."""
+    n = rep.lattice.cells_per_side
+    harmonic = packing.uses_harmonic(rep)
+    centre, spread = value_bounds(packing.cell_coefficients(rep, harmonic=harmonic).reshape(n * n, -1), rep.order,
+                                  harmonic)
+    return unbounded_near(centre, spread, near_items(rep).ravel())
+
+
+def unbounded_near(centre: np.ndarray, spread: np.ndarray, near: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(centre, spread)`` with an infinite spread in the ``near`` cells (bool, flat)."""
+    return centre, np.where(near[:, None], np.inf, spread)
+
+
+def near_items(rep: Representation) -> np.ndarray:
+    """``(2^L, 2^L)`` bool: the cells whose pixels take more than the far field, segments in their 3x3 block
+    or near points of their own (the shader's lists)."""
+    n = rep.lattice.cells_per_side
+    near = _block(np.diff(rep.cell_start).reshape(n, n).astype(np.float64)) > 0
+    if rep.points is not None and len(rep.points.near):
+        near |= (np.diff(rep.points.near.cell_start) > 0).reshape(n, n)
+    return near
 
 
 def single_layer_bound(length: np.ndarray, cell_size: float) -> np.ndarray:

@@ -63,6 +63,8 @@ class CanvasData:
         self.layout: ShaderLayout | None = None
         self._segment_table: packing.SegmentTable | None = None
         self._mirror = np.zeros((0, 0), np.float32)  # the coefficients as uploaded, a row per cell
+        self._far: tuple[np.ndarray, np.ndarray] | None = None  # bounds.value_bounds of the rows, once asked for
+        self._near: np.ndarray | None = None  # bounds.near_items, flat, once asked for
 
     def upload(self, rep: Representation) -> None:
         """Upload all of ``rep``."""
@@ -73,6 +75,7 @@ class CanvasData:
         self._upload_segments(rep)
         self._upload_points(rep)
         self.rep = rep
+        self._far = self._near = None
 
     def update(self, rep: Representation, cells: np.ndarray,
                same_geometry: bool) -> tuple[np.ndarray, np.ndarray, bool]:
@@ -96,16 +99,31 @@ class CanvasData:
             delta = fresh - self._mirror[cells]
             moved = bounds.far_bound(delta, self.layout.order, self.layout.harmonic)
             self._mirror[cells] = fresh
+            if self._far is not None:
+                for kept, rows in zip(self._far, bounds.value_bounds(fresh, self.layout.order, self.layout.harmonic)):
+                    kept[cells] = rows
             for start, stop in packing.cell_runs(cells):
                 self._buffers["u_coeffs"].set_subdata(start * self.layout.texels, self._mirror[start:stop])
         old = self.rep
         if rep.segments is not old.segments or rep.cell_start is not old.cell_start:
             self._upload_segments(rep, same_geometry=same_geometry)
+            self._near = None
         near_points_changed = _near(rep) is not _near(old)
         if near_points_changed:
             self._upload_points(rep)
+            self._near = None
         self.rep = rep
         return delta, moved, near_points_changed
+
+    def value_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """Each cell's value at its centre and how far the shader's value at any of its pixels may get from it,
+        ``(cells^2, 3)`` each, flat cells: ``bounds.value_bounds`` of the far field, an infinite spread where
+        segments or near points add to it (``bounds.near_items``).  Kept up to date by ``update`` once asked for."""
+        if self._far is None:
+            self._far = bounds.value_bounds(self._mirror, self.layout.order, self.layout.harmonic)
+        if self._near is None:
+            self._near = bounds.near_items(self.rep).ravel()
+        return bounds.unbounded_near(*self._far, self._near)
 
     def upload_change(self, delta: np.ndarray, table: packing.SegmentTable) -> None:
         """The change tables of a delta pass: far-field ``delta`` rows and the segments' change ``table``."""
@@ -114,7 +132,8 @@ class CanvasData:
         self._buffers["delta_segment_start"].set_data(table.cell_start)
 
     def bind(self, cells: np.ndarray | None, delta: bool) -> None:
-        """Bind every buffer to its unit (``UNITS``): the change tables for a ``delta`` pass; ``cells`` listed."""
+        """Bind every buffer to its unit (``UNITS``): the change tables for a ``delta`` pass; ``cells`` (or runs of
+        cells) listed."""
         if cells is not None:
             self._buffers["u_cell_list"].set_data(cells.astype(np.int32))
         for name, unit in UNITS.items():

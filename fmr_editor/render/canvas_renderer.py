@@ -35,7 +35,7 @@ from . import bounds, packing
 from .cached_image import BACKGROUND, CachedImage, show_scaled
 from .canvas_data import UNITS, CanvasData, ShaderLayout
 from .gl import Framebuffer, Program, VertexArray, additive, in_plain_state, shader_source
-from .view import View, integer_shift, uncovered
+from .view import View, cells_rect, integer_shift, row_runs, uncovered, visible_cells
 
 #: Default ``CanvasRenderer.tolerance``: a twentieth of an 8-bit step.
 TOLERANCE = 0.05 / 255
@@ -77,6 +77,10 @@ class CanvasRenderer:
         Counts of the latest ``update``'s cells: ``"changed"`` (reported),
         ``"delta"`` (their change added), ``"evaluate"`` (to be evaluated in
         full by the next ``draw``) and ``"segments"`` (in the delta pass).
+    needed : numpy.ndarray or None
+        ``(2^L, 2^L)`` bool: the cells whose pixels an evaluation must bring
+        up to date; the others' may be left ``stale`` until they are needed
+        (a layer hidden there, ``culling``).  None: every cell's.
     """
 
     def __init__(self, cache_format: int = GL.GL_RGBA32F, checker: float = 8.0, tolerance: float = TOLERANCE) -> None:
@@ -97,6 +101,8 @@ class CanvasRenderer:
         self._reflect = False
         self.reach = 0.0
         self._redrawn = np.zeros(0, int)  # the cells whose pixels the latest update changes
+        self._stale = np.zeros((0, 0), bool)  # cells whose cached pixels are not current (left while not needed)
+        self.needed: np.ndarray | None = None
 
     @property
     def reflect(self) -> bool:
@@ -126,6 +132,16 @@ class CanvasRenderer:
         """The cached float image's framebuffer."""
         return self._cache.image
 
+    @property
+    def stale(self) -> np.ndarray:
+        """``(2^L, 2^L)`` bool: the cells whose pixels in the cached image are not current (not ``needed`` when
+        they were to be evaluated)."""
+        return self._stale.copy()
+
+    def value_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """``CanvasData.value_bounds`` of the uploaded representation."""
+        return self._data.value_bounds()
+
     def take_changed(self) -> tuple[int, int, int, int] | None:
         """GL pixels ``(x0, y0, x1, y1)`` of the cached image changed since the last call; None: none."""
         return self._cache.take_changed()
@@ -138,6 +154,7 @@ class CanvasRenderer:
         self._rep = rep
         self._unseen = np.zeros((n, n))
         self._dirty = np.zeros((n, n), bool)
+        self._stale = np.zeros((n, n), bool)
         self._cached_view = None
 
     @in_plain_state
@@ -274,18 +291,9 @@ class CanvasRenderer:
 
     def _touch(self, view: View, cells: np.ndarray | None = None) -> None:
         """Note that the cache changed: everywhere, or over the window rectangles of ``cells``."""
-        whole = (0, 0, view.width, view.height)
-        if cells is None:
-            rect = whole
-        else:
-            n, size = self._layout.cells, self._layout.cell_size * view.scale
-            columns, rows = cells % n, cells // n
-            x0 = int(np.floor(columns.min() * size + view.offset_x)) - 1
-            x1 = int(np.ceil((columns.max() + 1) * size + view.offset_x)) + 1
-            top = int(np.floor(rows.min() * size + view.offset_y)) - 1
-            bottom = int(np.ceil((rows.max() + 1) * size + view.offset_y)) + 1
-            rect = (max(x0, 0), max(view.height - bottom, 0), min(x1, view.width), min(view.height - top, view.height))
-        self._cache.touch(rect)
+        layout = self._layout
+        self._cache.touch((0, 0, view.width, view.height) if cells is None
+                          else cells_rect(view, cells, layout.cells, layout.cell_size))
 
     def _needs_full(self, view: View) -> bool:
         cached = self._cached_view
@@ -308,41 +316,61 @@ class CanvasRenderer:
             self.evaluations["blank"] += 1
             return
         shift = integer_shift(self._cached_view, view)
+        needed = self.needed if self.needed is not None and self.needed.shape == self._dirty.shape else None
         if self._needs_full(view):
-            self._full(view)
+            self._full(view, needed)
         else:
             self.last_evaluation = "none"
             if shift is not None and shift != (0, 0):
                 self._shift(view, *shift)
                 self.last_evaluation = "shift"
-            if self._dirty.any():
-                self._evaluate_cells(view)
+            todo = self._dirty | self._stale
+            if needed is not None:
+                self._stale |= self._dirty & ~needed
+                todo &= needed
+            if todo.any():
+                self._evaluate_cells(view, todo, needed)
                 if self.last_evaluation == "none":
                     self.last_evaluation = "cells"
         self._cached_view = view
         self._dirty[:] = False
         self.evaluations[self.last_evaluation] += 1
 
-    def _full(self, view: View) -> None:
+    def _full(self, view: View, needed: np.ndarray | None = None) -> None:
+        """Evaluate the whole window, or only the ``needed`` cells it shows when they are few."""
         self._cache.bind(view.width, view.height)
-        self._pass(view)
         self.last_evaluation = "full"
-        self._unseen[:] = 0.0
+        cells = None if needed is None else visible_cells(view, needed, self._layout.cell_size)
+        if cells is None:
+            self._pass(view)
+            self._unseen[:] = 0.0
+            self._stale[:] = False
+            return
+        self._touch(view)  # a new view: all of it is new
+        self._stale[:] = True
+        self._evaluated(view, cells)
 
-    def _evaluate_cells(self, view: View) -> None:
-        """Re-evaluate the pixels of the dirty cells that the window shows."""
-        n, size = self._layout.cells, self._layout.cell_size * view.scale
-        rows, columns = np.nonzero(self._dirty)
-        visible = ((columns + 1) * size + view.offset_x >= 0) & (columns * size + view.offset_x <= view.width) \
-            & ((rows + 1) * size + view.offset_y >= 0) & (rows * size + view.offset_y <= view.height)
-        cells = (rows * n + columns)[visible].astype(np.int32)
+    def _most(self, view: View, cells: np.ndarray) -> bool:
+        """Whether ``cells`` cover so much of the window that one pass over all of it costs less."""
+        return len(cells) * (self._layout.cell_size * view.scale + 1) ** 2 > FULL_SHARE * view.width * view.height
+
+    def _evaluate_cells(self, view: View, todo: np.ndarray, needed: np.ndarray | None) -> None:
+        """Re-evaluate the pixels of the ``todo`` cells that the window shows."""
+        cells = visible_cells(view, todo, self._layout.cell_size)
         if len(cells) == 0:
             return
-        if len(cells) * (size + 1) ** 2 > FULL_SHARE * view.width * view.height:
-            self._full(view)
+        if self._most(view, cells):
+            self._full(view, needed)
             return
         self._cache.bind()
-        self._pass(view, cells)
+        self._evaluated(view, cells)
+
+    def _evaluated(self, view: View, cells: np.ndarray) -> None:
+        """Evaluate ``cells`` (flat indices) into the bound image: their pixels are current."""
+        if len(cells):
+            self._pass(view, cells)
+        self._stale.ravel()[cells] = False
+        self._unseen.ravel()[cells] = 0.0
 
     def _shift(self, view: View, dx: int, dy: int) -> None:
         """Move the cached image by ``(dx, dy)`` window pixels and evaluate the strips it uncovers."""
@@ -358,19 +386,25 @@ class CanvasRenderer:
     def _pass(self, view: View, cells: np.ndarray | None = None, delta: bool = False) -> None:
         """Run the shader over the window or over the listed cells (flat indices), into the bound framebuffer.
 
-        ``delta``: the change tables stand in for the data, coefficient rows by instance.
+        ``delta``: the change tables stand in for the data, coefficient rows by instance (a quad a cell); else
+        the cells are drawn as runs along their rows, each pixel evaluated as by a pass over the window.
         """
-        instances = 0 if cells is None else len(cells)
         self._touch(view, cells)
+        listed = cells
+        if cells is not None and not delta:
+            grid = np.zeros(self._layout.cells**2, bool)
+            grid[cells] = True
+            listed = row_runs(grid.reshape(self._layout.cells, -1))
+        instances = 0 if cells is None else len(listed)
         program = self._program()
         program.use()
-        self._data.bind(cells, delta)
+        self._data.bind(listed, delta)
         layout = self._layout
         program.set(**UNITS)
         program.set(
             u_origin=(-view.offset_x / view.scale, -view.offset_y / view.scale), u_step=1.0 / view.scale,
             u_window_height=view.height, u_canvas=(layout.width, layout.height), u_cells=layout.cells,
-            u_cell_size=layout.cell_size, u_checker=self.checker, u_instanced=int(instances > 0),
+            u_cell_size=layout.cell_size, u_checker=self.checker, u_instanced=0 if cells is None else 1 if delta else 2,
             u_cell_origin=(view.offset_x, view.offset_y), u_cell_window=layout.cell_size * view.scale,
             u_window=(view.width, view.height), u_delta=int(delta), u_rows_by_instance=int(delta),
             u_reflect=int(self._reflect),

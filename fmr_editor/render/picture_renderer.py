@@ -10,7 +10,9 @@ clamped value in it, for a translucent layer), as ``engine.composite.compose``
 on the CPU; one pass for all layers, with sampler arrays, was twice as slow
 under llvmpipe), over the whole window after a change of the layers' settings,
 else over the rectangle whose fields changed; a redraw with nothing changed
-copies that image.  A picture of one plain
+copies that image.  A layer is evaluated and composed only on the cells where
+it may show (``culling``: not where its mask surely hides it or a layer above
+surely covers it).  A picture of one plain
 layer is drawn by its field's renderer alone, exactly as before layers.
 """
 
@@ -24,17 +26,23 @@ from OpenGL import GL
 
 from ..engine import NEGLIGIBLE_WEIGHT, Composite, FieldKey, LayerFields, Representation, Role
 from ..engine.blur import largest_blur
+from . import culling
 from .blur_filter import BlurFilter, BlurPlan, FramebufferPool, read_first_channel
 from .cached_image import CachedImage, show_scaled, union
 from .canvas_renderer import TOLERANCE, CanvasRenderer
 from .gl import BufferTexture, Program, VertexArray, in_plain_state, over, plain_state, shader_source
-from .view import View, integer_shift, uncovered
+from .view import View, cells_rect, integer_shift, row_runs, uncovered, visible_grid
 
 #: The fields of a blurred layer that are evaluated beyond the window, reflected at the canvas border.
 REFLECTED = (Role.IMAGE, Role.ALPHA, Role.BLUR)
 
 #: ``changed`` of a field to upload whole (a new lattice, or changes merged across lattices).
 WHOLE = None
+#: The texture unit of the compose passes' cell lists (after the image, mask and alpha).
+CELL_LIST_UNIT = 3
+#: The kinds of compose pass (``shaders/compose.frag``'s ``PASS``): the checkerboard under the layers, a layer, the
+#: tint of a mask being edited.
+BASE_PASS, LAYER_PASS, TINT_PASS = 0, 1, 2
 
 
 def picture_of(rep: Representation | Composite) -> Composite:
@@ -86,8 +94,11 @@ class PictureRenderer:
         self._composed = CachedImage(GL.GL_RGBA32F)
         self._composed_view: View | None = None  # what the composed image shows; None: compose it all again
         self._pending = False  # fields may have something to evaluate (an update since the last draw)
-        self._program: Program | None = None
+        self._programs: dict[tuple[int, bool, bool], Program] = {}  # compose programs by (pass, masked, translucent)
         self._vao: VertexArray | None = None
+        self._cell_list: BufferTexture | None = None  # the cells a compose pass draws
+        self._plan: culling.CullPlan | None = None  # where each layer shows, as last composed
+        self._planned: tuple[tuple, culling.CullPlan | None] | None = None  # the latest plan and what it was made of
         self._last_key: FieldKey | None = None
         self._background: CanvasRenderer | None = None  # draws the plain background when there is no picture
         self._overlay: int | None = None
@@ -190,11 +201,14 @@ class PictureRenderer:
         return renderer.last_evaluation if renderer is not None else "none"
 
     def _single(self) -> CanvasRenderer | None:
-        """The renderer that draws the picture by itself: one plain layer shown; else None."""
+        """The renderer that draws the picture by itself (all of it: no cell left out): one plain layer shown;
+        else None."""
         shown = self._picture.shown if self._picture is not None else ()
         if (len(shown) == 1 and shown[0].covers and shown[0].transform.is_identity and shown[0].blur is None
                 and self._overlay is None):
-            return self.renderers[shown[0].id, Role.IMAGE]
+            single = self.renderers[shown[0].id, Role.IMAGE]
+            single.needed = None
+            return single
         return None
 
     # -- drawing ------------------------------------------------------------------------------
@@ -254,8 +268,20 @@ class PictureRenderer:
         if not self._filters and self._blur_gl is not None:
             self._blur_gl[3].delete()  # the blur's working images, while nothing is blurred
         self._plans = {key: plan for key, plan in self._plans.items() if key in blurred}
+        plan = self._cull(shown, tinted, blurred)
+        for key, renderer in self.renderers.items():
+            exempt = plan is None or key not in keys or (tinted is not None and key == (tinted.id, Role.MASK))
+            renderer.needed = None if exempt else plan.needed(key, renderer.representation.lattice.cells_per_side)
         evaluated = {self.renderers[key].evaluate(view) for key in keys}
         changed = None
+        if plan is not self._plan and self._composed_view == view:  # where a layer shows or no longer does
+            if plan is None or self._plan is None:
+                self._composed_view = None
+            else:
+                differ = plan.changed(self._plan)
+                if differ is not None:
+                    changed = cells_rect(view, np.flatnonzero(differ), plan.cells, plan.cell_size)
+        self._plan = plan
         for layer in blurred.values():
             region = self._blur(layer, view)
             if region is not None:
@@ -269,6 +295,16 @@ class PictureRenderer:
             self._compose(view, shown, tinted, changed)
         self._pending = False
         return "none" if evaluated <= {"none"} else "fields"
+
+    def _cull(self, shown: tuple[LayerFields, ...], tinted: LayerFields | None,
+              blurred: dict[int, LayerFields]) -> culling.CullPlan | None:
+        """Where each shown layer may show (the last plan while nothing it depends on changed)."""
+        made_of = (shown, tinted.id if tinted is not None else None, tuple(blurred))
+        if self._planned is None or self._planned[0] != made_of:
+            unbounded = frozenset((layer_id, Role.ALPHA) for layer_id in blurred)  # a blurred alpha
+            plan = culling.plan(shown, lambda key: self.renderers[key].value_bounds(), unbounded)
+            self._planned = (made_of, plan)
+        return self._planned[1]
 
     def _blur(self, layer: LayerFields, view: View) -> tuple[int, int, int, int] | None:
         """Bring ``layer``'s blurred image (and alpha) up to date for ``view``: the GL pixels of the window
@@ -329,44 +365,79 @@ class PictureRenderer:
     def _compose(self, view: View, shown: tuple[LayerFields, ...], tinted: LayerFields | None,
                  rect: tuple[int, int, int, int] | None = None) -> None:
         """Compose the layers into the composed image: all of it, or the GL pixels ``rect`` of it."""
-        if self._program is None:
-            self._program = Program(shader_source("window.vert"), shader_source("compose.frag"), label="compose shader")
+        if self._vao is None:
             self._vao = VertexArray()
+            self._cell_list = BufferTexture(GL.GL_R32I)
         self._composed.bind(view.width, view.height)
         if rect is not None:
             x0, y0, x1, y1 = rect
             GL.glEnable(GL.GL_SCISSOR_TEST)
             GL.glScissor(x0, y0, max(x1 - x0, 0), max(y1 - y0, 0))
-        covering = bool(shown) and shown[0].covers  # the bottom layer is drawn as it is: no clear, no blending
-        program = self._program
-        program.use()
-        program.set(u_image=0, u_mask=1, u_alpha=2, u_origin=(-view.offset_x / view.scale, -view.offset_y / view.scale),
-                    u_step=1.0 / view.scale, u_window_height=view.height,
-                    u_canvas=(self._picture.width, self._picture.height), u_checker=self._options[1], u_base=0)
+        plan = self._plan
+        # the bottom layer drawn as it is where it covers all: no clear, no blending
+        covering = bool(shown) and shown[0].covers and (plan is None or plan.shown[shown[0].id] is None)
         self._vao.bind()
         if covering:
-            self._layer_pass(program, shown[0])
+            self._layer_pass(shown[0], view)
         else:  # where the layers leave the picture clear, the checkerboard shows
-            program.set(u_base=1)
+            self._use(BASE_PASS, False, False, view)
             GL.glDrawArrays(GL.GL_TRIANGLE_STRIP, 0, 4)
-            program.set(u_base=0)
         with over():
             for layer in shown[covering:]:
-                self._layer_pass(program, layer)
+                self._layer_pass(layer, view)
             if tinted is not None:
-                self._layer_pass(program, tinted, tint=True)
+                self._layer_pass(tinted, view, tint=True)
         GL.glBindVertexArray(0)
         GL.glUseProgram(0)
         for unit in (2, 1, 0):
             GL.glActiveTexture(GL.GL_TEXTURE0 + unit)
             GL.glBindTexture(GL.GL_TEXTURE_2D, 0)
+        GL.glActiveTexture(GL.GL_TEXTURE0 + CELL_LIST_UNIT)
+        GL.glBindTexture(GL.GL_TEXTURE_BUFFER, 0)
+        GL.glActiveTexture(GL.GL_TEXTURE0)
         GL.glDisable(GL.GL_SCISSOR_TEST)
         self._composed.touch(rect or (0, 0, view.width, view.height))
         self._composed_view = view
         self.composed += 1
 
-    def _layer_pass(self, program: Program, layer: LayerFields, tint: bool = False) -> None:
-        """Blend ``layer`` over the composed image (bound); ``tint``: its mask's tint instead, enabled or not."""
+    def _use(self, kind: int, masked: bool, translucent: bool, view: View) -> Program:
+        """Make the compose program of a ``kind`` of pass current, its view and units set."""
+        key = (kind, masked, translucent)
+        if key not in self._programs:
+            defines = {"PASS": kind, "MASKED": int(masked), "TRANSLUCENT": int(translucent)}
+            self._programs[key] = Program(shader_source("canvas.vert"), shader_source("compose.frag", defines),
+                                          label="compose shader")
+        program = self._programs[key]
+        program.use()
+        program.set(u_image=0, u_mask=1, u_alpha=2, u_origin=(-view.offset_x / view.scale, -view.offset_y / view.scale),
+                    u_step=1.0 / view.scale, u_window_height=view.height,
+                    u_canvas=(self._picture.width, self._picture.height), u_checker=self._options[1],
+                    u_cell_list=CELL_LIST_UNIT, u_cell_origin=(view.offset_x, view.offset_y),
+                    u_window=(view.width, view.height), u_rows_by_instance=0, u_instanced=0)
+        return program
+
+    def _layer_pass(self, layer: LayerFields, view: View, tint: bool = False) -> None:
+        """Blend ``layer`` over the composed image (bound) where it may show, reading its mask and alpha where
+        its weight is not surely 1; ``tint``: its mask's tint instead, enabled or not, everywhere."""
+        plan = self._plan
+        weighed = layer.masked or layer.alpha is not None
+        if (plan is None or tint or layer.id not in plan.shown
+                or (plan.shown[layer.id] is None and not (weighed and plan.whole[layer.id].any()))):
+            self._weighed_pass(layer, view, None, tint)
+            return
+        visible = visible_grid(view, plan.cells, plan.cell_size)
+        shown = visible if plan.shown[layer.id] is None else plan.shown[layer.id] & visible
+        if weighed:  # drawn blended: what it leaves out beyond the lattice lies under the checkerboard already
+            whole = plan.whole[layer.id] & visible
+            self._weighed_pass(replace(layer, mask_enabled=False, opacity=1.0, alpha=None), view, whole)
+            shown = shown & ~whole
+        self._weighed_pass(layer, view, shown)
+
+    def _weighed_pass(self, layer: LayerFields, view: View, cells: np.ndarray | None, tint: bool = False) -> None:
+        """``_layer_pass`` over the window, or over ``cells`` (a bool grid of the plan's cells)."""
+        listed = None if cells is None else row_runs(cells)
+        if listed is not None and len(listed) == 0:
+            return
         reads_mask = layer.mask is not None and (tint or layer.masked)
         enabled = tint or layer.mask_enabled
         reads_alpha = layer.alpha is not None and not tint
@@ -376,11 +447,18 @@ class PictureRenderer:
             blurred = self._filters.get(key) if layer.blur is not None else None
             GL.glActiveTexture(GL.GL_TEXTURE0 + unit)
             GL.glBindTexture(GL.GL_TEXTURE_2D, blurred.output.texture if blurred else self.renderers[key].image_texture)
-        program.set(u_masked=int(reads_mask), u_translucent=int(reads_alpha),
-                    u_mask_base=layer.mask_base if enabled else 1.0, u_inverted=int(enabled and layer.mask_inverted),
+        program = self._use(TINT_PASS if tint else LAYER_PASS, reads_mask, reads_alpha, view)
+        program.set(u_mask_base=layer.mask_base if enabled else 1.0, u_inverted=int(enabled and layer.mask_inverted),
                     u_opacity=layer.opacity, u_negligible=NEGLIGIBLE_WEIGHT,
-                    u_matrix=layer.transform.matrix, u_offset=layer.transform.offset, u_tint=int(tint))
-        GL.glDrawArrays(GL.GL_TRIANGLE_STRIP, 0, 4)
+                    u_matrix=layer.transform.matrix, u_offset=layer.transform.offset,
+                    u_instanced=0 if listed is None else 2)
+        if listed is None:
+            GL.glDrawArrays(GL.GL_TRIANGLE_STRIP, 0, 4)
+            return
+        self._cell_list.set_data(listed)
+        self._cell_list.bind(CELL_LIST_UNIT)
+        program.set(u_cells=self._plan.cells, u_cell_window=self._plan.cell_size * view.scale)
+        GL.glDrawArraysInstanced(GL.GL_TRIANGLE_STRIP, 0, 4, len(listed))
 
     def read(self) -> np.ndarray:
         """The drawn image ``(height, width, 4)`` float32, top row first (a one-layer picture: its field's)."""
@@ -390,7 +468,7 @@ class PictureRenderer:
     def release(self) -> None:
         """Free the GL objects (with the context current); the renderer is unusable afterwards."""
         self.forget()
-        for item in (self._program, self._vao, self._composed):
+        for item in (*self._programs.values(), self._vao, self._cell_list, self._composed):
             if item is not None:
                 item.delete()
         if self._background is not None:
@@ -401,7 +479,8 @@ class PictureRenderer:
             programs, *items = self._blur_gl
             for item in (*programs, *items):
                 item.delete()
-        self._program = self._vao = self._background = self._blur_gl = None
+        self._programs.clear()
+        self._vao = self._cell_list = self._background = self._blur_gl = None
         self._filters.clear()
 
 

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
+import numpy as np
+
 #: Zoom limits (window pixels per document pixel).
 MIN_SCALE = 1e-3
 MAX_SCALE = 1e5
@@ -103,3 +105,42 @@ def uncovered(view: View, dx: int, dy: int) -> list[tuple[int, int, int, int]]:
     if dy:  # uncovered window rows at the top: GL rows at the top end
         strips.append((0, max(h - dy, 0), w, h) if dy > 0 else (0, 0, w, min(-dy, h)))
     return strips
+
+
+def visible_grid(view: View, cells: int, cell_size: float) -> np.ndarray:
+    """``(cells, cells)`` bool: which cells of a lattice (``cell_size`` document pixels a side) the window
+    shows, in whole or in part."""
+    index, size = np.arange(cells), cell_size * view.scale
+    columns = ((index + 1) * size + view.offset_x >= 0) & (index * size + view.offset_x <= view.width)
+    rows = ((index + 1) * size + view.offset_y >= 0) & (index * size + view.offset_y <= view.height)
+    return rows[:, None] & columns[None, :]
+
+
+def visible_cells(view: View, cells: np.ndarray, cell_size: float) -> np.ndarray:
+    """Flat indices (int32) of the ``cells`` (a ``(n, n)`` bool grid of cells of ``cell_size`` document pixels)
+    that the window shows."""
+    return np.flatnonzero(cells & visible_grid(view, len(cells), cell_size)).astype(np.int32)
+
+
+def row_runs(cells: np.ndarray) -> np.ndarray:
+    """The ``cells`` (a ``(n, n)`` bool grid) as runs along rows, ``(runs, 2)`` int32: the first cell (flat
+    index) and how many follow it, row by row."""
+    n = len(cells)
+    padded = np.zeros((n, n + 2), np.int8)
+    padded[:, 1:-1] = cells
+    edges = np.diff(padded, axis=1)
+    rows, starts = np.nonzero(edges == 1)
+    ends = np.nonzero(edges == -1)[1]  # row by row, as the starts
+    return np.stack([rows * n + starts, ends - starts], axis=1).astype(np.int32)
+
+
+def cells_rect(view: View, cells: np.ndarray, n: int, cell_size: float) -> tuple[int, int, int, int]:
+    """GL pixels ``(x0, y0, x1, y1)`` of the window (y up) that hold ``cells`` (flat indices into ``n`` a side,
+    at least one), a pixel to spare on every side."""
+    size = cell_size * view.scale
+    columns, rows = cells % n, cells // n
+    x0 = int(np.floor(columns.min() * size + view.offset_x)) - 1
+    x1 = int(np.ceil((columns.max() + 1) * size + view.offset_x)) + 1
+    top = int(np.floor(rows.min() * size + view.offset_y)) - 1
+    bottom = int(np.ceil((rows.max() + 1) * size + view.offset_y)) + 1
+    return max(x0, 0), max(view.height - bottom, 0), min(x1, view.width), min(view.height - top, view.height)
