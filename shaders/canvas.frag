@@ -39,8 +39,7 @@ uniform isamplerBuffer u_point_start;
 uniform isamplerBuffer u_point_members;
 uniform samplerBuffer u_points;
 
-flat in int v_cell;            // the cell of the quad being drawn, -1: find the pixel's own
-flat in int v_row;             // the row of u_coeffs to read, -1: the cell's
+flat in ivec3 v_run;           // the cells of the quad being drawn: first and last column, row; x = -1: any
 
 out vec4 colour;
 
@@ -132,12 +131,14 @@ void main() {
         colour = u_delta != 0 ? vec4(0.0) : vec4(vec3(((square.x + square.y) & 1) == 0 ? 0.8 : 0.6), 1.0);
         return;
     }
-    ivec2 cell = v_cell >= 0 ? ivec2(v_cell % u_cells, v_cell / u_cells)
-                             : clamp(ivec2(floor(position / u_cell_size)), ivec2(0), ivec2(u_cells - 1));
+    ivec2 cell = clamp(ivec2(floor(position / u_cell_size)), ivec2(0), ivec2(u_cells - 1));
+    if (v_run.x >= 0) {  // a pixel on the quad's edge reads its cells, not a neighbour's
+        cell = ivec2(clamp(cell.x, v_run.x, v_run.y), v_run.z);
+    }
     float size = float(u_cell_size);
     vec2 local = vec2(position - (dvec2(cell) + 0.5) * u_cell_size);  // from the cell's centre
     int flat_cell = cell.y * u_cells + cell.x;
-    vec3 value = far_field(v_row >= 0 ? v_row : flat_cell, local / size);
+    vec3 value = far_field(flat_cell, local / size);
     value += near_segments(flat_cell, local);
 #if !HARMONIC
     if (u_delta == 0) {  // (a field in harmonic form has no points: their loop, even empty, costs a tenth)

@@ -173,7 +173,9 @@ def test_a_stop_colour_change_updates_only_what_changed(canvas, qtbot, shared_da
     live = LiveRepresentation(load_document(lady_bug_path(shared_data)))
     view = View(1.0, 0.0, 0.0, live.document.width, live.document.height)
     before = show(canvas, qtbot, live.representation, view)
-    for curve in (30, 0):  # a small curve (few cells move visibly), then the background one (all cells)
+    # a small curve (few cells move visibly), the background one (all cells), the small one again (its change
+    # added beside cells whose latest change, the background's, the change tables still hold)
+    for curve in (30, 0, 30):
         old = live.document.curves[curve].left[0].color
         update = live.update(edits.set_stop_color(live.document, live.document.curves[curve].id, "left", 0,
                                                   tuple(1 - np.asarray(old))))

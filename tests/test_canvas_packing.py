@@ -70,7 +70,7 @@ def test_some_cells_pack_like_all_of_them(with_points, curves):
         np.testing.assert_array_equal(packing.cell_coefficients(rep, cells).reshape(len(cells), -1), per_cell[cells])
 
 
-def test_each_cell_lists_its_blocks_segments_relative_to_its_centre(curves):
+def test_each_cell_lists_its_blocks_segments_relative_to_its_centre(curves, monkeypatch):
     table = packing.segment_table(curves)
     seg, lattice = curves.segments, curves.lattice
     n, size = lattice.cells_per_side, lattice.cell_size
@@ -89,9 +89,11 @@ def test_each_cell_lists_its_blocks_segments_relative_to_its_centre(curves):
         assert np.abs(entries[:, 0]).max(initial=0) <= 2 * size  # small coordinates: no cancellation
         np.testing.assert_allclose(entries[:, 1, :3], seg.flux[listed], rtol=1e-6)
         np.testing.assert_allclose(entries[:, 2, :3], seg.jump[listed], rtol=1e-6)
-    flux = np.random.default_rng(4).normal(size=seg.flux.shape)
-    again = packing.segment_table(curves, flux=flux, like=table)
-    np.testing.assert_array_equal(again.texels, packing.segment_table(curves, flux=flux).texels)
+    flux, jump = np.random.default_rng(4).normal(size=(2, *seg.flux.shape))
+    monkeypatch.setattr(packing, "REFILL_CHUNK", 1000)  # a few chunks
+    assert len(table.segments) > 3000
+    packing.refill(table, flux, jump)
+    np.testing.assert_array_equal(table.texels, packing.segment_table(curves, flux=flux, jump=jump).texels)
     kept = np.zeros(len(seg.p), bool)
     kept[::7] = True
     some = packing.segment_table(curves, keep=kept)

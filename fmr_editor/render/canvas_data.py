@@ -18,6 +18,10 @@ from ..engine import Representation
 from . import bounds, packing
 from .gl import BufferTexture
 
+#: Cells whose coefficients an update packs at a time: its temporaries (a megabyte or two) come from the heap,
+#: where freed blocks are used again, not from fresh pages (``engine.memory.OWN_PAGES``), which cost 2-3 ms a MB
+#: on a virtual machine; roses' colour edit changes 65,536 cells, 19 MB of coefficients.
+UPDATE_CHUNK = 8192
 #: Texture units of the shader's buffers (the delta pass binds its own tables to the first three).
 UNITS = {"u_coeffs": 0, "u_segment_start": 1, "u_segments": 2, "u_point_start": 3, "u_point_members": 4,
          "u_points": 5, "u_cell_list": 6}
@@ -63,6 +67,7 @@ class CanvasData:
         self.layout: ShaderLayout | None = None
         self._segment_table: packing.SegmentTable | None = None
         self._mirror = np.zeros((0, 0), np.float32)  # the coefficients as uploaded, a row per cell
+        self._delta = np.zeros((0, 0), np.float32)  # each cell's latest change of them (as the delta pass reads)
         self._far: tuple[np.ndarray, np.ndarray] | None = None  # bounds.value_bounds of the rows, once asked for
         self._near: np.ndarray | None = None  # bounds.near_items, flat, once asked for
 
@@ -71,39 +76,41 @@ class CanvasData:
         self.layout = ShaderLayout.of(rep)
         n = self.layout.cells
         self._mirror = packing.cell_coefficients(rep).reshape(n * n, -1)
+        self._delta = np.zeros_like(self._mirror)
         self._buffers["u_coeffs"].set_data(self._mirror)
+        self._buffers["delta_coeffs"].set_data(self._delta)
         self._upload_segments(rep)
         self._upload_points(rep)
         self.rep = rep
         self._far = self._near = None
 
-    def update(self, rep: Representation, cells: np.ndarray,
-               same_geometry: bool) -> tuple[np.ndarray, np.ndarray, bool]:
+    def update(self, rep: Representation, cells: np.ndarray, same_geometry: bool) -> tuple[np.ndarray, bool]:
         """Go over to ``rep`` (of the same layout), uploading the coefficients of ``cells`` (flat indices).
 
         Segment lists and near points are uploaded whole when they are other
         arrays than the uploaded ones (with ``same_geometry``, only E and C of
-        the segments changed).
+        the segments changed).  The change of the cells' coefficients is kept
+        for a delta pass (``upload_change``).
 
         Returns
         -------
-        delta : numpy.ndarray
-            ``(len(cells), row)`` change of those cells' coefficient rows.
         moved : numpy.ndarray
             ``(len(cells),)`` bound on the change of their far field's pixels (``bounds.far_bound``).
         near_points_changed : bool
         """
-        delta, moved = np.zeros((0, self._mirror.shape[1]), self._mirror.dtype), np.zeros(0)
-        if len(cells):  # none: only segments or near points may have changed
-            fresh = packing.cell_coefficients(rep, cells).reshape(len(cells), -1)
-            delta = fresh - self._mirror[cells]
-            moved = bounds.far_bound(delta, self.layout.order, self.layout.harmonic)
-            self._mirror[cells] = fresh
+        layout = self.layout
+        moved = np.empty(len(cells))
+        for first in range(0, len(cells), UPDATE_CHUNK):  # none: only segments or near points may have changed
+            chunk = cells[first : first + UPDATE_CHUNK]
+            fresh = packing.cell_coefficients(rep, chunk).reshape(len(chunk), -1)
+            delta = self._delta[chunk] = fresh - self._mirror[chunk]
+            moved[first : first + len(chunk)] = bounds.far_bound(delta, layout.order, layout.harmonic)
+            self._mirror[chunk] = fresh
             if self._far is not None:
-                for kept, rows in zip(self._far, bounds.value_bounds(fresh, self.layout.order, self.layout.harmonic)):
-                    kept[cells] = rows
-            for start, stop in packing.cell_runs(cells):
-                self._buffers["u_coeffs"].set_subdata(start * self.layout.texels, self._mirror[start:stop])
+                for kept, rows in zip(self._far, bounds.value_bounds(fresh, layout.order, layout.harmonic)):
+                    kept[chunk] = rows
+        for start, stop in packing.cell_runs(cells):
+            self._buffers["u_coeffs"].set_subdata(start * layout.texels, self._mirror[start:stop])
         old = self.rep
         if rep.segments is not old.segments or rep.cell_start is not old.cell_start:
             self._upload_segments(rep, same_geometry=same_geometry)
@@ -113,7 +120,7 @@ class CanvasData:
             self._upload_points(rep)
             self._near = None
         self.rep = rep
-        return delta, moved, near_points_changed
+        return moved, near_points_changed
 
     def value_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Each cell's value at its centre and how far the shader's value at any of its pixels may get from it,
@@ -125,9 +132,11 @@ class CanvasData:
             self._near = bounds.near_items(self.rep).ravel()
         return bounds.unbounded_near(*self._far, self._near)
 
-    def upload_change(self, delta: np.ndarray, table: packing.SegmentTable) -> None:
-        """The change tables of a delta pass: far-field ``delta`` rows and the segments' change ``table``."""
-        self._buffers["delta_coeffs"].set_data(delta)
+    def upload_change(self, cells: np.ndarray, table: packing.SegmentTable) -> None:
+        """The change tables of a delta pass over ``cells``: their coefficients' latest change (rows by cell, as
+        the coefficients) and the segments' change ``table``."""
+        for start, stop in packing.cell_runs(cells):
+            self._buffers["delta_coeffs"].set_subdata(start * self.layout.texels, self._delta[start:stop])
         self._buffers["delta_segments"].set_data(table.texels)
         self._buffers["delta_segment_start"].set_data(table.cell_start)
 
@@ -140,12 +149,15 @@ class CanvasData:
             self._buffers[_DELTA.get(name, name) if delta else name].bind(unit)
 
     def _upload_segments(self, rep: Representation, same_geometry: bool = False) -> None:
-        """Upload the segment lists; with ``same_geometry``, only E and C changed since the last upload."""
-        like = self._segment_table if same_geometry else None
-        table = self._segment_table = packing.segment_table(rep, like=like)
+        """Upload the segment lists; with ``same_geometry``, only E and C changed since the last upload (the
+        table is refilled and uploaded in place)."""
+        if same_geometry and self._segment_table is not None:
+            packing.refill(self._segment_table, rep.segments.flux, rep.segments.jump)
+            self._buffers["u_segments"].set_subdata(0, self._segment_table.texels)
+            return
+        table = self._segment_table = packing.segment_table(rep)
         self._buffers["u_segments"].set_data(table.texels)
-        if like is None:
-            self._buffers["u_segment_start"].set_data(table.cell_start)
+        self._buffers["u_segment_start"].set_data(table.cell_start)
 
     def _upload_points(self, rep: Representation) -> None:
         table = packing.point_table(rep)

@@ -183,25 +183,26 @@ class CanvasRenderer:
         cells = np.flatnonzero(changed)
         old = self._rep
         same_geometry = bounds.same_geometry(old, rep)
-        near = bounds.near_bound(old, rep)  # inf beside segments that moved
-        delta, moved, near_points_changed = self._data.update(rep, cells, same_geometry)
+        segment_moves = bounds.segment_changes(old, rep)
+        near = bounds.near_bound(old, rep, segment_moves)  # inf beside segments that moved
+        moved, near_points_changed = self._data.update(rep, cells, same_geometry)
         self._rep = rep
         if near is not None and not near_points_changed:  # the bounds cover every change
             moved += near.ravel()[cells]
         else:
             moved[:] = np.inf
         exact = same_geometry and not near_points_changed  # the change can also be added to the image
-        self.last_update = self._catch_up(cells, delta, moved, exact, old)
+        self.last_update = self._catch_up(cells, moved, exact, old, segment_moves)
         if self._reflect and self.reach > 0 and self._near_border(self._redrawn).any():
             self._cached_view = None  # their reflections beyond the border change too
 
-    def _catch_up(self, cells: np.ndarray, delta: np.ndarray, moved: np.ndarray, exact: bool,
-                  old: Representation) -> dict[str, int]:
+    def _catch_up(self, cells: np.ndarray, moved: np.ndarray, exact: bool, old: Representation,
+                  segment_moves: np.ndarray | None) -> dict[str, int]:
         """Bring the cached image up to date with an update: add some cells' change, mark others dirty.
 
-        ``moved`` bounds the change of each of ``cells``' pixels, ``delta`` is
-        the change of their coefficients; with ``exact`` the change can be
-        added to the image (a float image, and the same geometry).  Returns
+        ``moved`` bounds the change of each of ``cells``' pixels, ``segment_moves``
+        each segment's (``bounds.segment_changes``); with ``exact`` the change can
+        be added to the image (a float image, and the same geometry).  Returns
         the counts of ``last_update``.
         """
         rep = self._rep
@@ -215,13 +216,12 @@ class CanvasRenderer:
         counts = {"changed": len(cells), "delta": 0, "evaluate": 0, "segments": 0}
         if self._cached_view is not None and len(shown):
             if exact and self._cache.additive:
-                segment_moves = bounds.segment_changes(old, rep)
                 keep = segment_moves > SEGMENT_SHARE * self.tolerance
                 left_out = bounds.block_sums(np.where(keep, 0.0, segment_moves), rep).ravel()[shown]
                 after = before[show] + left_out + DELTA_ROUNDING
                 add = after <= self.tolerance
                 unseen[shown[add]] = after[add]
-                self._add_change(delta[show][add], shown[add], old, rep, keep)
+                self._add_change(shown[add], old, rep, keep)
                 counts.update(delta=int(add.sum()), segments=int(keep.sum()))
                 shown = shown[~add]
             unseen[shown] = 0.0
@@ -237,12 +237,11 @@ class CanvasRenderer:
         return ((columns * size < reach) | ((columns + 1) * size > layout.width - reach)
                 | (rows * size < reach) | ((rows + 1) * size > layout.height - reach))
 
-    def _add_change(self, delta: np.ndarray, cells: np.ndarray, old: Representation, new: Representation,
-                    keep: np.ndarray) -> None:
-        """Add the change of ``cells``' colour (far field ``delta``, the ``keep`` segments' change) to the image."""
+    def _add_change(self, cells: np.ndarray, old: Representation, new: Representation, keep: np.ndarray) -> None:
+        """Add the change of ``cells``' colour (their far field's, the ``keep`` segments') to the image."""
         if len(cells) == 0:
             return
-        self._data.upload_change(delta, packing.segment_table(new, new.segments.flux - old.segments.flux,
+        self._data.upload_change(cells, packing.segment_table(new, new.segments.flux - old.segments.flux,
                                                               new.segments.jump - old.segments.jump, keep))
         self._cache.bind()
         self._pass(self._cached_view, cells, delta=True)
@@ -386,12 +385,11 @@ class CanvasRenderer:
     def _pass(self, view: View, cells: np.ndarray | None = None, delta: bool = False) -> None:
         """Run the shader over the window or over the listed cells (flat indices), into the bound framebuffer.
 
-        ``delta``: the change tables stand in for the data, coefficient rows by instance (a quad a cell); else
-        the cells are drawn as runs along their rows, each pixel evaluated as by a pass over the window.
+        The cells are drawn as runs along their rows.  ``delta``: the change tables stand in for the data.
         """
         self._touch(view, cells)
-        listed = cells
-        if cells is not None and not delta:
+        listed = None
+        if cells is not None:
             grid = np.zeros(self._layout.cells**2, bool)
             grid[cells] = True
             listed = row_runs(grid.reshape(self._layout.cells, -1))
@@ -404,9 +402,9 @@ class CanvasRenderer:
         program.set(
             u_origin=(-view.offset_x / view.scale, -view.offset_y / view.scale), u_step=1.0 / view.scale,
             u_window_height=view.height, u_canvas=(layout.width, layout.height), u_cells=layout.cells,
-            u_cell_size=layout.cell_size, u_checker=self.checker, u_instanced=0 if cells is None else 1 if delta else 2,
+            u_cell_size=layout.cell_size, u_checker=self.checker, u_instanced=int(cells is not None),
             u_cell_origin=(view.offset_x, view.offset_y), u_cell_window=layout.cell_size * view.scale,
-            u_window=(view.width, view.height), u_delta=int(delta), u_rows_by_instance=int(delta),
+            u_window=(view.width, view.height), u_delta=int(delta),
             u_reflect=int(self._reflect),
         )
         self._vao.bind()

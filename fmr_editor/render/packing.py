@@ -93,6 +93,11 @@ class SegmentTable:
     segments: np.ndarray
 
 
+#: Entries ``refill`` gathers at a time: its temporaries (a megabyte) come from the heap, where freed blocks are
+#: used again, not from fresh pages (``engine.memory.OWN_PAGES``), which cost 2-3 ms a MB on a virtual machine.
+REFILL_CHUNK = 65536
+
+
 def block_lists(cell_start: np.ndarray, cells_per_side: int) -> tuple[np.ndarray, np.ndarray]:
     """Every cell's 3x3 block of segments, as CSR lists.
 
@@ -131,7 +136,7 @@ def block_lists(cell_start: np.ndarray, cells_per_side: int) -> tuple[np.ndarray
 
 
 def segment_table(rep: Representation, flux: np.ndarray | None = None, jump: np.ndarray | None = None,
-                  keep: np.ndarray | None = None, like: SegmentTable | None = None) -> SegmentTable:
+                  keep: np.ndarray | None = None) -> SegmentTable:
     """Each cell's near segments, with end points relative to that cell's centre.
 
     A segment is listed in every cell of the 3x3 block around its own (up to
@@ -144,19 +149,11 @@ def segment_table(rep: Representation, flux: np.ndarray | None = None, jump: np.
         ``(segments, 3)`` values to put in place of the segments' E and C (their changes, say).
     keep : numpy.ndarray, optional
         ``(segments,)`` bool: list only these.
-    like : SegmentTable, optional
-        A full table (no ``keep``) of segments with the same geometry and cells:
-        its lists and positions are taken as they are, only E and C are new.
     """
     seg, lattice = rep.segments, rep.lattice
     n, size = lattice.cells_per_side, lattice.cell_size
     flux = seg.flux if flux is None else flux
     jump = seg.jump if jump is None else jump
-    if like is not None and keep is None:
-        table = like.texels.reshape(-1, 3, 4).copy()
-        table[:, 1, 0:3] = np.asarray(flux, np.float32)[like.segments]  # cast the few, then gather the many
-        table[:, 2, 0:3] = np.asarray(jump, np.float32)[like.segments]
-        return SegmentTable(table.reshape(-1, 4), like.cell_start, like.segments)
     cell_start = np.asarray(rep.cell_start, np.int64)
     index = np.arange(len(seg.p))
     if keep is not None:
@@ -176,6 +173,17 @@ def segment_table(rep: Representation, flux: np.ndarray | None = None, jump: np.
     table[:, 1, 3] = length
     table[:, 2, 0:3] = jump[members]
     return SegmentTable(table.reshape(-1, 4), _int32(block_start), members)
+
+
+def refill(table: SegmentTable, flux: np.ndarray, jump: np.ndarray) -> None:
+    """Put ``flux`` and ``jump`` ``(segments, 3)`` in place of the E and C of a full table (no ``keep``) of
+    segments with the same geometry and cells, in place and ``REFILL_CHUNK`` entries at a time."""
+    texels = table.texels.reshape(-1, 3, 4)
+    flux, jump = np.asarray(flux, np.float32), np.asarray(jump, np.float32)  # cast the few, then gather the many
+    for start in range(0, len(texels), REFILL_CHUNK):
+        members = table.segments[start : start + REFILL_CHUNK]
+        texels[start : start + REFILL_CHUNK, 1, 0:3] = flux[members]
+        texels[start : start + REFILL_CHUNK, 2, 0:3] = jump[members]
 
 
 @dataclass(frozen=True)

@@ -413,7 +413,7 @@ class PictureRenderer:
                     u_step=1.0 / view.scale, u_window_height=view.height,
                     u_canvas=(self._picture.width, self._picture.height), u_checker=self._options[1],
                     u_cell_list=CELL_LIST_UNIT, u_cell_origin=(view.offset_x, view.offset_y),
-                    u_window=(view.width, view.height), u_rows_by_instance=0, u_instanced=0)
+                    u_window=(view.width, view.height), u_instanced=0)
         return program
 
     def _layer_pass(self, layer: LayerFields, view: View, tint: bool = False) -> None:
@@ -451,7 +451,7 @@ class PictureRenderer:
         program.set(u_mask_base=layer.mask_base if enabled else 1.0, u_inverted=int(enabled and layer.mask_inverted),
                     u_opacity=layer.opacity, u_negligible=NEGLIGIBLE_WEIGHT,
                     u_matrix=layer.transform.matrix, u_offset=layer.transform.offset,
-                    u_instanced=0 if listed is None else 2)
+                    u_instanced=int(listed is not None))
         if listed is None:
             GL.glDrawArrays(GL.GL_TRIANGLE_STRIP, 0, 4)
             return
