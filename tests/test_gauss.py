@@ -281,6 +281,38 @@ def test_removing_a_point_of_a_batch_build():
     np.testing.assert_allclose(tensor, without, rtol=0, atol=1e-12 * np.abs(without).max())
 
 
+def test_live_points_copy_only_the_rows_their_points_reached_and_never_change_a_handed_out_tensor():
+    from fmr_editor.engine.points.field import LivePoints
+
+    rng = np.random.default_rng(14)
+    lattice, order = Lattice(7, 512.0), 8
+
+    def dab(y: float, count: int = 3) -> list[DiffusionPoint]:
+        xs, radii, amplitudes = rng.uniform(100, 400, count), rng.uniform(0.5, 30, count), rng.uniform(-1, 1, count)
+        return [DiffusionPoint((float(x), y), float(r), (1.0, 0.5, 0.2), float(a))
+                for x, r, a in zip(xs, radii, amplitudes)]
+
+    first = tuple(dab(120.0))
+    live = LivePoints(first, lattice, order)
+    held = [(live.tensor, live.tensor.copy())]
+    points, removed = list(first), []
+    for y in (130.0, 300.0, 140.0):  # a stroke, a dab far below it, the stroke again; then one point removed
+        added = dab(y)
+        points += added
+        live.update(tuple(points), [], added)
+        held.append((live.tensor, live.tensor.copy()))
+    removed = [points.pop(1)]
+    live.update(tuple(points), removed, [])
+    fresh = LivePoints(tuple(points), lattice, order)
+    np.testing.assert_allclose(live.tensor, fresh.tensor, rtol=0, atol=1e-12 * np.abs(fresh.tensor).max())
+    reached = np.flatnonzero(np.abs(live.tensor).max(axis=(1, 2, 3, 4)) > 0)
+    first_row, last_row = live.rows
+    assert first_row <= reached.min() and reached.max() < last_row  # zero outside the rows it copies
+    assert last_row - first_row < lattice.cells_per_side  # less than the whole
+    for tensor, copy in held:  # what ``field`` handed out stays as it was
+        np.testing.assert_array_equal(tensor, copy)
+
+
 # --- Model and packing -------------------------------------------------------------------
 
 

@@ -40,7 +40,7 @@ class State:
     @property
     def nbytes(self) -> int:
         """Bytes of the arrays the state holds (shared ones counted in every state that holds them)."""
-        points = self.points.tensor.nbytes if self.points is not None else 0
+        points = self.points.nbytes if self.points is not None else 0
         return (self.radii.nbytes + self.unknowns.nbytes + self.curves.nbytes + self.boundary.nbytes
                 + self.cells.nbytes + points)
 
