@@ -40,6 +40,17 @@ def test_both_kinds_of_point_are_used(points_only):
     assert np.abs(tensor).max() > 0
 
 
+def test_a_field_of_points_alone_sums_no_segment(points_only):
+    """Its canvas border solves to 0: ``near`` leaves it out, and the raster matches the direct sums over every
+    segment (above)."""
+    seg = points_only.segments
+    assert len(seg.p) > 0 and not seg.flux.any() and not seg.jump.any()
+    near, cell_start = points_only.near
+    assert len(near.p) == 0 and len(cell_start) == len(points_only.cell_start) and not cell_start.any()
+    curves = build(scattered_document(64, circles=1, seed=3))
+    assert curves.near[0] is curves.segments and curves.near[1] is curves.cell_start
+
+
 def test_curves_and_points_together_match_the_direct_sums():
     doc = scattered_document(128, circles=3, seed=4).with_points(random_points(60, 128, seed=2, radii=(0.5, 60.0)))
     rep = build(doc)

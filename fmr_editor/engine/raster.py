@@ -266,13 +266,13 @@ def _fmr_samples(rep: Representation, order: int | None, xs: np.ndarray, ys: np.
     is a band (its sub-cells and its cells' far-field degrees are the whole's).  ``skip``: cells whose samples
     are not needed (``subcell_field_grid``'s: finite, not their field).
     """
-    seg, lattice = rep.segments, rep.lattice
+    (seg, cell_start), lattice = rep.near, rep.lattice
     order = rep.order if order is None else order
     split, separation = split_for(lattice.cell_size * density)
     n, size = lattice.cells_per_side, lattice.cell_size
     offsets = largest_offsets(xs, size, n), largest_offsets(whole_ys, size, n)
     centred = rep.centres is not None or all(np.any(axis == 0.0) for axis in offsets)  # samples on cell centres
-    subcell_field_grid(rep.local, order, xs, ys, size, rep.cell_start, seg.p, seg.q, seg.flux, seg.jump,
+    subcell_field_grid(rep.local, order, xs, ys, size, cell_start, seg.p, seg.q, seg.flux, seg.jump,
                        split=split, separation=separation, out=out, tables=rep.near_tables, precision=NEAR_PRECISION,
                        degrees=sample_degrees(order), offsets=offsets, centres=rep.centre_values if centred else None,
                        skip=skip)
@@ -316,7 +316,7 @@ def evaluate_points(rep: Representation | Composite, points: np.ndarray, order: 
         values = compose(rep, lambda source: evaluate_points(source, points, order), (len(points), 3), coverage)
         inside = (points >= 0).all(axis=1) & (points[:, 0] <= rep.width) & (points[:, 1] <= rep.height)
         return np.where(inside[:, None], values, 0.0)  # transforms and mask bases make no colour out there
-    lattice, seg = rep.lattice, rep.segments
+    lattice, (seg, cell_start) = rep.lattice, rep.near
     cells = lattice.cell_of(points)
     occupied, which = np.unique(cells[:, 0] * lattice.cells_per_side + cells[:, 1], return_inverse=True)
     poly = rep.polynomials(order, np.divmod(occupied, lattice.cells_per_side))[which]  # the points' cells only
@@ -324,7 +324,7 @@ def evaluate_points(rep: Representation | Composite, points: np.ndarray, order: 
     degrees = np.arange(poly.shape[-1])
     xi, eta = local[:, 0:1] ** degrees, local[:, 1:2] ** degrees
     far = np.einsum("mcij,mi,mj->mc", poly, xi, eta)
-    near = near_sum(points, lattice.cells_per_side, lattice.cell_size, rep.cell_start, seg.p, seg.q, seg.flux, seg.jump,
+    near = near_sum(points, lattice.cells_per_side, lattice.cell_size, cell_start, seg.p, seg.q, seg.flux, seg.jump,
                     tables=rep.near_tables)
     if rep.points is not None:
         near += near_at(rep.points.near, points)

@@ -123,10 +123,22 @@ class Representation:
         return np.ascontiguousarray(self.local[..., 0].real) * INV_TWO_PI
 
     @cached_property
+    def near(self) -> tuple[Segments, np.ndarray]:
+        """The segments a pixel's near field sums, and each fine cell's CSR offsets into them: ``segments`` and
+        ``cell_start``, or none at all where every segment's E and C are 0.  That is a field of diffusion points
+        alone (a soft mask, a layer of brush dabs): its canvas border solves to 0, and its 4 (W + H) segments,
+        summed at every pixel beside the border, took more than half of such a mask's time on the canvas."""
+        seg = self.segments
+        if len(seg.p) and not (seg.flux.any() or seg.jump.any()):
+            return seg.take(np.zeros(len(seg.p), bool)), np.zeros_like(self.cell_start)
+        return seg, self.cell_start
+
+    @cached_property
     def near_tables(self) -> tuple[np.ndarray, np.ndarray]:
-        """``segment_sums.near_tables`` of the segments, kept for the point evaluations that follow (a live
-        representation hands out the same ``Representation`` until it changes)."""
-        return near_tables(self.segments.p, self.segments.q, self.segments.flux, self.segments.jump)
+        """``segment_sums.near_tables`` of the ``near`` segments, kept for the point evaluations that follow (a
+        live representation hands out the same ``Representation`` until it changes)."""
+        seg = self.near[0]
+        return near_tables(seg.p, seg.q, seg.flux, seg.jump)
 
     def polynomials(self, order: int | None = None, cells: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
         """Cell polynomials ``c[row, column, channel, i, j]`` of ``xi^i eta^j``.

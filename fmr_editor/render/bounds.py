@@ -102,7 +102,7 @@ def near_items(rep: Representation) -> np.ndarray:
     """``(2^L, 2^L)`` bool: the cells whose pixels take more than the far field, segments in their 3x3 block
     or near points of their own (the shader's lists)."""
     n = rep.lattice.cells_per_side
-    near = _block(np.diff(rep.cell_start).reshape(n, n).astype(np.float64)) > 0
+    near = _block(np.diff(rep.near[1]).reshape(n, n).astype(np.float64)) > 0
     if rep.points is not None and len(rep.points.near):
         near |= (np.diff(rep.points.near.cell_start) > 0).reshape(n, n)
     return near
@@ -118,14 +118,14 @@ def single_layer_bound(length: np.ndarray, cell_size: float) -> np.ndarray:
 
 
 def same_geometry(before: Representation, after: Representation) -> bool:
-    """Whether both have the same segments in the same cells (only their E and C may differ)."""
-    old, new = before.segments, after.segments
-    return old is new or (np.array_equal(before.cell_start, after.cell_start) and np.array_equal(old.p, new.p)
+    """Whether both have the same ``near`` segments in the same cells (only their E and C may differ)."""
+    (old, old_start), (new, new_start) = before.near, after.near
+    return old is new or (np.array_equal(old_start, new_start) and np.array_equal(old.p, new.p)
                           and np.array_equal(old.q, new.q))
 
 
 def segment_changes(before: Representation, after: Representation) -> np.ndarray | None:
-    """Bound on each segment's change of the near field it adds to any pixel, ``(segments,)`` of ``after``.
+    """Bound on each ``near`` segment's change of the near field it adds to any pixel, ``(segments,)`` of ``after``.
 
     Segments of a cell whose run of segments changed geometry (a curve moved
     through it) get ``inf``: no bound is known there.  None when the
@@ -135,7 +135,7 @@ def segment_changes(before: Representation, after: Representation) -> np.ndarray
     if matched is None:
         return None
     old_index, new_index, _ = matched
-    old, new = before.segments, after.segments
+    old, new = before.near[0], after.near[0]
     out = np.full(len(new.p), np.inf)
     whole = slice(None) if len(new_index) == len(new.p) == len(old.p) else None  # every segment, in place
     old_index, new_index = (whole, whole) if whole is not None else (old_index, new_index)
@@ -152,23 +152,23 @@ def _largest_channel(values: np.ndarray) -> np.ndarray:
 
 
 def _matched_runs(before: Representation, after: Representation):
-    """Segments (indices before and after) of the cells whose runs kept their geometry, and the
+    """``near`` segments (indices before and after) of the cells whose runs kept their geometry, and the
     ``(2^L, 2^L)`` mask of the cells whose runs did not; None when the lattices differ."""
-    if len(before.cell_start) != len(after.cell_start):
+    (old, old_start), (new, new_start) = before.near, after.near
+    if len(old_start) != len(new_start):
         return None
     n = after.lattice.cells_per_side
     if same_geometry(before, after):
-        index = np.arange(len(after.segments.p))
+        index = np.arange(len(new.p))
         return index, index, np.zeros((n, n), bool)
-    old, new = before.segments, after.segments
-    counts = np.diff(after.cell_start)
-    same_count = counts == np.diff(before.cell_start)
+    counts = np.diff(new_start)
+    same_count = counts == np.diff(old_start)
     cells = np.flatnonzero(same_count & (counts > 0))
     runs = counts[cells]
     firsts = np.cumsum(runs) - runs
     within = np.arange(runs.sum()) - np.repeat(firsts, runs)
-    old_index = np.repeat(before.cell_start[cells], runs) + within
-    new_index = np.repeat(after.cell_start[cells], runs) + within
+    old_index = np.repeat(old_start[cells], runs) + within
+    new_index = np.repeat(new_start[cells], runs) + within
     equal = (old.p[old_index] == new.p[new_index]).all(axis=1) & (old.q[old_index] == new.q[new_index]).all(axis=1)
     cell_kept = np.minimum.reduceat(equal, firsts) if len(runs) else np.zeros(0, bool)
     changed = ~same_count
@@ -178,9 +178,9 @@ def _matched_runs(before: Representation, after: Representation):
 
 
 def block_sums(per_segment: np.ndarray, rep: Representation) -> np.ndarray:
-    """``(2^L, 2^L)`` sums of a per-segment quantity over each cell's 3x3 block (``rep``'s cell lists)."""
+    """``(2^L, 2^L)`` sums of a per-``near``-segment quantity over each cell's 3x3 block (``rep``'s cell lists)."""
     n = rep.lattice.cells_per_side
-    own = np.repeat(np.arange(n * n), np.diff(rep.cell_start))
+    own = np.repeat(np.arange(n * n), np.diff(rep.near[1]))
     per_cell = np.bincount(own, per_segment, minlength=n * n).reshape(n, n)
     return _block(per_cell)
 

@@ -112,7 +112,7 @@ class CanvasData:
         for start, stop in packing.cell_runs(cells):
             self._buffers["u_coeffs"].set_subdata(start * layout.texels, self._mirror[start:stop])
         old = self.rep
-        if rep.segments is not old.segments or rep.cell_start is not old.cell_start:
+        if rep.near[0] is not old.near[0] or rep.near[1] is not old.near[1]:
             self._upload_segments(rep, same_geometry=same_geometry)
             self._near = None
         near_points_changed = _near(rep) is not _near(old)
@@ -152,7 +152,7 @@ class CanvasData:
         """Upload the segment lists; with ``same_geometry``, only E and C changed since the last upload (the
         table is refilled and uploaded in place)."""
         if same_geometry and self._segment_table is not None:
-            packing.refill(self._segment_table, rep.segments.flux, rep.segments.jump)
+            packing.refill(self._segment_table, rep.near[0].flux, rep.near[0].jump)
             self._buffers["u_segments"].set_subdata(0, self._segment_table.texels)
             return
         table = self._segment_table = packing.segment_table(rep)

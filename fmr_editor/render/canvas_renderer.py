@@ -241,8 +241,9 @@ class CanvasRenderer:
         """Add the change of ``cells``' colour (their far field's, the ``keep`` segments') to the image."""
         if len(cells) == 0:
             return
-        self._data.upload_change(cells, packing.segment_table(new, new.segments.flux - old.segments.flux,
-                                                              new.segments.jump - old.segments.jump, keep))
+        (before, _), (after, _) = old.near, new.near
+        self._data.upload_change(cells, packing.segment_table(new, after.flux - before.flux, after.jump - before.jump,
+                                                              keep))
         self._cache.bind()
         self._pass(self._cached_view, cells, delta=True)
 

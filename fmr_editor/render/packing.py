@@ -137,7 +137,7 @@ def block_lists(cell_start: np.ndarray, cells_per_side: int) -> tuple[np.ndarray
 
 def segment_table(rep: Representation, flux: np.ndarray | None = None, jump: np.ndarray | None = None,
                   keep: np.ndarray | None = None) -> SegmentTable:
-    """Each cell's near segments, with end points relative to that cell's centre.
+    """Each cell's near segments (``rep.near``), with end points relative to that cell's centre.
 
     A segment is listed in every cell of the 3x3 block around its own (up to
     9 times), so the shader reads one list per pixel, in small coordinates.
@@ -150,11 +150,11 @@ def segment_table(rep: Representation, flux: np.ndarray | None = None, jump: np.
     keep : numpy.ndarray, optional
         ``(segments,)`` bool: list only these.
     """
-    seg, lattice = rep.segments, rep.lattice
+    (seg, cell_start), lattice = rep.near, rep.lattice
     n, size = lattice.cells_per_side, lattice.cell_size
     flux = seg.flux if flux is None else flux
     jump = seg.jump if jump is None else jump
-    cell_start = np.asarray(rep.cell_start, np.int64)
+    cell_start = np.asarray(cell_start, np.int64)
     index = np.arange(len(seg.p))
     if keep is not None:
         index = index[keep]
