@@ -1,22 +1,21 @@
-"""The canvas evaluates and composes a layer only where it may show (``render.culling``).
+"""Where the canvas evaluates and composes a layer (``render.culling``), without OpenGL.
 
 The bounds on a cell's values (``render.bounds.value_bounds``) are checked
 against the CPU's values at points of every cell, the plan against the
-snapped weights at samples of every cell it hides a layer in, and the canvas
-against the CPU composite after the edits, pans and zooms that move what is
-hidden.
+snapped weights at samples of every cell it hides a layer in; the canvas
+itself, after the edits, pans and zooms that move what is hidden, in
+``test_canvas_layers.py``.
 """
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
-from canvas_oracle import error_levels, shown_colours, window_samples
 from layered import three_layers, translucent_layers
 from shapes import scattered_document
 
-from fmr_editor.engine import LiveStack, Role, build, composite, evaluate_points
-from fmr_editor.model import DiffusionPoint, Document, Mask, edits, layer_edits
+from fmr_editor.engine import LiveStack, build, composite, evaluate_points
+from fmr_editor.model import DiffusionPoint, Document, Mask
 from fmr_editor.render import View, bounds, culling
 
 VIEW = View(1.7, 15.0, 10.0, 250, 240)
@@ -104,72 +103,3 @@ def test_the_plan_hides_a_layer_only_where_the_composition_takes_nothing_from_it
         # (on a lattice of 8 px cells, most of the circle's cells lie beside its curve)
         assert plan.shown[shown[0].id].mean() < 0.97 and plan.shown[shown[-1].id].mean() < 0.9
         assert plan.whole[shown[-1].id].mean() > 0.03
-
-
-# --- on the canvas (OpenGL through Mesa, under Xvfb) -------------------------------------------------------
-
-
-@pytest.fixture
-def canvas(gl_display, qtbot):
-    from fmr_editor.ui.canvas import Canvas
-
-    widget = Canvas()
-    qtbot.addWidget(widget)
-    widget.resize(VIEW.width, VIEW.height)
-    widget.show()
-    qtbot.waitExposed(widget)
-    return widget
-
-
-def shows(canvas, picture, view: View) -> None:
-    """The canvas shows ``picture`` in ``view`` (the CPU composite at the pixel centres), its float image too."""
-    shown = canvas.grab_image()
-    if canvas.renderer is None:
-        pytest.skip(f"no usable OpenGL context: {canvas.error or 'the widget did not initialise'}")
-    inside = ((window_samples(view) >= 0) & (window_samples(view) <= [picture.width, picture.height])).all(axis=1)
-    expected = shown_colours(picture, view, inside)
-    assert error_levels(shown.reshape(-1, 3)[inside], expected) <= 1.0
-    canvas.makeCurrent()
-    drawn = canvas.renderer.read()[..., :3].reshape(-1, 3)[inside].astype(np.float64)
-    canvas.doneCurrent()
-    assert np.abs(np.clip(drawn, 0, 1) - expected).max() < 0.1 / 255  # (one layer's image is read unclamped)
-
-
-@pytest.mark.gui
-def test_the_canvas_leaves_hidden_cells_out_and_shows_them_when_an_edit_reveals_them(canvas):
-    document = three_layers()
-    stack = LiveStack(document)
-    canvas.set_representation(stack.composite, fit=False)
-    canvas.set_view(VIEW)
-    shows(canvas, stack.composite, VIEW)
-    renderers = canvas.renderer.renderers
-    bottom, top = document.layers[0], document.layers[2]
-    covered = renderers[bottom.id, Role.IMAGE].stale  # under the top layer's circle
-    assert 0.03 < covered.mean() < 0.5
-    outside = renderers[top.id, Role.IMAGE].stale  # beyond its circle
-    assert outside.mean() > 0.05 and not (covered & outside).any()
-    assert renderers[top.id, Role.MASK].stale.mean() > covered.mean()  # where its weight is 1 as well
-
-    circle = document.layers[2].mask.curves[0].id
-    moved = edits.translate(layer_edits.select_layer(document, 2, mask=True), (-40.0, 30.0), curves=[circle])
-    update = stack.update(moved)
-    canvas.update_representation(stack.composite, {key: field.changed for key, field in update.fields.items()})
-    shows(canvas, stack.composite, VIEW)  # what the circle uncovered is evaluated, what it covers left
-    assert (covered & ~renderers[bottom.id, Role.IMAGE].stale).any()
-    mask = renderers[top.id, Role.MASK]
-    kept, fresh = mask.value_bounds(), bounds.cell_value_bounds(stack.composite.layers[2].mask)
-    np.testing.assert_array_equal(kept[0], fresh[0])
-    np.testing.assert_array_equal(kept[1], fresh[1])
-
-    for view in (VIEW.panned(-37.0, 21.0), VIEW.zoomed(1.6, 90.0, 100.0)):
-        canvas.set_view(view)
-        shows(canvas, stack.composite, view)
-
-    update = stack.update(document)  # the circle back, the view too: the bottom is covered again
-    canvas.update_representation(stack.composite, {key: field.changed for key, field in update.fields.items()})
-    canvas.set_view(VIEW)
-    shows(canvas, stack.composite, VIEW)
-    assert renderers[bottom.id, Role.IMAGE].stale.any()
-    stack.update(layer_edits.set_visible(layer_edits.set_visible(document, 1, False), 2, False))
-    canvas.update_representation(stack.composite, {})  # drawn by the bottom image's renderer alone
-    shows(canvas, stack.composite, VIEW)

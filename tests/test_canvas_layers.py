@@ -4,7 +4,9 @@ The canvas composes each layer's and mask's evaluated window image
 (``render.PictureRenderer``); what it shows must be ``engine.evaluate_points``
 of the composite at the pixel centres (over the checkerboard where it is not
 opaque) to one 8-bit level, after edits to one layer, a mask dab and a hue
-change as well, and each of those must redraw only what it changed.
+change as well, and each of those must redraw only what it changed.  A layer
+is evaluated only where it may show (``render.culling``): what an edit, a pan
+or a zoom reveals is evaluated then.
 """
 
 from __future__ import annotations
@@ -17,10 +19,10 @@ from shapes import circle_points, uniform_curve
 
 pytest.importorskip("pytestqt", reason="pytest-qt is in the [test] extra")
 
-from fmr_editor.engine import LiveStack, evaluate_points  # noqa: E402
+from fmr_editor.engine import LiveStack, Role, evaluate_points  # noqa: E402
 from fmr_editor.model import DiffusionPoint, Document, edits, layer_edits  # noqa: E402
 from fmr_editor.model.color_transform import hue_rotation  # noqa: E402
-from fmr_editor.render import View  # noqa: E402
+from fmr_editor.render import View, bounds  # noqa: E402
 
 pytestmark = pytest.mark.gui
 
@@ -39,29 +41,35 @@ def canvas(gl_display, qtbot):
     return widget
 
 
-def check(canvas, picture) -> None:
-    """The canvas shows ``picture``: the composite inside the canvas, the checkerboard outside."""
+def check(canvas, picture, view: View = VIEW) -> None:
+    """The canvas shows ``picture`` in ``view``: the composite inside the canvas, the checkerboard outside."""
     shown = canvas.grab_image()
     if canvas.renderer is None:
         pytest.skip(f"no usable OpenGL context: {canvas.error or 'the widget did not initialise'}")
-    samples = window_samples(VIEW)
+    samples = window_samples(view)
     inside = ((samples >= 0) & (samples <= [picture.width, picture.height])).all(axis=1)
-    expected = shown_colours(picture, VIEW, inside)
+    expected = shown_colours(picture, view, inside)
     assert error_levels(shown.reshape(-1, 3)[inside], expected) <= 1.0
-    assert set(np.unique(shown.reshape(-1, 3)[~inside])) == CHECKER
+    assert not (~inside).any() or set(np.unique(shown.reshape(-1, 3)[~inside])) == CHECKER
     canvas.makeCurrent()
     drawn = canvas.renderer.read()[..., :3].reshape(-1, 3)[inside].astype(np.float64)
     canvas.doneCurrent()
-    assert np.abs(drawn - expected).max() < 0.1 / 255  # the float image, before 8-bit rounding
+    # the float image, before 8-bit rounding (one plain layer's is its field's, unclamped)
+    assert np.abs(np.clip(drawn, 0, 1) - expected).max() < 0.1 / 255
 
 
-def test_the_canvas_shows_the_composite_and_follows_edits_of_one_layer(canvas, qtbot):
+def shown_three_layers(canvas):
+    """``three_layers`` on the canvas, checked: the document, its stack and the fields' renderers."""
     document = three_layers()
     stack = LiveStack(document)
     canvas.set_representation(stack.composite, fit=False)
     canvas.set_view(VIEW)
     check(canvas, stack.composite)
-    renderers = canvas.renderer.renderers
+    return document, stack, canvas.renderer.renderers
+
+
+def test_the_canvas_shows_the_composite_and_follows_edits_of_one_layer(canvas, qtbot):
+    document, stack, renderers = shown_three_layers(canvas)
     assert len(renderers) == 5  # three images, two masks
 
     middle = document.layers[1]
@@ -124,3 +132,37 @@ def test_where_the_picture_is_clear_the_canvas_shows_the_checkerboard(canvas):
     samples = window_samples(VIEW)
     clear = (samples >= 0).all(axis=1) & (samples <= 128).all(axis=1) & (np.hypot(*(samples - (64, 60)).T) > 34)
     assert set(np.unique(canvas.grab_image().reshape(-1, 3)[clear])) == CHECKER  # inside the canvas, too
+
+
+def test_the_canvas_leaves_hidden_cells_out_and_shows_them_when_an_edit_reveals_them(canvas):
+    document, stack, renderers = shown_three_layers(canvas)
+    bottom, top = document.layers[0], document.layers[2]
+    covered = renderers[bottom.id, Role.IMAGE].stale  # under the top layer's circle
+    assert 0.03 < covered.mean() < 0.5
+    outside = renderers[top.id, Role.IMAGE].stale  # beyond its circle
+    assert outside.mean() > 0.05 and not (covered & outside).any()
+    assert renderers[top.id, Role.MASK].stale.mean() > covered.mean()  # where its weight is 1 as well
+
+    circle = document.layers[2].mask.curves[0].id
+    moved = edits.translate(layer_edits.select_layer(document, 2, mask=True), (-40.0, 30.0), curves=[circle])
+    update = stack.update(moved)
+    canvas.update_representation(stack.composite, {key: field.changed for key, field in update.fields.items()})
+    check(canvas, stack.composite)  # what the circle uncovered is evaluated, what it covers left
+    assert (covered & ~renderers[bottom.id, Role.IMAGE].stale).any()
+    mask = renderers[top.id, Role.MASK]
+    kept, fresh = mask.value_bounds(), bounds.cell_value_bounds(stack.composite.layers[2].mask)
+    np.testing.assert_array_equal(kept[0], fresh[0])
+    np.testing.assert_array_equal(kept[1], fresh[1])
+
+    for view in (VIEW.panned(-37.0, 21.0), VIEW.zoomed(1.6, 90.0, 100.0)):
+        canvas.set_view(view)
+        check(canvas, stack.composite, view)
+
+    update = stack.update(document)  # the circle back, the view too: the bottom is covered again
+    canvas.update_representation(stack.composite, {key: field.changed for key, field in update.fields.items()})
+    canvas.set_view(VIEW)
+    check(canvas, stack.composite)
+    assert renderers[bottom.id, Role.IMAGE].stale.any()
+    stack.update(layer_edits.set_visible(layer_edits.set_visible(document, 1, False), 2, False))
+    canvas.update_representation(stack.composite, {})  # drawn by the bottom image's renderer alone
+    check(canvas, stack.composite)

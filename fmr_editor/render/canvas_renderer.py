@@ -102,6 +102,8 @@ class CanvasRenderer:
         self.reach = 0.0
         self._redrawn = np.zeros(0, int)  # the cells whose pixels the latest update changes
         self._stale = np.zeros((0, 0), bool)  # cells whose cached pixels are not current (left while not needed)
+        self._partial = False  # the image holds only the needed cells of its last full evaluation, not what lies
+        # outside the lattice
         self.needed: np.ndarray | None = None
 
     @property
@@ -317,7 +319,7 @@ class CanvasRenderer:
             return
         shift = integer_shift(self._cached_view, view)
         needed = self.needed if self.needed is not None and self.needed.shape == self._dirty.shape else None
-        if self._needs_full(view):
+        if self._needs_full(view) or (needed is None and self._partial):
             self._full(view, needed)
         else:
             self.last_evaluation = "none"
@@ -341,6 +343,7 @@ class CanvasRenderer:
         self._cache.bind(view.width, view.height)
         self.last_evaluation = "full"
         cells = None if needed is None else visible_cells(view, needed, self._layout.cell_size)
+        self._partial = cells is not None
         if cells is None:
             self._pass(view)
             self._unseen[:] = 0.0
