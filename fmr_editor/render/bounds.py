@@ -137,8 +137,8 @@ def segment_changes(before: Representation, after: Representation) -> np.ndarray
     old_index, new_index, _ = matched
     old, new = before.near[0], after.near[0]
     out = np.full(len(new.p), np.inf)
-    whole = slice(None) if len(new_index) == len(new.p) == len(old.p) else None  # every segment, in place
-    old_index, new_index = (whole, whole) if whole is not None else (old_index, new_index)
+    if len(new_index) == len(new.p) == len(old.p):  # every segment matched, in place: no gathers
+        old_index = new_index = slice(None)
     flux = _largest_channel(np.abs(new.flux[new_index] - old.flux[old_index]))
     jump = _largest_channel(np.abs(new.jump[new_index] - old.jump[old_index]))
     length = np.hypot(*(new.q[new_index] - new.p[new_index]).T)

@@ -44,8 +44,6 @@ SEGMENT_SHARE = 1 / 64
 #: What a delta pass may add to a cell's error (float32 rounding, generously): after some hundred passes
 #: without a full evaluation, the tolerance is reached and the cell is evaluated again, so errors never pile up.
 DELTA_ROUNDING = 2e-6
-#: Above this share of the window's pixels in cells to evaluate, the whole window is evaluated instead.
-FULL_SHARE = 0.5
 
 
 class CanvasRenderer:
@@ -331,7 +329,7 @@ class CanvasRenderer:
                 self._stale |= self._dirty & ~needed
                 todo &= needed
             if todo.any():
-                self._evaluate_cells(view, todo, needed)
+                self._evaluate_cells(view, todo)
                 if self.last_evaluation == "none":
                     self.last_evaluation = "cells"
         self._cached_view = view
@@ -339,7 +337,7 @@ class CanvasRenderer:
         self.evaluations[self.last_evaluation] += 1
 
     def _full(self, view: View, needed: np.ndarray | None = None) -> None:
-        """Evaluate the whole window, or only the ``needed`` cells it shows when they are few."""
+        """Evaluate the whole window, or only the ``needed`` cells it shows (the rest left stale)."""
         self._cache.bind(view.width, view.height)
         self.last_evaluation = "full"
         cells = None if needed is None else visible_cells(view, needed, self._layout.cell_size)
@@ -351,27 +349,20 @@ class CanvasRenderer:
             return
         self._touch(view)  # a new view: all of it is new
         self._stale[:] = True
-        self._evaluated(view, cells)
+        if len(cells):
+            self._evaluated(view, cells)
 
-    def _most(self, view: View, cells: np.ndarray) -> bool:
-        """Whether ``cells`` cover so much of the window that one pass over all of it costs less."""
-        return len(cells) * (self._layout.cell_size * view.scale + 1) ** 2 > FULL_SHARE * view.width * view.height
-
-    def _evaluate_cells(self, view: View, todo: np.ndarray, needed: np.ndarray | None) -> None:
-        """Re-evaluate the pixels of the ``todo`` cells that the window shows."""
+    def _evaluate_cells(self, view: View, todo: np.ndarray) -> None:
+        """Re-evaluate the pixels of the ``todo`` cells that the window shows (as runs along rows: about what a
+        pass over the same pixels of the window costs, however many)."""
         cells = visible_cells(view, todo, self._layout.cell_size)
-        if len(cells) == 0:
-            return
-        if self._most(view, cells):
-            self._full(view, needed)
-            return
-        self._cache.bind()
-        self._evaluated(view, cells)
+        if len(cells):
+            self._cache.bind()
+            self._evaluated(view, cells)
 
     def _evaluated(self, view: View, cells: np.ndarray) -> None:
-        """Evaluate ``cells`` (flat indices) into the bound image: their pixels are current."""
-        if len(cells):
-            self._pass(view, cells)
+        """Evaluate ``cells`` (flat indices, some) into the bound image: their pixels are current."""
+        self._pass(view, cells)
         self._stale.ravel()[cells] = False
         self._unseen.ravel()[cells] = 0.0
 
@@ -397,7 +388,6 @@ class CanvasRenderer:
             grid = np.zeros(self._layout.cells**2, bool)
             grid[cells] = True
             listed = row_runs(grid.reshape(self._layout.cells, -1))
-        instances = 0 if cells is None else len(listed)
         program = self._program()
         program.use()
         self._data.bind(listed, delta)
@@ -413,8 +403,8 @@ class CanvasRenderer:
         )
         self._vao.bind()
         with additive() if delta else nullcontext():
-            if instances:
-                GL.glDrawArraysInstanced(GL.GL_TRIANGLE_STRIP, 0, 4, instances)
+            if listed is not None:
+                GL.glDrawArraysInstanced(GL.GL_TRIANGLE_STRIP, 0, 4, len(listed))
             else:
                 GL.glDrawArrays(GL.GL_TRIANGLE_STRIP, 0, 4)
         GL.glBindVertexArray(0)

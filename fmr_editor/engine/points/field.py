@@ -145,9 +145,9 @@ class LivePoints:
         self.lattice, self.settings = lattice, PointSettings(order=order)
         packed = GaussPoints.from_points(points)
         self.tensor = point_polynomials(packed, lattice, self.settings)
-        self.rows = _row_span((0, 0), changed_cells(packed, lattice, self.settings)
-                              [expansion_ratios(packed, lattice, self.settings) > 0])
-        near = np.flatnonzero(expansion_ratios(packed, lattice, self.settings) == 0)
+        ratios = expansion_ratios(packed, lattice, self.settings)
+        self.rows = _row_span((0, 0), changed_cells(packed, lattice, self.settings)[ratios > 0])
+        near = np.flatnonzero(ratios == 0)
         self._near = near_points(packed.take(near), lattice, self.settings)
         self._slots: dict[DiffusionPoint, list[int]] = {}
         for slot, index in enumerate(near):
