@@ -272,10 +272,13 @@ def _fmr_samples(rep: Representation, order: int | None, xs: np.ndarray, ys: np.
     n, size = lattice.cells_per_side, lattice.cell_size
     offsets = largest_offsets(xs, size, n), largest_offsets(whole_ys, size, n)
     centred = rep.centres is not None or all(np.any(axis == 0.0) for axis in offsets)  # samples on cell centres
-    subcell_field_grid(rep.local, order, xs, ys, size, cell_start, seg.p, seg.q, seg.flux, seg.jump,
-                       split=split, separation=separation, out=out, tables=rep.near_tables, precision=NEAR_PRECISION,
-                       degrees=sample_degrees(order), offsets=offsets, centres=rep.centre_values if centred else None,
-                       skip=skip)
+    if len(seg.p):
+        subcell_field_grid(rep.local, order, xs, ys, size, cell_start, seg.p, seg.q, seg.flux, seg.jump,
+                           split=split, separation=separation, out=out, tables=rep.near_tables,
+                           precision=NEAR_PRECISION, degrees=sample_degrees(order), offsets=offsets,
+                           centres=rep.centre_values if centred else None, skip=skip)
+    else:  # no segment carries anything (``Representation.near``): nor do the expansions they make
+        out[...] = 0.0
     if rep.points is not None:
         rep.points.add_grid(order, xs, ys, out)
 
