@@ -10,6 +10,10 @@
 //                                 u = Re sum_l K_l (xi + i eta)^l, a texel (rgb) for Re K_l, one for Im K_l;
 //                                 0: the full tensor c[i][j] of xi^i eta^j, a texel (rgb) per (i, j)
 //     #define COEFF_TEXELS m      RGBA texels per cell of u_coeffs
+//     #define SCALAR 0|1          1: a scalar field (a mask's luminance, an alpha's or a blur's first channel),
+//                                 its tables four values a texel (packing.py), its value written to r, g and b:
+//                                 harmonic, per l Re K_l, Im K_l; tensor, each row c[i][0..P] padded to whole
+//                                 texels
 // Data (texture buffers, layouts written by fmr_editor/render/packing.py):
 //     u_coeffs           RGBA32F, COEFF_TEXELS texels per cell, cells row-major
 //     u_segment_start    R32I, CSR offsets of each cell's list of near segments (cells^2 + 1)
@@ -46,6 +50,44 @@ out vec4 colour;
 const float INV_TWO_PI = 0.15915494309189535;
 const float INV_FOUR_PI = 0.07957747154594767;
 
+#if SCALAR
+#define VALUE float
+#define SEGMENT_TEXELS 2
+#define POINT_TEXELS 1
+
+// Four terms a texel, zeros after the last (they add nothing to Horner's sums), each texel read once and its
+// components in a fixed order (an array indexed by the term cost llvmpipe three times the whole pass)
+float far_field(int row, vec2 xi) {
+    int base = row * COEFF_TEXELS;
+#if HARMONIC
+    // Horner in z = xi + i eta; texel t holds Re, Im of K_2t, then of K_2t+1
+    vec2 sum = vec2(0.0);
+    for (int t = COEFF_TEXELS - 1; t >= 0; --t) {
+        vec4 c = texelFetch(u_coeffs, base + t);
+        sum = vec2(sum.x * xi.x - sum.y * xi.y, sum.x * xi.y + sum.y * xi.x) + c.zw;
+        sum = vec2(sum.x * xi.x - sum.y * xi.y, sum.x * xi.y + sum.y * xi.x) + c.xy;
+    }
+    return sum.x;
+#else
+    // Horner in eta along each row i (ROW_TEXELS texels: c[i][0..3], c[i][4..7], ...), then in xi
+    const int ROW_TEXELS = (ORDER + 4) / 4;
+    float value = 0.0;
+    for (int i = ORDER; i >= 0; --i) {
+        float along = 0.0;
+        for (int t = ROW_TEXELS - 1; t >= 0; --t) {
+            vec4 c = texelFetch(u_coeffs, base + i * ROW_TEXELS + t);
+            along = (((along * xi.y + c.w) * xi.y + c.z) * xi.y + c.y) * xi.y + c.x;
+        }
+        value = value * xi.x + along;
+    }
+    return value;
+#endif
+}
+#else
+#define VALUE vec3
+#define SEGMENT_TEXELS 3
+#define POINT_TEXELS 2
+
 vec3 coefficient(int texel) {
     return texelFetch(u_coeffs, texel).rgb;
 }
@@ -76,17 +118,22 @@ vec3 far_field(int row, vec2 xi) {
     return value;
 #endif
 }
+#endif
 
 // E S - C D of the segments near the pixel: the list of its cell (the cell's 3x3 block), each segment's
 // end points p, q relative to the cell's centre, so p - x and q - x stay small.
-vec3 near_segments(int cell, vec2 local) {
-    vec3 sum = vec3(0.0);
+VALUE near_segments(int cell, vec2 local) {
+    VALUE sum = VALUE(0.0);
     int end = texelFetch(u_segment_start, cell + 1).r;
     for (int k = texelFetch(u_segment_start, cell).r; k < end; ++k) {
-        vec4 ends = texelFetch(u_segments, 3 * k);
-        vec4 flux_length = texelFetch(u_segments, 3 * k + 1);
-        vec3 jump = texelFetch(u_segments, 3 * k + 2).rgb;
-        float h = flux_length.w;
+        vec4 ends = texelFetch(u_segments, SEGMENT_TEXELS * k);
+        vec4 values = texelFetch(u_segments, SEGMENT_TEXELS * k + 1);
+#if SCALAR
+        float flux = values.x, jump = values.y, h = values.z;
+#else
+        vec3 flux = values.rgb, jump = texelFetch(u_segments, 3 * k + 2).rgb;
+        float h = values.w;
+#endif
         vec2 t = (ends.zw - ends.xy) / h;
         // p - x and q - x from the stored end points (not p + h t), so a pixel centre exactly on a segment
         // gets an exactly zero cross product, and the principal value, as on the CPU
@@ -101,18 +148,22 @@ vec3 near_segments(int cell, vec2 local) {
         float log_p = log(max(dot(v0, v0), 1e-30));
         float log_q = log(max(dot(v1, v1), 1e-30));
         float single = ((h - a) * log_q + a * log_p - 2.0 * h + 2.0 * b * abs(angle)) * INV_FOUR_PI;
-        sum += flux_length.rgb * single - jump * (angle * INV_TWO_PI);
+        sum += flux * single - jump * (angle * INV_TWO_PI);
     }
     return sum;
 }
 
-vec3 near_points(int cell, dvec2 position) {
-    vec3 sum = vec3(0.0);
+VALUE near_points(int cell, dvec2 position) {
+    VALUE sum = VALUE(0.0);
     int end = texelFetch(u_point_start, cell + 1).r;
     for (int e = texelFetch(u_point_start, cell).r; e < end; ++e) {
         int p = texelFetch(u_point_members, e).r;
-        vec4 centre = texelFetch(u_points, 2 * p);
+        vec4 centre = texelFetch(u_points, POINT_TEXELS * p);
+#if SCALAR
+        float weight = centre.w;
+#else
         vec3 weight = texelFetch(u_points, 2 * p + 1).rgb;
+#endif
         vec2 d = vec2(position - dvec2(centre.xy));
         sum += weight * exp(-dot(d, d) * centre.z);
     }
@@ -138,12 +189,12 @@ void main() {
     float size = float(u_cell_size);
     vec2 local = vec2(position - (dvec2(cell) + 0.5) * u_cell_size);  // from the cell's centre
     int flat_cell = cell.y * u_cells + cell.x;
-    vec3 value = far_field(flat_cell, local / size);
+    VALUE value = far_field(flat_cell, local / size);
     value += near_segments(flat_cell, local);
 #if !HARMONIC
     if (u_delta == 0) {  // (a field in harmonic form has no points: their loop, even empty, costs a tenth)
         value += near_points(flat_cell, position);
     }
 #endif
-    colour = vec4(value, u_delta != 0 ? 0.0 : 1.0);
+    colour = vec4(vec3(value), u_delta != 0 ? 0.0 : 1.0);
 }

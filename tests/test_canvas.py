@@ -197,6 +197,38 @@ def test_a_stop_colour_change_updates_only_what_changed(canvas, qtbot, shared_da
     assert np.abs(accumulated - rasterise(live.representation, samples=1)).max() <= 0.1 * LEVEL
 
 
+def test_a_scalar_field_is_the_weighted_sum_of_the_colour_and_follows_a_colour_edit(canvas, qtbot):
+    """What a mask's renderer draws (``weights``: its luminance alone, in every channel), curves and points,
+    against the CPU's luminance; and after a colour edit whose change is added (the scalar delta pass)."""
+    from OpenGL import GL
+
+    from fmr_editor.model.layer import MASK_LUMA
+    from fmr_editor.render import CanvasRenderer
+
+    live = LiveRepresentation(points_document())
+    view = View(1.5, 10.0, 5.0, 260, 250)
+    show(canvas, qtbot, live.representation, view)
+    inside = ((window_samples(view) >= 0) & (window_samples(view) <= 160)).all(axis=1)
+    canvas.makeCurrent()
+    renderer = CanvasRenderer(cache_format=GL.GL_RGBA32F, weights=MASK_LUMA)
+    try:
+        renderer.upload(live.representation)
+        for step in range(2):
+            renderer.evaluate(view)
+            drawn = renderer.read()[..., :3].reshape(-1, 3)[inside].astype(np.float64)
+            expected = evaluate_points(live.representation, window_samples(view)[inside]) @ MASK_LUMA
+            # a cell whose pixels the edit moved by less than the tolerance keeps them (the module's rule)
+            assert np.abs(drawn - expected[:, None]).max() < 0.01 * LEVEL + step * renderer.tolerance
+            if step == 0:
+                curve = live.document.curves[1]
+                update = live.update(edits.set_stop_color(live.document, curve.id, "left", 0, (0.9, 0.1, 0.4)))
+                renderer.update(live.representation, update.changed)
+                assert renderer.last_update["delta"] > 0  # the change added, not evaluated again
+    finally:
+        renderer.release()
+        canvas.doneCurrent()
+
+
 def test_a_brush_dab_updates_the_image(canvas, qtbot):
     live = LiveRepresentation(points_document())
     view = View(2.0, 0.0, 0.0, 2 * live.document.width, 2 * live.document.height)

@@ -16,6 +16,7 @@ from shapes import scattered_document
 
 from fmr_editor.engine import LiveStack, build, composite, evaluate_points
 from fmr_editor.model import DiffusionPoint, Document, Mask
+from fmr_editor.model.layer import MASK_LUMA
 from fmr_editor.render import View, bounds, culling
 
 VIEW = View(1.7, 15.0, 10.0, 250, 240)
@@ -29,11 +30,12 @@ def soft_points(size: int = 128) -> Document:
     return Document(size, size, points=mask.points)
 
 
+@pytest.mark.parametrize("scalar", [False, True], ids=["colour", "luminance"])
 @pytest.mark.parametrize("document", [scattered_document(128, circles=2, seed=2), soft_points()],
                          ids=["curves", "points"])
-def test_value_bounds_hold_the_field_at_every_point_of_their_cells(document):
+def test_value_bounds_hold_the_field_at_every_point_of_their_cells(document, scalar):
     rep = build(document)
-    centre, spread = bounds.cell_value_bounds(rep)
+    centre, spread = bounds.cell_value_bounds(rep, MASK_LUMA if scalar else None)
     n, size = rep.lattice.cells_per_side, rep.lattice.cell_size
     bounded = np.flatnonzero(np.isfinite(spread[:, 0]))
     assert len(bounded) >= 16
@@ -44,6 +46,8 @@ def test_value_bounds_hold_the_field_at_every_point_of_their_cells(document):
     corners = np.stack([cells % n, cells // n], axis=1)[:, None, :]
     points = np.clip(((corners + offsets[None]) * size).reshape(-1, 2), 0, [rep.width, rep.height])
     values = evaluate_points(rep, points).reshape(len(cells), len(offsets), 3)
+    if scalar:
+        values = values @ MASK_LUMA[:, None]
     deviation = np.abs(values - centre[cells, None, :]).max(axis=1)
     assert (deviation <= spread[cells]).all()
     varying = spread[cells] > 1e-9

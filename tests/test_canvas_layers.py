@@ -22,6 +22,7 @@ pytest.importorskip("pytestqt", reason="pytest-qt is in the [test] extra")
 from fmr_editor.engine import LiveStack, Role, evaluate_points  # noqa: E402
 from fmr_editor.model import DiffusionPoint, Document, edits, layer_edits  # noqa: E402
 from fmr_editor.model.color_transform import hue_rotation  # noqa: E402
+from fmr_editor.model.layer import MASK_LUMA  # noqa: E402
 from fmr_editor.render import View, bounds  # noqa: E402
 
 pytestmark = pytest.mark.gui
@@ -150,7 +151,7 @@ def test_the_canvas_leaves_hidden_cells_out_and_shows_them_when_an_edit_reveals_
     check(canvas, stack.composite)  # what the circle uncovered is evaluated, what it covers left
     assert (covered & ~renderers[bottom.id, Role.IMAGE].stale).any()
     mask = renderers[top.id, Role.MASK]
-    kept, fresh = mask.value_bounds(), bounds.cell_value_bounds(stack.composite.layers[2].mask)
+    kept, fresh = mask.value_bounds(), bounds.cell_value_bounds(stack.composite.layers[2].mask, MASK_LUMA)
     np.testing.assert_array_equal(kept[0], fresh[0])
     np.testing.assert_array_equal(kept[1], fresh[1])
 

@@ -63,6 +63,47 @@ def test_tensor_form_is_the_polynomials(with_points):
         packing.cell_coefficients(with_points, harmonic=True)
 
 
+WEIGHTS = np.array([0.2126, 0.7152, 0.0722])  # a mask's luminance
+
+
+def unpack_scalar(rep, texels):
+    """A scalar field's ``K_l`` (cells, l) complex, or ``c[i, j]`` (n, n, i, j), from its packed texels."""
+    n, order = rep.lattice.cells_per_side, rep.order
+    rows = texels.reshape(n * n, -1).astype(np.float64)
+    if packing.uses_harmonic(rep):
+        pairs = rows[:, : 2 * (order + 1)].reshape(n * n, order + 1, 2)
+        return pairs[..., 0] + 1j * pairs[..., 1]
+    return rows.reshape(n * n, order + 1, -1)[:, :, : order + 1].reshape(n, n, order + 1, order + 1)
+
+
+def test_a_scalar_field_packs_the_weighted_sum_of_the_channels(curves, with_points):
+    """Four values a texel: the coefficients' weighted sum, each segment's E and C, each near point's weight."""
+    for rep in (curves, with_points):
+        texels = packing.cell_coefficients(rep, weights=WEIGHTS)
+        n, harmonic = rep.lattice.cells_per_side, packing.uses_harmonic(rep)
+        assert texels.shape == (n * n * packing.texels(rep.order, harmonic, scalar=True), 4)
+        assert packing.texels(rep.order, harmonic, scalar=True) * 3 <= packing.texels(rep.order, harmonic) + 3
+        full = packing.cell_coefficients(rep)
+        if harmonic:
+            expected = np.einsum("c,kcl->kl", WEIGHTS, unpack_harmonic(rep, full))
+        else:
+            expected = np.einsum("c,ijcpq->ijpq", WEIGHTS, unpack_tensor(rep, full))
+        np.testing.assert_allclose(unpack_scalar(rep, texels), expected, rtol=1e-6, atol=1e-6 * np.abs(expected).max())
+    table, full = packing.segment_table(curves, weights=WEIGHTS), packing.segment_table(curves)
+    rows, full_rows = table.texels.reshape(-1, 2, 4), full.texels.reshape(-1, 3, 4)
+    np.testing.assert_array_equal(rows[:, 0], full_rows[:, 0])  # the same entries, the same end points
+    np.testing.assert_allclose(rows[:, 1, 0], full_rows[:, 1, :3] @ WEIGHTS, rtol=1e-6, atol=1e-7)
+    np.testing.assert_allclose(rows[:, 1, 1], full_rows[:, 2, :3] @ WEIGHTS, rtol=1e-6, atol=1e-7)
+    np.testing.assert_array_equal(rows[:, 1, 2], full_rows[:, 1, 3])  # the length
+    points, full_points = packing.point_table(with_points, WEIGHTS), packing.point_table(with_points)
+    np.testing.assert_array_equal(points.texels[:, :3], full_points.texels.reshape(-1, 2, 4)[:, 0, :3])
+    np.testing.assert_allclose(points.texels[:, 3], full_points.texels.reshape(-1, 2, 4)[:, 1, :3] @ WEIGHTS,
+                               rtol=1e-6)
+    flux, jump = np.random.default_rng(5).normal(size=(2, *curves.segments.flux.shape))
+    packing.refill(table, flux, jump)
+    np.testing.assert_array_equal(table.texels, packing.segment_table(curves, flux, jump, weights=WEIGHTS).texels)
+
+
 def test_some_cells_pack_like_all_of_them(with_points, curves):
     for rep in (with_points, curves):
         per_cell = packing.cell_coefficients(rep).reshape(rep.lattice.cells_per_side**2, -1)
@@ -140,6 +181,29 @@ def test_far_bound_bounds_the_change_of_the_far_field(curves, with_points):
             change = np.einsum("kijc,im,jm->kcm", c, xi[None] ** powers, eta[None] ** powers)
         assert (np.abs(change).max(axis=(1, 2)) <= bound * (1 + 1e-12)).all()
         assert (np.abs(change).max(axis=(1, 2)) >= 0.05 * bound).all()  # and not hopelessly loose
+
+
+def test_far_bound_bounds_the_change_of_a_scalar_field(curves, with_points):
+    rng = np.random.default_rng(2)
+    xi, eta = rng.uniform(-0.5, 0.5, (2, 40))
+    p = curves.order + 1
+    for rep in (curves, with_points):
+        harmonic = packing.uses_harmonic(rep)
+        shape = packing.cell_coefficients(rep, weights=WEIGHTS).reshape(rep.lattice.cells_per_side**2, -1).shape
+        changed = packing.cell_coefficients(rep, weights=WEIGHTS * 0)  # zeros where the layout pads
+        delta = (changed.reshape(shape) + rng.normal(size=shape) * 1e-3).astype(np.float32)
+        if harmonic:
+            delta[:, 2 * p:] = 0.0
+            k = delta[:, : 2 * p].reshape(-1, p, 2) @ np.array([1, 1j])
+            change = (k @ ((xi + 1j * eta)[None] ** np.arange(p)[:, None])).real
+        else:
+            rows = delta.reshape(len(delta), p, -1)
+            rows[:, :, p:] = 0.0
+            change = np.einsum("kij,im,jm->km", rows[:, :, :p], xi[None] ** np.arange(p)[:, None],
+                               eta[None] ** np.arange(p)[:, None])
+        bound = bounds.far_bound(delta, rep.order, harmonic, scalar=True)
+        assert (np.abs(change).max(axis=1) <= bound * (1 + 1e-12)).all()
+        assert (np.abs(change).max(axis=1) >= 0.05 * bound).all()
 
 
 def test_near_bound_bounds_the_change_of_the_near_field():

@@ -38,19 +38,25 @@ class ShaderLayout:
     harmonic: bool
     width: int
     height: int
+    scalar: bool = False
 
     @classmethod
-    def of(cls, rep: Representation) -> ShaderLayout:
+    def of(cls, rep: Representation, scalar: bool = False) -> ShaderLayout:
         return cls(rep.lattice.cells_per_side, rep.lattice.cell_size, rep.order, packing.uses_harmonic(rep),
-                   rep.width, rep.height)
+                   rep.width, rep.height, scalar)
 
     @property
     def texels(self) -> int:
-        return packing.texels(self.order, self.harmonic)
+        return packing.texels(self.order, self.harmonic, self.scalar)
 
 
 class CanvasData:
     """The buffers of one representation at a time; GL calls need the caller's context current.
+
+    Parameters
+    ----------
+    weights : numpy.ndarray, optional
+        ``(3,)``: hold the scalar field ``weights . colour`` (``packing``'s scalar layouts).
 
     Attributes
     ----------
@@ -59,7 +65,8 @@ class CanvasData:
     layout : ShaderLayout or None
     """
 
-    def __init__(self) -> None:
+    def __init__(self, weights: np.ndarray | None = None) -> None:
+        self.weights = weights
         self._buffers = {name: BufferTexture(GL.GL_R32I if name.endswith(("start", "members", "list"))
                                              else GL.GL_RGBA32F)
                          for name in [*UNITS, *_DELTA.values()]}
@@ -73,9 +80,9 @@ class CanvasData:
 
     def upload(self, rep: Representation) -> None:
         """Upload all of ``rep``."""
-        self.layout = ShaderLayout.of(rep)
+        self.layout = ShaderLayout.of(rep, self.weights is not None)
         n = self.layout.cells
-        self._mirror = packing.cell_coefficients(rep).reshape(n * n, -1)
+        self._mirror = packing.cell_coefficients(rep, weights=self.weights).reshape(n * n, -1)
         self._delta = np.zeros_like(self._mirror)
         self._buffers["u_coeffs"].set_data(self._mirror)
         self._buffers["delta_coeffs"].set_data(self._delta)
@@ -102,12 +109,13 @@ class CanvasData:
         moved = np.empty(len(cells))
         for first in range(0, len(cells), UPDATE_CHUNK):  # none: only segments or near points may have changed
             chunk = cells[first : first + UPDATE_CHUNK]
-            fresh = packing.cell_coefficients(rep, chunk).reshape(len(chunk), -1)
+            fresh = packing.cell_coefficients(rep, chunk, weights=self.weights).reshape(len(chunk), -1)
             delta = self._delta[chunk] = fresh - self._mirror[chunk]
-            moved[first : first + len(chunk)] = bounds.far_bound(delta, layout.order, layout.harmonic)
+            moved[first : first + len(chunk)] = bounds.far_bound(delta, layout.order, layout.harmonic, layout.scalar)
             self._mirror[chunk] = fresh
             if self._far is not None:
-                for kept, rows in zip(self._far, bounds.value_bounds(fresh, layout.order, layout.harmonic)):
+                fresh_bounds = bounds.value_bounds(fresh, layout.order, layout.harmonic, layout.scalar)
+                for kept, rows in zip(self._far, fresh_bounds):
                     kept[chunk] = rows
         for start, stop in packing.cell_runs(cells):
             self._buffers["u_coeffs"].set_subdata(start * layout.texels, self._mirror[start:stop])
@@ -124,10 +132,12 @@ class CanvasData:
 
     def value_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Each cell's value at its centre and how far the shader's value at any of its pixels may get from it,
-        ``(cells^2, 3)`` each, flat cells: ``bounds.value_bounds`` of the far field, an infinite spread where
-        segments or near points add to it (``bounds.near_items``).  Kept up to date by ``update`` once asked for."""
+        ``(cells^2, 3)`` each (``(cells^2, 1)`` for a scalar field), flat cells: ``bounds.value_bounds`` of the far
+        field, an infinite spread where segments or near points add to it (``bounds.near_items``).  Kept up to
+        date by ``update`` once asked for."""
+        layout = self.layout
         if self._far is None:
-            self._far = bounds.value_bounds(self._mirror, self.layout.order, self.layout.harmonic)
+            self._far = bounds.value_bounds(self._mirror, layout.order, layout.harmonic, layout.scalar)
         if self._near is None:
             self._near = bounds.near_items(self.rep).ravel()
         return bounds.unbounded_near(*self._far, self._near)
@@ -155,12 +165,12 @@ class CanvasData:
             packing.refill(self._segment_table, rep.near[0].flux, rep.near[0].jump)
             self._buffers["u_segments"].set_subdata(0, self._segment_table.texels)
             return
-        table = self._segment_table = packing.segment_table(rep)
+        table = self._segment_table = packing.segment_table(rep, weights=self.weights)
         self._buffers["u_segments"].set_data(table.texels)
         self._buffers["u_segment_start"].set_data(table.cell_start)
 
     def _upload_points(self, rep: Representation) -> None:
-        table = packing.point_table(rep)
+        table = packing.point_table(rep, self.weights)
         self._buffers["u_points"].set_data(table.texels)
         self._buffers["u_point_start"].set_data(table.start)
         self._buffers["u_point_members"].set_data(table.members)

@@ -60,6 +60,10 @@ class CanvasRenderer:
     tolerance : float
         A changed cell keeps its pixels while they may have moved by at most
         this (colour units) since they were last evaluated.
+    weights : numpy.ndarray, optional
+        ``(3,)``: draw only the scalar field ``weights . colour``, into all
+        three channels (what reads a mask's luminance or an alpha's first
+        channel reads it there): a third of the tables and of the work.
 
     Attributes
     ----------
@@ -81,13 +85,14 @@ class CanvasRenderer:
         (a layer hidden there, ``culling``).  None: every cell's.
     """
 
-    def __init__(self, cache_format: int = GL.GL_RGBA32F, checker: float = 8.0, tolerance: float = TOLERANCE) -> None:
+    def __init__(self, cache_format: int = GL.GL_RGBA32F, checker: float = 8.0, tolerance: float = TOLERANCE,
+                 weights: np.ndarray | None = None) -> None:
         self.checker = float(checker)
         self.tolerance = float(tolerance)
-        self._data = CanvasData()
+        self._data = CanvasData(weights)
         self._vao = VertexArray()
         self._cache = CachedImage(cache_format)
-        self._programs: dict[tuple[int, bool], Program] = {}
+        self._programs: dict[tuple[int, bool, bool], Program] = {}
         self._rep: Representation | None = None  # what the image shows; None: a plain background
         self._layout: ShaderLayout | None = None
         self._dirty: np.ndarray | None = None  # cells to evaluate again at the next draw
@@ -173,7 +178,7 @@ class CanvasRenderer:
         changed : numpy.ndarray
             ``(2^L, 2^L)`` bool, as ``engine.Update.changed``.
         """
-        if self._rep is None or ShaderLayout.of(rep) != self._layout:
+        if self._rep is None or ShaderLayout.of(rep, self._layout.scalar) != self._layout:
             self.upload(rep)
             return
         changed = np.asarray(changed, bool)
@@ -243,7 +248,7 @@ class CanvasRenderer:
             return
         (before, _), (after, _) = old.near, new.near
         self._data.upload_change(cells, packing.segment_table(new, after.flux - before.flux, after.jump - before.jump,
-                                                              keep))
+                                                              keep, self._data.weights))
         self._cache.bind()
         self._pass(self._cached_view, cells, delta=True)
 
@@ -258,9 +263,10 @@ class CanvasRenderer:
 
     # -- drawing ------------------------------------------------------------------------------
     def _program(self) -> Program:
-        key = (self._layout.order, self._layout.harmonic)
+        key = (self._layout.order, self._layout.harmonic, self._layout.scalar)
         if key not in self._programs:
-            defines = {"ORDER": key[0], "HARMONIC": int(key[1]), "COEFF_TEXELS": self._layout.texels}
+            defines = {"ORDER": key[0], "HARMONIC": int(key[1]), "COEFF_TEXELS": self._layout.texels,
+                       "SCALAR": int(key[2])}
             self._programs[key] = Program(shader_source("canvas.vert"), shader_source("canvas.frag", defines),
                                           label="canvas shader")
         return self._programs[key]

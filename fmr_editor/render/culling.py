@@ -28,7 +28,8 @@ from ..model.layer import MASK_LUMA
 #: the exact one by some 1e-7).
 MARGIN = 1e-6
 
-#: ``(centre, spread)`` of a field's values over each of its cells, ``(cells^2, 3)`` each (``CanvasData.value_bounds``).
+#: ``(centre, spread)`` of a field's values over each of its cells, ``(cells^2, 3)`` each, or ``(cells^2, 1)`` for the
+#: scalar field a renderer keeps of a mask's luminance or an alpha's first channel (``CanvasData.value_bounds``).
 ValueBounds = tuple[np.ndarray, np.ndarray]
 
 
@@ -140,9 +141,9 @@ def _range(layer: LayerFields, role: Role, value_bounds: Callable[[FieldKey], Va
     if key in unbounded:
         return None
     centre, spread = value_bounds(key)
-    if role is Role.MASK:
+    if role is Role.MASK and centre.shape[1] == 3:
         centre, spread = centre @ MASK_LUMA, spread @ MASK_LUMA
-    else:  # the alpha's first channel
+    else:  # the alpha's first channel, or the field of that or of the mask's luminance alone
         centre, spread = centre[:, 0], spread[:, 0]
     rep = layer.mask if role is Role.MASK else layer.alpha
     own = rep.lattice.cells_per_side

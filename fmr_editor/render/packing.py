@@ -15,6 +15,14 @@ Layouts (``shaders/canvas.frag`` reads them):
   ``cell_start`` as int32.
 - **near points**: 2 texels each, ``(x, y, 1 / r^2, 0)``, ``(weight, 0)``,
   and their per-cell CSR lists (``start``, ``members``) as int32.
+
+A *scalar* field (``weights``: a mask, read through its luminance; an alpha or a
+blur field, through its first channel) keeps one channel, the weighted sum of the
+three, four values a texel: the coefficients' terms in order (Re K_l, Im K_l for
+each ``l``; or ``c[i, j]``, each row ``i`` padded with zeros to whole texels),
+``texels(order, harmonic, True)`` a cell;
+a segment's 2 texels ``(p - centre, q - centre)``, ``(E, C, length, 0)``; a near
+point's one, ``(x, y, 1 / r^2, weight)``.
 """
 
 from __future__ import annotations
@@ -28,9 +36,23 @@ from ..engine import Representation, local_polynomials
 TWO_PI = 2.0 * np.pi
 
 
-def texels(order: int, harmonic: bool) -> int:
-    """RGBA texels per cell of the coefficient table: one per term (rgb)."""
-    return 2 * (order + 1) if harmonic else (order + 1) ** 2
+def texels(order: int, harmonic: bool, scalar: bool = False) -> int:
+    """RGBA texels per cell of the coefficient table: one per term (rgb), or four terms a texel (``scalar``)."""
+    if not scalar:
+        return 2 * (order + 1) if harmonic else (order + 1) ** 2
+    return -(-2 * (order + 1) // 4) if harmonic else (order + 1) * _row_texels(order)
+
+
+def _row_texels(order: int) -> int:
+    """Texels of a row ``c[i, 0..order]`` of a scalar tensor."""
+    return -(-(order + 1) // 4)
+
+
+def _scalars(values: np.ndarray) -> np.ndarray:
+    """``(m, terms)`` float64 to ``(m * ceil(terms / 4), 4)`` float32 texels, four terms each (zeros after)."""
+    out = np.zeros((len(values), -(-values.shape[1] // 4) * 4), np.float32)
+    out[:, : values.shape[1]] = values
+    return out.reshape(-1, 4)
 
 
 def _padded(values: np.ndarray) -> np.ndarray:
@@ -40,7 +62,8 @@ def _padded(values: np.ndarray) -> np.ndarray:
     return out.reshape(-1, 4)
 
 
-def cell_coefficients(rep: Representation, cells: np.ndarray | None = None, harmonic: bool | None = None) -> np.ndarray:
+def cell_coefficients(rep: Representation, cells: np.ndarray | None = None, harmonic: bool | None = None,
+                      weights: np.ndarray | None = None) -> np.ndarray:
     """Coefficient texels of ``cells`` (flat indices, default all), ``(len(cells) * texels, 4)`` float32.
 
     Parameters
@@ -50,6 +73,8 @@ def cell_coefficients(rep: Representation, cells: np.ndarray | None = None, harm
         Flat fine-cell indices ``row * 2^L + column``.
     harmonic : bool, optional
         The harmonic form; defaults to ``uses_harmonic(rep)``.  Only for representations without points.
+    weights : numpy.ndarray, optional
+        ``(3,)``: the scalar field ``weights . colour`` (the module's layouts).
     """
     harmonic = uses_harmonic(rep) if harmonic is None else harmonic
     if harmonic and rep.points is not None:
@@ -58,6 +83,11 @@ def cell_coefficients(rep: Representation, cells: np.ndarray | None = None, harm
     n = rep.lattice.cells_per_side
     chosen = slice(None) if cells is None else np.asarray(cells, np.int64)
     local = rep.local.reshape(n * n, 3, -1)[chosen, :, : order + 1]  # a view until indexed
+    if harmonic and weights is not None:
+        k = np.einsum("c,mcl->ml", weights, local) / TWO_PI
+        pairs = np.stack([k.real, k.imag], axis=2)  # (cell, l, Re/Im)
+        pairs[:, 0, 1] = 0.0  # Im K_0 never shows (u = Re ...)
+        return _scalars(pairs.reshape(len(local), -1))
     if harmonic:
         out = np.zeros((len(local), order + 1, 2, 4), np.float32)  # (cell, l, Re/Im, rgb + 0)
         out[:, :, 0, :3] = local.real.transpose(0, 2, 1) / TWO_PI
@@ -66,6 +96,11 @@ def cell_coefficients(rep: Representation, cells: np.ndarray | None = None, harm
     tensor = local_polynomials(local, order).reshape(len(local), 3, -1)  # (m, channel, ij)
     if rep.points is not None:
         tensor += rep.points.polynomials(order).reshape(n * n, 3, -1)[chosen]
+    if weights is not None:
+        rows = np.einsum("c,mct->mt", weights, tensor).reshape(len(local), order + 1, order + 1)
+        padded = np.zeros((len(local), order + 1, _row_texels(order) * 4))
+        padded[:, :, : order + 1] = rows
+        return _scalars(padded.reshape(len(local), -1))
     return _padded(tensor.transpose(0, 2, 1))  # (m, ij, channel)
 
 
@@ -81,16 +116,20 @@ class SegmentTable:
     Attributes
     ----------
     texels : numpy.ndarray
-        ``(3 * entries, 4)`` float32: per entry ``(p - centre, q - centre)``, ``(E, length)``, ``(C, 0)``.
+        ``(3 * entries, 4)`` float32: per entry ``(p - centre, q - centre)``, ``(E, length)``, ``(C, 0)``; of a
+        scalar field ``(2 * entries, 4)``, ``(p - centre, q - centre)``, ``(E, C, length, 0)``.
     cell_start : numpy.ndarray
         ``(4^L + 1,)`` int32 CSR offsets: cell ``c`` lists entries ``cell_start[c]:cell_start[c + 1]``.
     segments : numpy.ndarray
         ``(entries,)`` the representation's index of each entry's segment.
+    weights : numpy.ndarray or None
+        A scalar field's channel weights.
     """
 
     texels: np.ndarray
     cell_start: np.ndarray
     segments: np.ndarray
+    weights: np.ndarray | None = None
 
 
 #: Entries ``refill`` gathers at a time: its temporaries (a megabyte) come from the heap, where freed blocks are
@@ -136,7 +175,7 @@ def block_lists(cell_start: np.ndarray, cells_per_side: int) -> tuple[np.ndarray
 
 
 def segment_table(rep: Representation, flux: np.ndarray | None = None, jump: np.ndarray | None = None,
-                  keep: np.ndarray | None = None) -> SegmentTable:
+                  keep: np.ndarray | None = None, weights: np.ndarray | None = None) -> SegmentTable:
     """Each cell's near segments (``rep.near``), with end points relative to that cell's centre.
 
     A segment is listed in every cell of the 3x3 block around its own (up to
@@ -149,6 +188,8 @@ def segment_table(rep: Representation, flux: np.ndarray | None = None, jump: np.
         ``(segments, 3)`` values to put in place of the segments' E and C (their changes, say).
     keep : numpy.ndarray, optional
         ``(segments,)`` bool: list only these.
+    weights : numpy.ndarray, optional
+        ``(3,)``: the table of the scalar field ``weights . colour``.
     """
     (seg, cell_start), lattice = rep.near, rep.lattice
     n, size = lattice.cells_per_side, lattice.cell_size
@@ -165,21 +206,26 @@ def segment_table(rep: Representation, flux: np.ndarray | None = None, jump: np.
     cell = np.repeat(np.arange(n * n), np.diff(block_start))
     centre = np.stack([cell % n + 0.5, cell // n + 0.5], axis=1) * size
     p, q = seg.p[members], seg.q[members]
-    length = np.hypot(*(q - p).T)
-    table = np.zeros((len(members), 3, 4), np.float32)
+    table = np.zeros((len(members), 2 if weights is not None else 3, 4), np.float32)
     table[:, 0, 0:2] = p - centre
     table[:, 0, 2:4] = q - centre
-    table[:, 1, 0:3] = flux[members]
-    table[:, 1, 3] = length
-    table[:, 2, 0:3] = jump[members]
-    return SegmentTable(table.reshape(-1, 4), _int32(block_start), members)
+    out = SegmentTable(table.reshape(-1, 4), _int32(block_start), members, weights)
+    refill(out, flux, jump)
+    table[:, 1, 2 if weights is not None else 3] = np.hypot(*(q - p).T)
+    return out
 
 
 def refill(table: SegmentTable, flux: np.ndarray, jump: np.ndarray) -> None:
-    """Put ``flux`` and ``jump`` ``(segments, 3)`` in place of the E and C of a full table (no ``keep``) of
-    segments with the same geometry and cells, in place and ``REFILL_CHUNK`` entries at a time."""
+    """Put ``flux`` and ``jump`` ``(segments, 3)`` in place of the E and C of a table of segments with the same
+    geometry and cells (its entries' segments), in place and ``REFILL_CHUNK`` entries at a time."""
+    if table.weights is not None:  # cast and weigh the few, then gather the many
+        values = np.stack([flux @ table.weights, jump @ table.weights], axis=1).astype(np.float32)
+        texels = table.texels.reshape(-1, 2, 4)
+        for start in range(0, len(texels), REFILL_CHUNK):
+            texels[start : start + REFILL_CHUNK, 1, 0:2] = values[table.segments[start : start + REFILL_CHUNK]]
+        return
     texels = table.texels.reshape(-1, 3, 4)
-    flux, jump = np.asarray(flux, np.float32), np.asarray(jump, np.float32)  # cast the few, then gather the many
+    flux, jump = np.asarray(flux, np.float32), np.asarray(jump, np.float32)
     for start in range(0, len(texels), REFILL_CHUNK):
         members = table.segments[start : start + REFILL_CHUNK]
         texels[start : start + REFILL_CHUNK, 1, 0:3] = flux[members]
@@ -193,7 +239,7 @@ class PointTable:
     Attributes
     ----------
     texels : numpy.ndarray
-        ``(2 * points, 4)`` float32.
+        ``(2 * points, 4)`` float32 (``(points, 4)`` for a scalar field).
     start : numpy.ndarray
         ``(4^L + 1,)`` int32 CSR offsets into ``members``.
     members : numpy.ndarray
@@ -205,17 +251,20 @@ class PointTable:
     members: np.ndarray
 
 
-def point_table(rep: Representation) -> PointTable:
-    """The representation's near points (none without points)."""
+def point_table(rep: Representation, weights: np.ndarray | None = None) -> PointTable:
+    """The representation's near points (none without points); of the scalar field ``weights . colour``."""
     n = rep.lattice.cells_per_side
     if rep.points is None or len(rep.points.near) == 0:
         return PointTable(np.zeros((0, 4), np.float32), np.zeros(n * n + 1, np.int32), np.zeros(0, np.int32))
     near = rep.points.near
     p = near.points
-    table = np.zeros((len(near), 2, 4), np.float32)
+    table = np.zeros((len(near), 1 if weights is not None else 2, 4), np.float32)
     table[:, 0, 0:2] = p.positions
     table[:, 0, 2] = 1.0 / p.radii**2
-    table[:, 1, 0:3] = p.weights
+    if weights is not None:
+        table[:, 0, 3] = p.weights @ weights
+    else:
+        table[:, 1, 0:3] = p.weights
     return PointTable(table.reshape(-1, 4), _int32(near.cell_start), _int32(near.members))
 
 

@@ -26,6 +26,7 @@ from OpenGL import GL
 
 from ..engine import NEGLIGIBLE_WEIGHT, Composite, FieldKey, LayerFields, Representation, Role
 from ..engine.blur import largest_blur
+from ..model.layer import MASK_LUMA
 from . import culling
 from .blur_filter import BlurFilter, BlurPlan, FramebufferPool, read_first_channel
 from .cached_image import CachedImage, show_scaled, union
@@ -38,6 +39,9 @@ REFLECTED = (Role.IMAGE, Role.ALPHA, Role.BLUR)
 
 #: ``changed`` of a field to upload whole (a new lattice, or changes merged across lattices).
 WHOLE = None
+#: The fields read through one value a pixel, by role: a mask through its luminance, an alpha and a blur field
+#: through their first channel.  Their renderers evaluate that value alone (``CanvasRenderer``'s ``weights``).
+SCALAR_FIELDS = {Role.MASK: MASK_LUMA, Role.ALPHA: np.array([1.0, 0.0, 0.0]), Role.BLUR: np.array([1.0, 0.0, 0.0])}
 #: The texture unit of the compose passes' cell lists (after the image, mask and alpha).
 CELL_LIST_UNIT = 3
 #: The kinds of compose pass (``shaders/compose.frag``'s ``PASS``): the checkerboard under the layers, a layer, the
@@ -149,7 +153,7 @@ class PictureRenderer:
         for key, rep in fields.items():
             renderer = self.renderers.get(key)
             if renderer is None:
-                renderer = self.renderers[key] = CanvasRenderer(*self._options)
+                renderer = self.renderers[key] = CanvasRenderer(*self._options, weights=SCALAR_FIELDS.get(key[1]))
                 renderer.upload(rep)
             elif key in changed and changed[key] is WHOLE:
                 renderer.upload(rep)
