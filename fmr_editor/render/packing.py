@@ -20,9 +20,8 @@ A *scalar* field (``weights``: a mask, read through its luminance; an alpha or a
 blur field, through its first channel) keeps one channel, the weighted sum of the
 three, four values a texel: the coefficients' terms in order (Re K_l, Im K_l for
 each ``l``; or ``c[i, j]``, each row ``i`` padded with zeros to whole texels),
-``texels(order, harmonic, True)`` a cell;
-a segment's 2 texels ``(p - centre, q - centre)``, ``(E, C, length, 0)``; a near
-point's one, ``(x, y, 1 / r^2, weight)``.
+``texels(order, harmonic, True)`` a cell; a segment's 2 texels ``(p - centre,
+q - centre)``, ``(E, C, length, 0)``; a near point's one, ``(x, y, 1 / r^2, weight)``.
 """
 
 from __future__ import annotations
