@@ -282,7 +282,7 @@ def test_removing_a_point_of_a_batch_build():
 
 
 def test_live_points_copy_only_the_rows_their_points_reached_and_never_change_a_handed_out_tensor():
-    from fmr_editor.engine.points.field import LivePoints
+    from fmr_editor.engine.points.field import LivePoints, changed_point_cells
 
     rng = np.random.default_rng(14)
     lattice, order = Lattice(7, 512.0), 8
@@ -311,6 +311,11 @@ def test_live_points_copy_only_the_rows_their_points_reached_and_never_change_a_
     assert last_row - first_row < lattice.cells_per_side  # less than the whole
     for tensor, copy in held:  # what ``field`` handed out stays as it was
         np.testing.assert_array_equal(tensor, copy)
+    before = LivePoints(first, lattice, order)  # an undo's comparison reads the rows either reached alone
+    near_a, near_b = before.field().near, live.field().near
+    occupied = (np.diff(near_a.cell_start) > 0) | (np.diff(near_b.cell_start) > 0)
+    expected = np.any(before.tensor != live.tensor, axis=(2, 3, 4)) | occupied.reshape(before.tensor.shape[:2])
+    np.testing.assert_array_equal(changed_point_cells(before, live), expected)
 
 
 # --- Model and packing -------------------------------------------------------------------

@@ -234,7 +234,11 @@ def changed_point_cells(a: LivePoints | None, b: LivePoints | None) -> np.ndarra
         return False
     if a is None or b is None:
         return True
-    cells = np.any(a.tensor != b.tensor, axis=(2, 3, 4)) if a.tensor is not b.tensor else False
+    cells = False
+    if a.tensor is not b.tensor:  # both are 0 out of their rows
+        first, last = min(a.rows[0], b.rows[0]), max(a.rows[1], b.rows[1])
+        cells = np.zeros(a.tensor.shape[:2], bool)
+        cells[first:last] = np.any(a.tensor[first:last] != b.tensor[first:last], axis=(2, 3, 4))
     near_a, near_b = a.field().near, b.field().near
     if near_a is not near_b:  # either's near points may be gone or new: their cells
         n = a.lattice.cells_per_side
