@@ -271,3 +271,21 @@ def test_view_maps_both_ways():
     assert fit.to_window(256, 128) == pytest.approx((150.0, 150.0))
     with pytest.raises(ValueError):
         View(0.0)
+
+
+@pytest.mark.parametrize("view", [View(1.7, 15.0, 10.0, 250, 240), View(2.0, 0.0, 0.0, 256, 256),
+                                  View(0.9, -20.3, 33.7, 200, 300), View(3.1, -150.0, -90.0, 220, 210)])
+def test_the_strips_beyond_a_square_hold_every_pixel_whose_centre_lies_outside_it(view):
+    from fmr_editor.render.view import beyond
+
+    side = 128.0
+    covered = np.zeros((view.height, view.width), bool)  # GL rows: row 0 at the bottom
+    for x0, y0, x1, y1 in beyond(view, side):
+        covered[y0:y1, x0:x1] = True
+    columns = (np.arange(view.width) + 0.5 - view.offset_x) / view.scale
+    rows = (view.height - (np.arange(view.height) + 0.5) - view.offset_y) / view.scale  # GL row -> document y
+    inside = ((rows >= 0) & (rows <= side))[:, None] & ((columns >= 0) & (columns <= side))[None, :]
+    assert covered[~inside].all()
+    deep = (((rows > 2 / view.scale) & (rows < side - 2 / view.scale))[:, None]
+            & ((columns > 2 / view.scale) & (columns < side - 2 / view.scale))[None, :])
+    assert not (covered & deep).any()  # at most a pixel or two into the square

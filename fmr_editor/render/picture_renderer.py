@@ -32,7 +32,7 @@ from .blur_filter import BlurFilter, BlurPlan, FramebufferPool, read_first_chann
 from .cached_image import CachedImage, show_scaled, union
 from .canvas_renderer import TOLERANCE, CanvasRenderer
 from .gl import BufferTexture, Program, VertexArray, in_plain_state, over, plain_state, shader_source
-from .view import View, cells_rect, integer_shift, row_runs, uncovered, visible_grid
+from .view import View, beyond, cells_rect, integer_shift, row_runs, uncovered, visible_grid
 
 #: The fields of a blurred layer that are evaluated beyond the window, reflected at the canvas border.
 REFLECTED = (Role.IMAGE, Role.ALPHA, Role.BLUR)
@@ -373,21 +373,28 @@ class PictureRenderer:
             self._vao = VertexArray()
             self._cell_list = BufferTexture(GL.GL_R32I)
         self._composed.bind(view.width, view.height)
-        if rect is not None:
-            x0, y0, x1, y1 = rect
-            GL.glEnable(GL.GL_SCISSOR_TEST)
-            GL.glScissor(x0, y0, max(x1 - x0, 0), max(y1 - y0, 0))
+        self._scissor(rect)
         plan = self._plan
-        # the bottom layer drawn as it is where it covers all: no clear, no blending
-        covering = bool(shown) and shown[0].covers and (plan is None or plan.shown[shown[0].id] is None)
+        covers = bool(shown) and shown[0].covers  # the bottom layer is drawn as it is: no blending
+        left_out = covers and plan is not None and plan.shown[shown[0].id] is not None
         self._vao.bind()
-        if covering:
-            self._layer_pass(shown[0], view)
-        else:  # where the layers leave the picture clear, the checkerboard shows
+        if not covers:  # where the layers leave the picture clear, the checkerboard shows
             self._use(BASE_PASS, False, False, view)
             GL.glDrawArrays(GL.GL_TRIANGLE_STRIP, 0, 4)
+        elif left_out:  # where layers above cover it, and beyond the lattice, the checkerboard first
+            base = self._use(BASE_PASS, False, False, view)
+            for x0, y0, x1, y1 in beyond(view, plan.cells * plan.cell_size):  # a pixel into what it draws
+                if rect is not None:
+                    x0, y0, x1, y1 = max(x0, rect[0]), max(y0, rect[1]), min(x1, rect[2]), min(y1, rect[3])
+                if x1 > x0 and y1 > y0:
+                    self._scissor((x0, y0, x1, y1))
+                    GL.glDrawArrays(GL.GL_TRIANGLE_STRIP, 0, 4)
+            self._scissor(rect)
+            self._draw(base, view, ~plan.shown[shown[0].id] & visible_grid(view, plan.cells, plan.cell_size))
+        if covers:
+            self._layer_pass(shown[0], view)
         with over():
-            for layer in shown[covering:]:
+            for layer in shown[covers:]:
                 self._layer_pass(layer, view)
             if tinted is not None:
                 self._layer_pass(tinted, view, tint=True)
@@ -403,6 +410,16 @@ class PictureRenderer:
         self._composed.touch(rect or (0, 0, view.width, view.height))
         self._composed_view = view
         self.composed += 1
+
+    @staticmethod
+    def _scissor(rect: tuple[int, int, int, int] | None) -> None:
+        """Draw into the GL pixels ``rect`` alone from now on (None: all of the target)."""
+        if rect is None:
+            GL.glDisable(GL.GL_SCISSOR_TEST)
+            return
+        x0, y0, x1, y1 = rect
+        GL.glEnable(GL.GL_SCISSOR_TEST)
+        GL.glScissor(x0, y0, max(x1 - x0, 0), max(y1 - y0, 0))
 
     def _use(self, kind: int, masked: bool, translucent: bool, view: View) -> Program:
         """Make the compose program of a ``kind`` of pass current, its view and units set."""
@@ -439,8 +456,7 @@ class PictureRenderer:
 
     def _weighed_pass(self, layer: LayerFields, view: View, cells: np.ndarray | None, tint: bool = False) -> None:
         """``_layer_pass`` over the window, or over ``cells`` (a bool grid of the plan's cells)."""
-        listed = None if cells is None else row_runs(cells)
-        if listed is not None and len(listed) == 0:
+        if cells is not None and not cells.any():
             return
         reads_mask = layer.mask is not None and (tint or layer.masked)
         enabled = tint or layer.mask_enabled
@@ -454,14 +470,21 @@ class PictureRenderer:
         program = self._use(TINT_PASS if tint else LAYER_PASS, reads_mask, reads_alpha, view)
         program.set(u_mask_base=layer.mask_base if enabled else 1.0, u_inverted=int(enabled and layer.mask_inverted),
                     u_opacity=layer.opacity, u_negligible=NEGLIGIBLE_WEIGHT,
-                    u_matrix=layer.transform.matrix, u_offset=layer.transform.offset,
-                    u_instanced=int(listed is not None))
-        if listed is None:
+                    u_matrix=layer.transform.matrix, u_offset=layer.transform.offset)
+        self._draw(program, view, cells)
+
+    def _draw(self, program: Program, view: View, cells: np.ndarray | None) -> None:
+        """Run ``program`` (current) over the window, or over ``cells`` (a bool grid of the plan's cells) as runs."""
+        if cells is None:
+            program.set(u_instanced=0)
             GL.glDrawArrays(GL.GL_TRIANGLE_STRIP, 0, 4)
+            return
+        listed = row_runs(cells)
+        if len(listed) == 0:
             return
         self._cell_list.set_data(listed)
         self._cell_list.bind(CELL_LIST_UNIT)
-        program.set(u_cells=self._plan.cells, u_cell_window=self._plan.cell_size * view.scale)
+        program.set(u_instanced=1, u_cells=self._plan.cells, u_cell_window=self._plan.cell_size * view.scale)
         GL.glDrawArraysInstanced(GL.GL_TRIANGLE_STRIP, 0, 4, len(listed))
 
     def read(self) -> np.ndarray:

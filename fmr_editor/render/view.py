@@ -7,6 +7,7 @@ top-left corner; window pixel ``(i, j)`` (row, column) covers
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -105,6 +106,19 @@ def uncovered(view: View, dx: int, dy: int) -> list[tuple[int, int, int, int]]:
     if dy:  # uncovered window rows at the top: GL rows at the top end
         strips.append((0, max(h - dy, 0), w, h) if dy > 0 else (0, 0, w, min(-dy, h)))
     return strips
+
+
+def beyond(view: View, side: float) -> list[tuple[int, int, int, int]]:
+    """The GL pixels ``(x0, y0, x1, y1)`` (rows from the bottom) of the window beyond the document's square
+    ``[0, side]^2`` (a lattice's), as up to four strips reaching a pixel into it: every pixel whose centre lies
+    outside the square is in one."""
+    w, h = view.width, view.height
+    left, right = view.offset_x, view.offset_x + side * view.scale
+    bottom, top = h - (view.offset_y + side * view.scale), h - view.offset_y  # GL rows
+    strips = [(0, 0, math.ceil(left) + 1, h), (math.floor(right) - 1, 0, w, h),
+              (0, 0, w, math.ceil(bottom) + 1), (0, math.floor(top) - 1, w, h)]
+    strips = [(max(x0, 0), max(y0, 0), min(x1, w), min(y1, h)) for x0, y0, x1, y1 in strips]
+    return [strip for strip in strips if strip[2] > strip[0] and strip[3] > strip[1]]
 
 
 def visible_grid(view: View, cells: int, cell_size: float) -> np.ndarray:
