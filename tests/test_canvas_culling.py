@@ -17,9 +17,7 @@ from shapes import scattered_document
 from fmr_editor.engine import LiveStack, build, composite, evaluate_points
 from fmr_editor.model import DiffusionPoint, Document, Mask
 from fmr_editor.model.layer import MASK_LUMA
-from fmr_editor.render import View, bounds, culling
-
-VIEW = View(1.7, 15.0, 10.0, 250, 240)
+from fmr_editor.render import bounds, culling
 
 
 def soft_points(size: int = 128) -> Document:

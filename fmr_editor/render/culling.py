@@ -69,12 +69,12 @@ class CullPlan:
         block = self.cells // cells
         return read.reshape(cells, block, cells, block).any(axis=(1, 3))
 
-    def changed(self, other: CullPlan | None) -> np.ndarray | None:
+    def changed(self, other: CullPlan) -> np.ndarray | None:
         """``(cells, cells)`` bool: where some layer shows in one plan and not in ``other``; None: nowhere
-        (all: another lattice, no plan or other layers)."""
-        if other is None or other.cells != self.cells or other.shown.keys() != self.shown.keys():
-            return np.ones((self.cells, self.cells), bool)
+        (all: another lattice or other layers)."""
         everywhere = np.ones((self.cells, self.cells), bool)
+        if other.cells != self.cells or other.shown.keys() != self.shown.keys():
+            return everywhere
         differ = np.zeros((self.cells, self.cells), bool)
         for layer_id, shown in self.shown.items():
             before = other.shown[layer_id]
@@ -103,7 +103,7 @@ def plan(layers: tuple[LayerFields, ...], value_bounds: Callable[[FieldKey], Val
         if index == 0 and layer.covers:
             low = high = 1.0
         else:
-            low, high = weight_range(layer, lambda role, layer=layer: _range(layer, role, value_bounds, unbounded,
+            low, high = _weight_range(layer, lambda role, layer=layer: _range(layer, role, value_bounds, unbounded,
                                                                             cells))
         shown[layer.id] = ~(covered | (high <= NEGLIGIBLE_WEIGHT - MARGIN))
         one = np.broadcast_to(low >= 1.0 - NEGLIGIBLE_WEIGHT + MARGIN, covered.shape)
@@ -113,7 +113,7 @@ def plan(layers: tuple[LayerFields, ...], value_bounds: Callable[[FieldKey], Val
                     whole)
 
 
-def weight_range(layer: LayerFields, values: Callable[[Role], tuple[np.ndarray, np.ndarray] | None]
+def _weight_range(layer: LayerFields, values: Callable[[Role], tuple[np.ndarray, np.ndarray] | None]
                  ) -> tuple[np.ndarray | float, np.ndarray | float]:
     """Lowest and highest weight of ``layer`` (before snapping) from ``values(role)``, the lowest and highest
     values of its mask's luminance or its alpha's first channel (None: unknown)."""
