@@ -5,11 +5,21 @@
 // The colour of every covered pixel comes from canvas.frag (or compose.frag); a run's quad tells it the cells
 // it covers, so that a pixel on their edge reads one of them, never a neighbour outside the list (whose change
 // tables, in a delta pass, may be old).
+// With RUN_CODES defined (layers.frag), each listed run carries a third value, handed to the fragments as
+// v_code (u_code for the window quad).
 // Window coordinates: pixels from the top-left corner, y down.
 
+#ifdef RUN_CODES
+#define RUN_TEXELS 3
+uniform int u_code;                  // the window quad's code
+flat out int v_code;                 // the run's code
+#else
+#define RUN_TEXELS 2
+#endif
+
 uniform int u_instanced;             // 0: one quad over the window; 1: one quad per run of u_cell_list
-uniform isamplerBuffer u_cell_list;  // pairs: the run's first fine cell (row * cells per side + column), how
-                                     // many cells it holds
+uniform isamplerBuffer u_cell_list;  // per run: its first fine cell (row * cells per side + column), how
+                                     // many cells it holds (and its code)
 uniform int u_cells;                 // fine cells per side, 2^L
 uniform vec2 u_cell_origin;          // window position of the document's origin
 uniform float u_cell_window;         // a cell's side in window pixels
@@ -21,9 +31,15 @@ void main() {
     vec2 corner = vec2(gl_VertexID & 1, gl_VertexID >> 1);  // a triangle strip of 4 vertices
     vec2 ndc = corner * 2.0 - 1.0;
     v_run = ivec3(-1);
+#ifdef RUN_CODES
+    v_code = u_code;
+#endif
     if (u_instanced != 0) {
-        int first = texelFetch(u_cell_list, 2 * gl_InstanceID).r;
-        int count = texelFetch(u_cell_list, 2 * gl_InstanceID + 1).r;
+        int first = texelFetch(u_cell_list, RUN_TEXELS * gl_InstanceID).r;
+        int count = texelFetch(u_cell_list, RUN_TEXELS * gl_InstanceID + 1).r;
+#ifdef RUN_CODES
+        v_code = texelFetch(u_cell_list, RUN_TEXELS * gl_InstanceID + 2).r;
+#endif
         ivec2 start = ivec2(first % u_cells, first / u_cells);
         v_run = ivec3(start.x, start.x + count - 1, start.y);
         // (column + corner) is exact, so neighbours compute their shared corners identically

@@ -17,7 +17,7 @@ from shapes import scattered_document
 from fmr_editor.engine import LiveStack, build, composite, evaluate_points
 from fmr_editor.model import DiffusionPoint, Document, Mask
 from fmr_editor.model.layer import MASK_LUMA
-from fmr_editor.render import bounds, culling
+from fmr_editor.render import bounds, culling, view
 
 
 def soft_points(size: int = 128) -> Document:
@@ -105,3 +105,21 @@ def test_the_plan_hides_a_layer_only_where_the_composition_takes_nothing_from_it
         # (on a lattice of 8 px cells, most of the circle's cells lie beside its curve)
         assert plan.shown[shown[0].id].mean() < 0.97 and plan.shown[shown[-1].id].mean() < 0.9
         assert plan.whole[shown[-1].id].mean() > 0.03
+
+
+def test_row_runs_list_each_cell_once_in_runs_of_one_code():
+    rng = np.random.default_rng(7)
+    cells, codes = rng.random((9, 9)) < 0.7, rng.integers(0, 3, (9, 9))
+    expected = []  # a plain scan: a run goes on while the cells are listed and of the run's code
+    for row in range(9):
+        for column in range(9):
+            if not cells[row, column]:
+                continue
+            last = expected[-1] if expected else None
+            if last is not None and last[0] + last[1] == row * 9 + column and last[2] == codes[row, column] \
+                    and column > 0:
+                last[1] += 1
+            else:
+                expected.append([row * 9 + column, 1, codes[row, column]])
+    np.testing.assert_array_equal(view.row_runs(cells, codes), expected)
+    np.testing.assert_array_equal(view.row_runs(cells), view.row_runs(cells, np.zeros_like(codes))[:, :2])

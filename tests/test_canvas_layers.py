@@ -124,6 +124,18 @@ def test_the_canvas_shows_translucent_layers_as_the_composite_does(canvas):
     assert {key[1] for key in canvas.renderer.renderers} >= {"alpha"}
 
 
+@pytest.mark.parametrize("make", [three_layers, translucent_layers])
+def test_layers_composed_in_several_passes_show_what_one_pass_shows(canvas, monkeypatch, make):
+    from fmr_editor.render import picture_renderer
+
+    monkeypatch.setattr(picture_renderer, "PASS_LAYERS", 1)  # a pass a layer, each over those below it
+    stack = LiveStack(make())
+    canvas.set_representation(stack.composite, fit=False)
+    canvas.set_view(VIEW)
+    check(canvas, stack.composite)
+    assert len(canvas.renderer._groups(stack.composite.shown)) == len(stack.composite.shown) == 3
+
+
 def test_where_the_picture_is_clear_the_canvas_shows_the_checkerboard(canvas):
     disc = with_alphas(uniform_curve(circle_points(64, 60, 30), left=0.9, right=0.9), left=1.0, right=0.0)
     picture = LiveStack(Document(128, 128, [disc])).composite  # one layer, opaque inside the disc only

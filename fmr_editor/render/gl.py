@@ -56,6 +56,13 @@ _SETTERS = {
     GL.GL_INT_VEC2: lambda loc, v: GL.glUniform2i(loc, *map(int, v)),
     GL.GL_BOOL: lambda loc, v: GL.glUniform1i(loc, int(v)),
 }
+#: Arrays of uniforms, by element type: the element's rank (0 scalar, 1 vector, 2 matrix) and the setter of ``count``.
+_ARRAYS = {
+    GL.GL_FLOAT: (0, lambda loc, count, v: GL.glUniform1fv(loc, count, v.astype(np.float32))),
+    GL.GL_INT: (0, lambda loc, count, v: GL.glUniform1iv(loc, count, v.astype(np.int32))),
+    GL.GL_FLOAT_VEC3: (1, lambda loc, count, v: GL.glUniform3fv(loc, count, v.astype(np.float32))),
+    GL.GL_FLOAT_MAT3: (2, lambda loc, count, v: GL.glUniformMatrix3fv(loc, count, GL.GL_TRUE, v.astype(np.float32))),
+}
 _SAMPLERS = {GL.GL_SAMPLER_BUFFER, GL.GL_INT_SAMPLER_BUFFER, GL.GL_UNSIGNED_INT_SAMPLER_BUFFER, GL.GL_SAMPLER_2D}
 
 
@@ -107,6 +114,20 @@ def over() -> Iterator[None]:
     GL.glEnable(GL.GL_BLEND)
     GL.glBlendEquation(GL.GL_FUNC_ADD)
     GL.glBlendFuncSeparate(GL.GL_SRC_ALPHA, GL.GL_ONE_MINUS_SRC_ALPHA, GL.GL_ONE, GL.GL_ONE_MINUS_SRC_ALPHA)
+    try:
+        yield
+    finally:
+        GL.glBlendFunc(GL.GL_ONE, GL.GL_ZERO)
+        GL.glDisable(GL.GL_BLEND)
+
+
+@contextmanager
+def through_below() -> Iterator[None]:
+    """Blend the body's fragments ``(C, T)`` as ``C + T below`` (``ONE, SRC_ALPHA``: ``shaders/layers.frag``'s later
+    passes), the target's coverage kept."""
+    GL.glEnable(GL.GL_BLEND)
+    GL.glBlendEquation(GL.GL_FUNC_ADD)
+    GL.glBlendFuncSeparate(GL.GL_ONE, GL.GL_SRC_ALPHA, GL.GL_ZERO, GL.GL_ONE)
     try:
         yield
     finally:
@@ -172,15 +193,16 @@ class Program:
     def set(self, **values) -> None:
         """Set uniforms by name (the program must be in use); names the linker removed are ignored.
 
-        Samplers take their texture unit; a float array takes a sequence.
+        Samplers take their texture unit; an array of floats, ints, vec3 or mat3 takes a sequence of them.
         """
         for name, value in values.items():
             found = self._uniforms.get(name)
             if found is None:
                 continue
             location, kind = found
-            if kind == GL.GL_FLOAT and np.ndim(value) == 1:  # a float array
-                GL.glUniform1fv(location, len(value), np.asarray(value, np.float32))
+            if kind in _ARRAYS and np.ndim(value) == _ARRAYS[kind][0] + 1:  # an array
+                value = np.ascontiguousarray(value)
+                _ARRAYS[kind][1](location, len(value), value)
             elif kind in _SAMPLERS:
                 GL.glUniform1i(location, int(value))
             else:

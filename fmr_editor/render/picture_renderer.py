@@ -4,21 +4,23 @@ Each field (a layer's image, a mask) keeps its own cached window image and
 re-evaluates only its changed cells, so an edit to one layer costs what it
 costs in a one-layer document.  Drawing brings every shown field's image up
 to date and, when any of them or the layers' settings changed, composes them
-bottom up into a float image with ``shaders/compose.frag`` (a pass a layer,
-the blend unit doing ``m S(V) + (1 - m) below`` (``m`` with the alpha field's
-clamped value in it, for a translucent layer), as ``engine.composite.compose``
-on the CPU; one pass for all layers, with sampler arrays, was twice as slow
-under llvmpipe), over the whole window after a change of the layers' settings,
+bottom up into a float image, ``m S(V) + (1 - m) below`` (``m`` with the alpha
+field's clamped value in it, for a translucent layer), as
+``engine.composite.compose`` on the CPU: all layers in one pass
+(``shaders/layers.frag``, a program for each arrangement of layers, what a layer
+does not read or apply compiled out), or a few where they read more textures
+than a pass may; over the whole window after a change of the layers' settings,
 else over the rectangle whose fields changed; a redraw with nothing changed
 copies that image.  A layer is evaluated and composed only on the cells where
 it may show (``culling``: not where its mask surely hides it or a layer above
-surely covers it).  A picture of one plain
-layer is drawn by its field's renderer alone, exactly as before layers.
+surely covers it).  A picture of one plain layer is drawn by its field's
+renderer alone, exactly as before layers.
 """
 
 from __future__ import annotations
 
 from collections import Counter
+from contextlib import nullcontext
 from dataclasses import replace
 
 import numpy as np
@@ -31,7 +33,7 @@ from . import culling
 from .blur_filter import BlurFilter, BlurPlan, FramebufferPool, read_first_channel
 from .cached_image import CachedImage, show_scaled, union
 from .canvas_renderer import TOLERANCE, CanvasRenderer
-from .gl import BufferTexture, Program, VertexArray, in_plain_state, over, plain_state, shader_source
+from .gl import BufferTexture, Program, VertexArray, in_plain_state, over, plain_state, shader_source, through_below
 from .view import View, beyond, cells_rect, integer_shift, row_runs, uncovered, visible_grid
 
 #: The fields of a blurred layer that are evaluated beyond the window, reflected at the canvas border.
@@ -42,11 +44,11 @@ WHOLE = None
 #: The fields read through one value a pixel, by role: a mask through its luminance, an alpha and a blur field
 #: through their first channel.  Their renderers evaluate that value alone (``CanvasRenderer``'s ``weights``).
 SCALAR_FIELDS = {Role.MASK: MASK_LUMA, Role.ALPHA: np.array([1.0, 0.0, 0.0]), Role.BLUR: np.array([1.0, 0.0, 0.0])}
-#: The texture unit of the compose passes' cell lists (after the image, mask and alpha).
-CELL_LIST_UNIT = 3
-#: The kinds of compose pass (``shaders/compose.frag``'s ``PASS``): the checkerboard under the layers, a layer, the
-#: tint of a mask being edited.
-BASE_PASS, LAYER_PASS, TINT_PASS = 0, 1, 2
+#: The texture unit of the cell list of the checkerboard's and the tint's passes (``shaders/compose.frag``), after
+#: their mask; the layers' passes (``shaders/layers.frag``) read theirs from unit 0, their images after it.
+CELL_LIST_UNIT = 2
+#: Layers one pass composes at most (a run's code gives two bits a layer).
+PASS_LAYERS = 8
 
 
 def picture_of(rep: Representation | Composite) -> Composite:
@@ -98,7 +100,8 @@ class PictureRenderer:
         self._composed = CachedImage(GL.GL_RGBA32F)
         self._composed_view: View | None = None  # what the composed image shows; None: compose it all again
         self._pending = False  # fields may have something to evaluate (an update since the last draw)
-        self._programs: dict[tuple[int, bool, bool], Program] = {}  # compose programs by (pass, masked, translucent)
+        self._programs: dict[tuple, Program] = {}  # compose programs by what they read
+        self._units: int | None = None  # the texture units a pass's fragments may read
         self._vao: VertexArray | None = None
         self._cell_list: BufferTexture | None = None  # the cells a compose pass draws
         self._plan: culling.CullPlan | None = None  # where each layer shows, as last composed
@@ -368,43 +371,40 @@ class PictureRenderer:
 
     def _compose(self, view: View, shown: tuple[LayerFields, ...], tinted: LayerFields | None,
                  rect: tuple[int, int, int, int] | None = None) -> None:
-        """Compose the layers into the composed image: all of it, or the GL pixels ``rect`` of it."""
+        """Compose the layers into the composed image: all of it, or the GL pixels ``rect`` of it.
+
+        The layers go in one pass (``shaders/layers.frag``), or in a few where they read more textures than one
+        pass may; with a plan, as runs of the plan's visible cells, each run saying which layers may show there,
+        and the checkerboard beyond the lattice."""
         if self._vao is None:
             self._vao = VertexArray()
             self._cell_list = BufferTexture(GL.GL_R32I)
         self._composed.bind(view.width, view.height)
         self._scissor(rect)
         plan = self._plan
-        covers = bool(shown) and shown[0].covers  # the bottom layer is drawn as it is: no blending
-        left_out = covers and plan is not None and plan.shown[shown[0].id] is not None
         self._vao.bind()
-        if not covers:  # where the layers leave the picture clear, the checkerboard shows
-            self._use(BASE_PASS, False, False, view)
-            GL.glDrawArrays(GL.GL_TRIANGLE_STRIP, 0, 4)
-        elif left_out:  # where layers above cover it, and beyond the lattice, the checkerboard first
-            base = self._use(BASE_PASS, False, False, view)
-            for x0, y0, x1, y1 in beyond(view, plan.cells * plan.cell_size):  # a pixel into what it draws
+        if plan is not None:  # the layers' passes draw the lattice's cells
+            self._use(False, False, view)
+            for x0, y0, x1, y1 in beyond(view, plan.cells * plan.cell_size):  # a pixel into what they draw
                 if rect is not None:
                     x0, y0, x1, y1 = max(x0, rect[0]), max(y0, rect[1]), min(x1, rect[2]), min(y1, rect[3])
                 if x1 > x0 and y1 > y0:
                     self._scissor((x0, y0, x1, y1))
                     GL.glDrawArrays(GL.GL_TRIANGLE_STRIP, 0, 4)
             self._scissor(rect)
-            self._draw(base, view, ~plan.shown[shown[0].id] & visible_grid(view, plan.cells, plan.cell_size))
-        if covers:
-            self._layer_pass(shown[0], view)
-        with over():
-            for layer in shown[covers:]:
-                self._layer_pass(layer, view)
-            if tinted is not None:
-                self._layer_pass(tinted, view, tint=True)
+        units = 0
+        for index, group in enumerate(self._groups(shown)):
+            with through_below() if index else nullcontext():
+                units = max(units, self._layers_pass(group, view, first=index == 0))
+        if tinted is not None:
+            with over():
+                units = max(units, self._tint_pass(tinted, view))
         GL.glBindVertexArray(0)
         GL.glUseProgram(0)
-        for unit in (2, 1, 0):
+        for unit in range(units):
             GL.glActiveTexture(GL.GL_TEXTURE0 + unit)
             GL.glBindTexture(GL.GL_TEXTURE_2D, 0)
-        GL.glActiveTexture(GL.GL_TEXTURE0 + CELL_LIST_UNIT)
-        GL.glBindTexture(GL.GL_TEXTURE_BUFFER, 0)
+            GL.glBindTexture(GL.GL_TEXTURE_BUFFER, 0)
         GL.glActiveTexture(GL.GL_TEXTURE0)
         GL.glDisable(GL.GL_SCISSOR_TEST)
         self._composed.touch(rect or (0, 0, view.width, view.height))
@@ -421,71 +421,93 @@ class PictureRenderer:
         GL.glEnable(GL.GL_SCISSOR_TEST)
         GL.glScissor(x0, y0, max(x1 - x0, 0), max(y1 - y0, 0))
 
-    def _use(self, kind: int, masked: bool, translucent: bool, view: View) -> Program:
-        """Make the compose program of a ``kind`` of pass current, its view and units set."""
-        key = (kind, masked, translucent)
+    def _groups(self, shown: tuple[LayerFields, ...]) -> list[tuple[LayerFields, ...]]:
+        """``shown`` in runs of layers of one pass each: at most ``PASS_LAYERS``, and textures the units hold."""
+        if self._units is None:
+            self._units = int(GL.glGetIntegerv(GL.GL_MAX_TEXTURE_IMAGE_UNITS))
+        groups: list[list[LayerFields]] = []
+        used = 0
+        for layer in shown:
+            if not groups or len(groups[-1]) == PASS_LAYERS or used + len(layer.read) > self._units:
+                groups.append([])
+                used = 0
+            groups[-1].append(layer)
+            used += len(layer.read)
+        return [tuple(group) for group in groups]
+
+    def _program(self, key: tuple, make) -> Program:
+        """The compose program of ``key``, made by ``make()`` (its vertex and fragment sources) the first time."""
         if key not in self._programs:
-            defines = {"PASS": kind, "MASKED": int(masked), "TRANSLUCENT": int(translucent)}
-            self._programs[key] = Program(shader_source("canvas.vert"), shader_source("compose.frag", defines),
-                                          label="compose shader")
-        program = self._programs[key]
-        program.use()
-        program.set(u_image=0, u_mask=1, u_alpha=2, u_origin=(-view.offset_x / view.scale, -view.offset_y / view.scale),
-                    u_step=1.0 / view.scale, u_window_height=view.height,
-                    u_canvas=(self._picture.width, self._picture.height), u_checker=self._options[1],
-                    u_cell_list=CELL_LIST_UNIT, u_cell_origin=(view.offset_x, view.offset_y),
+            self._programs[key] = Program(*make(), label="compose shader")
+        return self._programs[key]
+
+    def _view_uniforms(self, program: Program, view: View) -> None:
+        program.set(u_origin=(-view.offset_x / view.scale, -view.offset_y / view.scale), u_step=1.0 / view.scale,
+                    u_window_height=view.height, u_canvas=(self._picture.width, self._picture.height),
+                    u_checker=self._options[1], u_cell_origin=(view.offset_x, view.offset_y),
                     u_window=(view.width, view.height), u_instanced=0)
+
+    def _use(self, tint: bool, masked: bool, view: View) -> Program:
+        """Make the program of the checkerboard's pass or (``tint``) of a mask's tint current, its view and units
+        set."""
+        program = self._program(("tint", tint, masked), lambda: (
+            shader_source("canvas.vert"), shader_source("compose.frag", {"TINT": int(tint), "MASKED": int(masked)})))
+        program.use()
+        program.set(u_mask=1, u_cell_list=CELL_LIST_UNIT)
+        self._view_uniforms(program, view)
         return program
 
-    def _layer_pass(self, layer: LayerFields, view: View, tint: bool = False) -> None:
-        """Blend ``layer`` over the composed image (bound) where it may show, reading its mask and alpha where
-        its weight is not surely 1; ``tint``: its mask's tint instead, enabled or not, everywhere."""
+    def _layers_pass(self, group: tuple[LayerFields, ...], view: View, first: bool) -> int:
+        """Compose ``group`` (over the checkerboard when ``first``, else through ``through_below``) where its layers
+        may show; the texture units it used."""
+        reads = tuple((layer.masked, layer.alpha is not None, not layer.transform.is_identity) for layer in group)
+        program = self._program(("layers", first, reads), lambda: _layers_sources(first, reads))
+        program.use()
+        unit = 1  # unit 0: the cell list
+        for k, layer in enumerate(group):
+            for role, _ in layer.read:  # its image, mask and alpha: u_image0, u_mask0, u_alpha0 of layer 0
+                blurred = self._filters.get((layer.id, role)) if layer.blur is not None else None
+                GL.glActiveTexture(GL.GL_TEXTURE0 + unit)
+                GL.glBindTexture(GL.GL_TEXTURE_2D, blurred.output.texture if blurred
+                                 else self.renderers[layer.id, role].image_texture)
+                program.set(**{f"u_{role.value}{k}": unit})
+                unit += 1
+        enabled = [layer.mask_enabled for layer in group]
+        program.set(u_mask_base=[layer.mask_base if on else 1.0 for layer, on in zip(group, enabled)],
+                    u_inverted=[int(on and layer.mask_inverted) for layer, on in zip(group, enabled)],
+                    u_opacity=[layer.opacity for layer in group],
+                    u_matrix=[layer.transform.matrix for layer in group],
+                    u_offset=[layer.transform.offset for layer in group], u_negligible=NEGLIGIBLE_WEIGHT,
+                    u_cell_list=0)
+        self._view_uniforms(program, view)
         plan = self._plan
-        weighed = layer.masked or layer.alpha is not None
-        if (plan is None or tint or layer.id not in plan.shown
-                or (plan.shown[layer.id] is None and not (weighed and plan.whole[layer.id].any()))):
-            self._weighed_pass(layer, view, None, tint)
-            return
-        visible = visible_grid(view, plan.cells, plan.cell_size)
-        shown = visible if plan.shown[layer.id] is None else plan.shown[layer.id] & visible
-        if weighed:  # drawn blended: what it leaves out beyond the lattice lies under the checkerboard already
-            whole = plan.whole[layer.id] & visible
-            self._weighed_pass(replace(layer, mask_enabled=False, opacity=1.0, alpha=None), view, whole)
-            shown = shown & ~whole
-        self._weighed_pass(layer, view, shown)
-
-    def _weighed_pass(self, layer: LayerFields, view: View, cells: np.ndarray | None, tint: bool = False) -> None:
-        """``_layer_pass`` over the window, or over ``cells`` (a bool grid of the plan's cells)."""
-        if cells is not None and not cells.any():
-            return
-        reads_mask = layer.mask is not None and (tint or layer.masked)
-        enabled = tint or layer.mask_enabled
-        reads_alpha = layer.alpha is not None and not tint
-        textures = ([(0, (layer.id, Role.IMAGE))] + ([(1, (layer.id, Role.MASK))] if reads_mask else [])
-                    + ([(2, (layer.id, Role.ALPHA))] if reads_alpha else []))
-        for unit, key in textures:
-            blurred = self._filters.get(key) if layer.blur is not None else None
-            GL.glActiveTexture(GL.GL_TEXTURE0 + unit)
-            GL.glBindTexture(GL.GL_TEXTURE_2D, blurred.output.texture if blurred else self.renderers[key].image_texture)
-        program = self._use(TINT_PASS if tint else LAYER_PASS, reads_mask, reads_alpha, view)
-        program.set(u_mask_base=layer.mask_base if enabled else 1.0, u_inverted=int(enabled and layer.mask_inverted),
-                    u_opacity=layer.opacity, u_negligible=NEGLIGIBLE_WEIGHT,
-                    u_matrix=layer.transform.matrix, u_offset=layer.transform.offset)
-        self._draw(program, view, cells)
-
-    def _draw(self, program: Program, view: View, cells: np.ndarray | None) -> None:
-        """Run ``program`` (current) over the window, or over ``cells`` (a bool grid of the plan's cells) as runs."""
-        if cells is None:
-            program.set(u_instanced=0)
+        if plan is None:
+            program.set(u_code=sum(1 << 2 * k for k in range(len(group))))
             GL.glDrawArrays(GL.GL_TRIANGLE_STRIP, 0, 4)
-            return
-        listed = row_runs(cells)
-        if len(listed) == 0:
-            return
-        self._cell_list.set_data(listed)
-        self._cell_list.bind(CELL_LIST_UNIT)
-        program.set(u_instanced=1, u_cells=self._plan.cells, u_cell_window=self._plan.cell_size * view.scale)
-        GL.glDrawArraysInstanced(GL.GL_TRIANGLE_STRIP, 0, 4, len(listed))
+            return unit
+        visible = visible_grid(view, plan.cells, plan.cell_size)
+        codes = np.zeros((plan.cells, plan.cells), np.int32)
+        for k, layer in enumerate(group):
+            where = visible if plan.shown[layer.id] is None else plan.shown[layer.id] & visible
+            codes |= where.astype(np.int32) << 2 * k
+            codes |= (where & plan.whole[layer.id]).astype(np.int32) << 2 * k + 1
+        listed = row_runs(visible if first else codes != 0, codes)  # the first pass draws the checkerboard, too
+        if len(listed):
+            self._cell_list.set_data(listed)
+            self._cell_list.bind(0)
+            program.set(u_instanced=1, u_cells=plan.cells, u_cell_window=plan.cell_size * view.scale)
+            GL.glDrawArraysInstanced(GL.GL_TRIANGLE_STRIP, 0, 4, len(listed))
+        return unit
+
+    def _tint_pass(self, layer: LayerFields, view: View) -> int:
+        """The tint of ``layer``'s mask, enabled or not, over the composed image (bound); the units it used."""
+        if layer.mask is not None:
+            GL.glActiveTexture(GL.GL_TEXTURE0 + 1)
+            GL.glBindTexture(GL.GL_TEXTURE_2D, self.renderers[layer.id, Role.MASK].image_texture)
+        program = self._use(True, layer.mask is not None, view)
+        program.set(u_mask_base=layer.mask_base, u_inverted=int(layer.mask_inverted))
+        GL.glDrawArrays(GL.GL_TRIANGLE_STRIP, 0, 4)
+        return 2
 
     def read(self) -> np.ndarray:
         """The drawn image ``(height, width, 4)`` float32, top row first (a one-layer picture: its field's)."""
@@ -509,6 +531,22 @@ class PictureRenderer:
         self._programs.clear()
         self._vao = self._cell_list = self._background = self._blur_gl = None
         self._filters.clear()
+
+
+def _layers_sources(first: bool, reads: tuple[tuple[bool, bool, bool], ...]) -> tuple[str, str]:
+    """The sources of ``layers.frag``'s program for layers that read a mask, read an alpha and transform their
+    colour or not, ``(masked, translucent, transformed)`` each, over the checkerboard when ``first``."""
+    samplers, calls = [], []
+    for k, (masked, translucent, transformed) in enumerate(reads):
+        samplers.append(f"uniform sampler2D u_image{k};")
+        samplers += [f"uniform sampler2D u_mask{k};"] if masked else []
+        samplers += [f"uniform sampler2D u_alpha{k};"] if translucent else []
+        mask, alpha = (f"u_mask{k}" if masked else f"u_image{k}"), (f"u_alpha{k}" if translucent else f"u_image{k}")
+        flags = ", ".join(str(flag).lower() for flag in (masked, translucent, transformed))
+        calls.append(f"blend({k}, u_image{k}, {mask}, {alpha}, {flags}, texel);")
+    defines = {"LAYERS": len(reads), "FIRST": int(first), "SAMPLERS": " ".join(samplers),
+               "BLEND_LAYERS": " ".join(calls)}
+    return shader_source("canvas.vert", {"RUN_CODES": 1}), shader_source("layers.frag", defines)
 
 
 def clipped(rect: tuple[int, int, int, int], view: View) -> tuple[int, int, int, int]:

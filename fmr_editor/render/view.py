@@ -136,16 +136,17 @@ def visible_cells(view: View, cells: np.ndarray, cell_size: float) -> np.ndarray
     return np.flatnonzero(cells & visible_grid(view, len(cells), cell_size)).astype(np.int32)
 
 
-def row_runs(cells: np.ndarray) -> np.ndarray:
+def row_runs(cells: np.ndarray, codes: np.ndarray | None = None) -> np.ndarray:
     """The ``cells`` (a ``(n, n)`` bool grid) as runs along rows, ``(runs, 2)`` int32: the first cell (flat
-    index) and how many follow it, row by row."""
-    n = len(cells)
-    padded = np.zeros((n, n + 2), np.int8)
-    padded[:, 1:-1] = cells
-    edges = np.diff(padded, axis=1)
-    rows, starts = np.nonzero(edges == 1)
-    ends = np.nonzero(edges == -1)[1]  # row by row, as the starts
-    return np.stack([rows * n + starts, ends - starts], axis=1).astype(np.int32)
+    index) and how many follow it, row by row.  With ``codes`` (``(n, n)`` int), a run holds cells of one code
+    and a third column gives it, ``(runs, 3)``."""
+    marked = np.where(cells, 0 if codes is None else codes, -1)  # -1: not listed
+    change = np.ones(marked.shape[:1] + (marked.shape[1] + 1,), bool)  # a run starts or ends between columns
+    change[:, 1:-1] = marked[:, 1:] != marked[:, :-1]
+    starts = np.flatnonzero(cells & change[:, :-1])
+    ends = np.flatnonzero(cells & change[:, 1:])  # a run's last cell, in the order of the starts
+    runs = [starts, ends - starts + 1] + ([] if codes is None else [marked.ravel()[starts]])
+    return np.stack(runs, axis=1).astype(np.int32)
 
 
 def cells_rect(view: View, cells: np.ndarray, n: int, cell_size: float) -> tuple[int, int, int, int]:
