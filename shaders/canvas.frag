@@ -10,6 +10,8 @@
 //                                 u = Re sum_l K_l (xi + i eta)^l, a texel (rgb) for Re K_l, one for Im K_l;
 //                                 0: the full tensor c[i][j] of xi^i eta^j, a texel (rgb) per (i, j)
 //     #define COEFF_TEXELS m      RGBA texels per cell of u_coeffs
+//     #define SEGMENTS 0|1        0: no near segments anywhere (a field of diffusion points alone): their loop is
+//                                 compiled out
 //     #define SCALAR 0|1          1: a scalar field (a mask's luminance, an alpha's or a blur's first channel),
 //                                 its tables four values a texel (packing.py), its value written to r, g and b:
 //                                 harmonic, per l Re K_l, Im K_l; tensor, each row c[i][0..P] padded to whole
@@ -190,7 +192,9 @@ void main() {
     vec2 local = vec2(position - (dvec2(cell) + 0.5) * u_cell_size);  // from the cell's centre
     int flat_cell = cell.y * u_cells + cell.x;
     VALUE value = far_field(flat_cell, local / size);
+#if SEGMENTS
     value += near_segments(flat_cell, local);
+#endif
 #if !HARMONIC
     if (u_delta == 0) {  // (a field in harmonic form has no points: their loop, even empty, costs a tenth)
         value += near_points(flat_cell, position);

@@ -109,6 +109,16 @@ def test_the_canvas_shows_the_composite_and_follows_edits_of_one_layer(canvas, q
     assert not evaluate_points(stack.composite, [[10.0, 10.0]]).any()
 
 
+def test_a_mask_of_points_alone_shows_its_first_curve(canvas):
+    document, stack, _ = shown_three_layers(canvas)
+    assert len(stack.composite.layers[1].mask.near[0].p) == 0  # the middle mask: points alone, no segment loop
+    ring = uniform_curve(circle_points(40, 50, 20), 1.0, 0.0)
+    update = stack.update(edits.add_curve(layer_edits.select_layer(document, 1, mask=True), ring))
+    assert len(stack.composite.layers[1].mask.near[0].p) > 0
+    canvas.update_representation(stack.composite, {key: field.changed for key, field in update.fields.items()})
+    check(canvas, stack.composite)
+
+
 def test_the_canvas_clamps_each_layer_before_blending_as_the_composite_does(canvas):
     stack = LiveStack(paint_over_glow())  # a glow far above 1 under green paint
     canvas.set_representation(stack.composite, fit=False)

@@ -263,10 +263,14 @@ class CanvasRenderer:
 
     # -- drawing ------------------------------------------------------------------------------
     def _program(self) -> Program:
-        key = (self._layout.order, self._layout.harmonic, self._layout.scalar)
+        """The program for the uploaded representation: its layout, and whether it has near segments at all (a
+        field of diffusion points alone has none, ``Representation.near``: their loop, even empty, costs llvmpipe
+        5 ms a million pixels)."""
+        segments = len(self._rep.near[0].p) > 0
+        key = (self._layout.order, self._layout.harmonic, self._layout.scalar, segments)
         if key not in self._programs:
             defines = {"ORDER": key[0], "HARMONIC": int(key[1]), "COEFF_TEXELS": self._layout.texels,
-                       "SCALAR": int(key[2])}
+                       "SCALAR": int(key[2]), "SEGMENTS": int(segments)}
             self._programs[key] = Program(shader_source("canvas.vert"), shader_source("canvas.frag", defines),
                                           label="canvas shader")
         return self._programs[key]
