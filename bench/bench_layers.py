@@ -24,7 +24,8 @@ hue change <= 30 ms.
 
 A second table sets the flat document beside the same curves with every right-hand stop at alpha 0.5
 (a translucent layer, which solves and draws an alpha field as well): build, CPU raster, canvas full
-evaluation and a stop colour edit (issue 28's target: alpha adds at most a third).
+evaluation, a stop colour edit (engine update, and edit to frame) and, of the translucent one, a stop alpha
+edit to frame (issue 28's target: alpha adds at most a third).
 """
 
 from __future__ import annotations
@@ -98,13 +99,14 @@ def alpha_rows(args, opaque_document) -> dict:
     return rows
 
 
-def gl_rows(args, flat_picture, stack, fields_count, alpha_pictures: dict) -> tuple[list[tuple], dict]:
-    """Redraw and full evaluation of both pictures in a S x S canvas; the edits' frames; and the full
-    evaluation (ms) of each of ``alpha_pictures``, by name."""
+def gl_rows(args, flat_picture, stack, fields_count, alpha_stacks: dict) -> tuple[list[tuple], dict]:
+    """Redraw and full evaluation of both pictures in a S x S canvas; the edits' frames; and of each of
+    ``alpha_stacks``, by name, the full evaluation, a stop colour's and a stop alpha's edit to frame (ms; the
+    opaque one's alpha None)."""
     from OpenGL import GL
     from PySide6.QtTest import QTest
 
-    from fmr_editor.model import DiffusionPoint, layer_edits
+    from fmr_editor.model import DiffusionPoint, edits, layer_edits
     from fmr_editor.model.color_transform import hue_rotation
     from fmr_editor.render import View
     from fmr_editor.ui.canvas import Canvas
@@ -128,11 +130,19 @@ def gl_rows(args, flat_picture, stack, fields_count, alpha_pictures: dict) -> tu
         results[name] = (best(redraws(renderer, view, fbo, args.repeat, args.frames)),
                          best(full_evaluations(renderer, view, fbo, args.repeat)))
     alpha_evaluations = {}
-    for name, picture in alpha_pictures.items():
-        renderer.upload(picture)
+    for name, alpha_stack in alpha_stacks.items():
+        renderer.upload(alpha_stack.composite)
         renderer.draw(view, fbo)
         GL.glFinish()
-        alpha_evaluations[name] = best(full_evaluations(renderer, view, fbo, args.repeat))
+        full = best(full_evaluations(renderer, view, fbo, args.repeat))
+        curves = alpha_stack.document.curves
+        colours = [edit_to_frame(alpha_stack, edits.set_stop_color(alpha_stack.document, curves[i % len(curves)].id,
+                                                                   "right", 0, (0.2, 0.4, 0.1 * (i % 9))),
+                                 renderer, view, fbo)[1] for i in range(args.repeat)]
+        alphas = [edit_to_frame(alpha_stack, edits.set_stop_alpha(alpha_stack.document, curves[i % len(curves)].id,
+                                                                  "right", 0, 0.3 + 0.04 * (i % 5)),  # never 0.5
+                                renderer, view, fbo)[1] for i in range(args.repeat)] if name == "translucent" else None
+        alpha_evaluations[name] = (full, best(colours), None if alphas is None else best(alphas))
     renderer.upload(stack.composite)
     rows = [("canvas redraw, nothing changed (ms)", results["flat"][0], results["layers"][0]),
             (f"canvas full evaluation, {size}x{size} (ms)", results["flat"][1], results["layers"][1])]
@@ -202,8 +212,8 @@ def main() -> None:
         rows.append((name, best(runs)))
     raster = ("CPU raster, canvas size, 1 sample (ms)", rows[0][1], rows[1][1])
     alpha = alpha_rows(args, flat_document)
-    layer_rows, evaluations = gl_rows(args, flat, stack, fields,
-                                      {name: alpha[name][3].composite for name in ("opaque", "translucent")})
+    layer_rows, evaluations = gl_rows(args, flat, stack, fields, {name: alpha[name][3]
+                                                                  for name in ("opaque", "translucent")})
     table = [raster, *layer_rows]
     print("| measure | flat | layers | ratio |\n|---|---:|---:|---:|")
     for name, one, many in table:
@@ -212,10 +222,13 @@ def main() -> None:
     print("\nAlpha: the flat document opaque, and with every right-hand stop at alpha 0.5 (an alpha field too)\n")
     print("| measure | opaque | translucent | ratio |\n|---|---:|---:|---:|")
     opaque, clear = alpha["opaque"], alpha["translucent"]
+    (full, colour, _), (clear_full, clear_colour, clear_alpha) = evaluations["opaque"], evaluations["translucent"]
     for name, one, many in (("build (s)", opaque[0], clear[0]), ("CPU raster, canvas size, 1 sample (ms)", opaque[1],
-                            clear[1]), (f"canvas full evaluation, {args.size}x{args.size} (ms)", evaluations["opaque"],
-                            evaluations["translucent"]), ("stop colour: engine update (ms)", opaque[2], clear[2])):
+                            clear[1]), (f"canvas full evaluation, {args.size}x{args.size} (ms)", full, clear_full),
+                            ("stop colour: engine update (ms)", opaque[2], clear[2]),
+                            ("stop colour: edit to frame (ms)", colour, clear_colour)):
         print(f"| {name} | {one:.2f} | {many:.2f} | {many / one:.2f}x |")
+    print(f"| stop alpha: edit to frame (ms) |  | {clear_alpha:.2f} |  |")
     app.quit()
     del xvfb
 

@@ -10,6 +10,8 @@
 //                                 u = Re sum_l K_l (xi + i eta)^l, a texel (rgb) for Re K_l, one for Im K_l;
 //                                 0: the full tensor c[i][j] of xi^i eta^j, a texel (rgb) per (i, j)
 //     #define COEFF_TEXELS m      RGBA texels per cell of u_coeffs
+//     #define ALPHA 0|1           1: a colour field with its layer's alpha field in a fourth channel (packing.py):
+//                                 coefficients (rgb, alpha), segments (E, E alpha), (C, C alpha), written to rgba
 //     #define SEGMENTS 0|1        0: no near segments anywhere (a field of diffusion points alone): their loop is
 //                                 compiled out
 //     #define SCALAR 0|1          1: a scalar field (a mask's luminance, an alpha's or a blur's first channel),
@@ -86,32 +88,38 @@ float far_field(int row, vec2 xi) {
 #endif
 }
 #else
+#if ALPHA
+#define VALUE vec4
+#define CHANNELS rgba
+#else
 #define VALUE vec3
+#define CHANNELS rgb
+#endif
 #define SEGMENT_TEXELS 3
 #define POINT_TEXELS 2
 
-vec3 coefficient(int texel) {
-    return texelFetch(u_coeffs, texel).rgb;
+VALUE coefficient(int texel) {
+    return texelFetch(u_coeffs, texel).CHANNELS;
 }
 
-vec3 far_field(int row, vec2 xi) {
+VALUE far_field(int row, vec2 xi) {
     int base = row * COEFF_TEXELS;
 #if HARMONIC
-    // Horner in z = xi + i eta, three channels at once; texels Re K_l, Im K_l
-    vec3 re = coefficient(base + 2 * ORDER);
-    vec3 im = coefficient(base + 2 * ORDER + 1);
+    // Horner in z = xi + i eta, every channel at once; texels Re K_l, Im K_l
+    VALUE re = coefficient(base + 2 * ORDER);
+    VALUE im = coefficient(base + 2 * ORDER + 1);
     for (int l = ORDER - 1; l >= 0; --l) {
-        vec3 next = re * xi.x - im * xi.y + coefficient(base + 2 * l);
+        VALUE next = re * xi.x - im * xi.y + coefficient(base + 2 * l);
         im = re * xi.y + im * xi.x + coefficient(base + 2 * l + 1);
         re = next;
     }
     return re;
 #else
     // Horner in eta along each row i, then in xi; texel i * (ORDER + 1) + j holds c[i][j]
-    vec3 value = vec3(0.0);
+    VALUE value = VALUE(0.0);
     for (int i = ORDER; i >= 0; --i) {
         int first = base + i * (ORDER + 1);
-        vec3 row = coefficient(first + ORDER);
+        VALUE row = coefficient(first + ORDER);
         for (int j = ORDER - 1; j >= 0; --j) {
             row = row * xi.y + coefficient(first + j);
         }
@@ -132,6 +140,9 @@ VALUE near_segments(int cell, vec2 local) {
         vec4 values = texelFetch(u_segments, SEGMENT_TEXELS * k + 1);
 #if SCALAR
         float flux = values.x, jump = values.y, h = values.z;
+#elif ALPHA
+        vec4 flux = values, jump = texelFetch(u_segments, 3 * k + 2);
+        float h = length(ends.zw - ends.xy);
 #else
         vec3 flux = values.rgb, jump = texelFetch(u_segments, 3 * k + 2).rgb;
         float h = values.w;
@@ -164,7 +175,7 @@ VALUE near_points(int cell, dvec2 position) {
 #if SCALAR
         float weight = centre.w;
 #else
-        vec3 weight = texelFetch(u_points, 2 * p + 1).rgb;
+        VALUE weight = texelFetch(u_points, 2 * p + 1).CHANNELS;
 #endif
         vec2 d = vec2(position - dvec2(centre.xy));
         sum += weight * exp(-dot(d, d) * centre.z);
@@ -200,5 +211,9 @@ void main() {
         value += near_points(flat_cell, position);
     }
 #endif
+#if ALPHA
+    colour = value;
+#else
     colour = vec4(vec3(value), u_delta != 0 ? 0.0 : 1.0);
+#endif
 }

@@ -20,8 +20,10 @@
 //                               blended ONE, SRC_ALPHA: out = C + T below
 //     #define SAMPLERS ...      uniform sampler2D declarations of the images, masks and alphas read
 //     #define BLEND_LAYERS ...  blend(k, image, mask, alpha, masked, translucent, transformed, texel); for
-//                               k = 0 .. n - 1, in order (a layer without a mask or an alpha passes its image in
-//                               their place; one with the identity transform, transformed false)
+//                               k = 0 .. n - 1, in order (a layer without a mask or an alpha image passes its image
+//                               in their place; translucent 0: opaque, 1: the alpha in its image's r, 2: in the
+//                               layer's image's a (canvas.frag's ALPHA); one with the identity transform,
+//                               transformed false)
 // What a layer does not read or apply is compiled out (the arguments are constants): llvmpipe runs both sides of a
 // branch.  A mask's image holds its luminance in each channel (the renderer's scalar field), so r is read.
 
@@ -46,12 +48,13 @@ out vec4 colour;
 vec3 composed;
 float through = 1.0;
 
-void blend(int k, sampler2D image, sampler2D mask, sampler2D alpha, bool masked, bool translucent, bool transformed,
+void blend(int k, sampler2D image, sampler2D mask, sampler2D alpha, bool masked, int translucent, bool transformed,
            ivec2 texel) {
     if ((v_code & (1 << (2 * k))) == 0) {
         return;
     }
-    vec3 shown = clamp(texelFetch(image, texel, 0).rgb, 0.0, 1.0);
+    vec4 image_value = texelFetch(image, texel, 0);
+    vec3 shown = clamp(image_value.rgb, 0.0, 1.0);
     if (transformed) {
         shown = clamp(u_matrix[k] * shown + u_offset[k], 0.0, 1.0);
     }
@@ -64,7 +67,8 @@ void blend(int k, sampler2D image, sampler2D mask, sampler2D alpha, bool masked,
         if (u_inverted[k] != 0) {
             value = 1.0 - value;
         }
-        float a = translucent ? clamp(texelFetch(alpha, texel, 0).r, 0.0, 1.0) : 1.0;
+        float a = translucent == 0 ? 1.0
+                  : clamp(translucent == 1 ? texelFetch(alpha, texel, 0).r : image_value.a, 0.0, 1.0);
         m = a * u_opacity[k] * clamp(value, 0.0, 1.0);
         m = m <= u_negligible ? 0.0 : m >= 1.0 - u_negligible ? 1.0 : m;
     }

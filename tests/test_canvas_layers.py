@@ -126,12 +126,27 @@ def test_the_canvas_clamps_each_layer_before_blending_as_the_composite_does(canv
     check(canvas, stack.composite)
 
 
-def test_the_canvas_shows_translucent_layers_as_the_composite_does(canvas):
+def test_the_canvas_shows_translucent_layers_as_the_composite_does_and_follows_their_alpha_and_colour(canvas):
     stack = LiveStack(translucent_layers())  # alpha fields on two layers, one of them masked
     canvas.set_representation(stack.composite, fit=False)
     canvas.set_view(VIEW)
     check(canvas, stack.composite)
-    assert {key[1] for key in canvas.renderer.renderers} >= {"alpha"}
+    renderers = canvas.renderer.renderers
+    top = stack.composite.layers[2]
+    # each alpha field rides in its image's fourth channel (the same segments): no renderer of its own
+    assert all(renderers[layer.id, Role.IMAGE].alpha is layer.alpha for layer in stack.composite.layers[1:])
+    assert Role.ALPHA not in {key[1] for key in renderers}
+
+    curve = stack.document.layers[2].curves[0]
+    document = layer_edits.select_layer(stack.document, 2)
+    for edit in (lambda d: edits.set_stop_alpha(d, curve.id, "left", 0, 0.05),  # the alpha field alone
+                 lambda d: edits.set_stop_color(d, curve.id, "left", 0, (0.1, 0.9, 0.2))):  # the colour alone
+        document = edit(document)
+        update = stack.update(document)
+        assert (top.id, Role.IMAGE) in update.fields or (top.id, Role.ALPHA) in update.fields
+        canvas.update_representation(stack.composite, {key: field.changed for key, field in update.fields.items()})
+        check(canvas, stack.composite)
+        assert renderers[top.id, Role.IMAGE].alpha is stack.composite.layers[2].alpha
 
 
 @pytest.mark.parametrize("make", [three_layers, translucent_layers])

@@ -4,9 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from layered import translucent_layers
 from shapes import scattered_document
 
-from fmr_editor.engine import LiveRepresentation, build
+from fmr_editor.engine import LiveRepresentation, LiveStack, build
 from fmr_editor.engine.kernels.segment_sums import near_sum
 from fmr_editor.model import DiffusionPoint, edits
 from fmr_editor.render import bounds, packing
@@ -104,6 +105,29 @@ def test_a_scalar_field_packs_the_weighted_sum_of_the_channels(curves, with_poin
     np.testing.assert_array_equal(table.texels, packing.segment_table(curves, flux, jump, weights=WEIGHTS).texels)
 
 
+@pytest.mark.parametrize("index", [1, 2], ids=["tensor", "harmonic"])
+def test_an_alpha_field_packs_as_the_fourth_channel_of_its_image(index):
+    """A translucent layer's alpha field rides in its image's tables: its first channel where the texels' fourth
+    component was 0, every other value as the image alone packs it."""
+    layer = LiveStack(translucent_layers()).composite.layers[index]
+    image, alpha = layer.image, layer.alpha
+    harmonic = packing.uses_harmonic(image)
+    assert harmonic == (index == 2)  # the middle layer's image has points: the tensor form, its alpha's too
+    both = packing.cell_coefficients(image, alpha=alpha).reshape(-1, 4)
+    np.testing.assert_array_equal(both[:, :3], packing.cell_coefficients(image)[:, :3])
+    np.testing.assert_array_equal(both[:, 3], packing.cell_coefficients(alpha, harmonic=harmonic)[:, 0])
+    table, plain = packing.segment_table(image, alpha=alpha), packing.segment_table(image)
+    rows, plain_rows = table.texels.reshape(-1, 3, 4), plain.texels.reshape(-1, 3, 4)
+    np.testing.assert_array_equal(rows[:, 0], plain_rows[:, 0])
+    np.testing.assert_array_equal(rows[:, 1:, :3], plain_rows[:, 1:, :3])
+    entries = table.segments
+    np.testing.assert_array_equal(rows[:, 1, 3], alpha.near[0].flux[entries, 0].astype(np.float32))
+    np.testing.assert_array_equal(rows[:, 2, 3], alpha.near[0].jump[entries, 0].astype(np.float32))
+    flux, jump = np.random.default_rng(6).normal(size=(2, len(image.near[0].p), 4))
+    packing.refill(table, flux, jump)
+    np.testing.assert_array_equal(table.texels, packing.segment_table(image, flux, jump, alpha=alpha).texels)
+
+
 def test_some_cells_pack_like_all_of_them(with_points, curves):
     for rep in (with_points, curves):
         per_cell = packing.cell_coefficients(rep).reshape(rep.lattice.cells_per_side**2, -1)
@@ -160,23 +184,25 @@ def test_cell_runs():
     assert packing.cell_runs(np.arange(0, 200, 2), max_runs=10) == [(0, 199)]
 
 
-def test_far_bound_bounds_the_change_of_the_far_field(curves, with_points):
+@pytest.mark.parametrize("channels", [3, 4], ids=["colour", "with alpha"])
+def test_far_bound_bounds_the_change_of_the_far_field(curves, with_points, channels):
     rng = np.random.default_rng(1)
     for rep in (curves, with_points):
         harmonic = packing.uses_harmonic(rep)
         per_cell = packing.cell_coefficients(rep).reshape(rep.lattice.cells_per_side**2, -1).astype(np.float64)
         delta = rng.normal(size=per_cell.shape) * 1e-3
-        delta.reshape(len(delta), -1, 4)[..., 3] = 0.0  # the texels' unused fourth component
-        bound = bounds.far_bound(delta, rep.order, harmonic)
+        delta.reshape(len(delta), -1, 4)[..., channels:] = 0.0  # the texels' unused fourth component
+        delta.reshape(len(delta), -1, 4)[..., 3] *= 10  # an alpha that changes most: the bound must see it
+        bound = bounds.far_bound(delta, rep.order, harmonic, channels=channels)
         # evaluate the change at corners and random points of each cell
         xi, eta = np.concatenate([rng.uniform(-0.5, 0.5, (2, 30)), [[-0.5, 0.5, 0.5, -0.5], [-0.5, -0.5, 0.5, 0.5]]], 1)
         p = rep.order + 1
         if harmonic:
-            values = delta.reshape(-1, p, 2, 4)[..., :3]
+            values = delta.reshape(-1, p, 2, 4)[..., :channels]
             k = values[:, :, 0] + 1j * values[:, :, 1]
             change = np.einsum("klc,lm->kcm", k, (xi + 1j * eta)[None] ** np.arange(p)[:, None]).real
         else:
-            c = delta.reshape(-1, p, p, 4)[..., :3]
+            c = delta.reshape(-1, p, p, 4)[..., :channels]
             powers = np.arange(p)[:, None]
             change = np.einsum("kijc,im,jm->kcm", c, xi[None] ** powers, eta[None] ** powers)
         assert (np.abs(change).max(axis=(1, 2)) <= bound * (1 + 1e-12)).all()

@@ -28,7 +28,7 @@ from ..engine import Representation
 from . import packing
 
 
-def far_bound(delta: np.ndarray, order: int, harmonic: bool, scalar: bool = False) -> np.ndarray:
+def far_bound(delta: np.ndarray, order: int, harmonic: bool, scalar: bool = False, channels: int = 3) -> np.ndarray:
     """Largest change of any channel of a cell's far field, ``(m,)``, from packed coefficient changes.
 
     Parameters
@@ -39,14 +39,17 @@ def far_bound(delta: np.ndarray, order: int, harmonic: bool, scalar: bool = Fals
     harmonic : bool
     scalar : bool
         The rows are a scalar field's (``packing``).
+    channels : int
+        Of colour rows: 3, or 4 with an alpha field's.
     """
-    size, weight = _term_sizes(delta, order, harmonic, scalar)
+    size, weight = _term_sizes(delta, order, harmonic, scalar, channels)
     # float32 sums of at most a few hundred terms: within 1e-5 relative, covered by the last factor
     per_channel = np.tensordot(size, weight.astype(np.float32), axes=([1], [0]))
     return per_channel.max(axis=1, initial=0.0).astype(np.float64) * 1.0001
 
 
-def value_bounds(rows: np.ndarray, order: int, harmonic: bool, scalar: bool = False) -> tuple[np.ndarray, np.ndarray]:
+def value_bounds(rows: np.ndarray, order: int, harmonic: bool, scalar: bool = False,
+                 channels: int = 3) -> tuple[np.ndarray, np.ndarray]:
     """Each cell's far field at its centre and how far any of its pixels may get from that, per channel.
 
     The spread holds the shader's float32 rounding too: each of Horner's ``2 (order + 1)`` steps rounds by at
@@ -60,23 +63,26 @@ def value_bounds(rows: np.ndarray, order: int, harmonic: bool, scalar: bool = Fa
     harmonic : bool
     scalar : bool
         The rows are a scalar field's.
+    channels : int
+        Of colour rows: 3, or 4 with an alpha field's.
 
     Returns
     -------
     centre, spread : numpy.ndarray
-        ``(m, 3)`` float64, or ``(m, 1)`` for a scalar field.
+        ``(m, channels)`` float64, or ``(m, 1)`` for a scalar field.
     """
     rows = np.asarray(rows, np.float32)
-    size, weight = _term_sizes(rows, order, harmonic, scalar)
-    first = rows[:, :1] if scalar else rows.reshape(len(rows), -1, 4)[:, 0, :3]  # Re K_0, or c_00
+    size, weight = _term_sizes(rows, order, harmonic, scalar, channels)
+    first = rows[:, :1] if scalar else rows.reshape(len(rows), -1, 4)[:, 0, :channels]  # Re K_0, or c_00
     centre = first.astype(np.float64)
     tail = np.tensordot(size[:, 1:].astype(np.float64), weight[1:], axes=([1], [0]))
     rounding = 4 * (order + 1) * 2.0**-24
     return centre, tail * 1.0001 + (np.abs(centre) + tail) * rounding
 
 
-def _term_sizes(rows: np.ndarray, order: int, harmonic: bool, scalar: bool = False) -> tuple[np.ndarray, np.ndarray]:
-    """``(m, terms, channels)`` float32 sizes of the packed coefficients' terms per channel (3, or a scalar
+def _term_sizes(rows: np.ndarray, order: int, harmonic: bool, scalar: bool = False,
+                channels: int = 3) -> tuple[np.ndarray, np.ndarray]:
+    """``(m, terms, channels)`` float32 sizes of the packed coefficients' terms per channel (3 or 4, or a scalar
     field's 1), and ``(terms,)`` the largest each term's monomial gets over a cell: with ``|xi|, |eta| <= 1/2``,
     ``|z^l| <= 2^(-l/2)`` and ``|xi^i eta^j| <= 2^(-i-j)``."""
     rows = np.asarray(rows, np.float32)
@@ -86,12 +92,12 @@ def _term_sizes(rows: np.ndarray, order: int, harmonic: bool, scalar: bool = Fal
         if scalar:  # per l: Re, Im
             pairs = rows[:, : 2 * terms].reshape(-1, terms, 2)
             return np.sqrt((pairs * pairs).sum(axis=2))[:, :, None], weight  # |K_l|
-        square = (rows * rows).reshape(-1, terms, 8)  # per l: Re rgb 0, Im rgb 0
-        return np.sqrt(square[:, :, 0:3] + square[:, :, 4:7]), weight  # |K_l|
+        square = (rows * rows).reshape(-1, terms, 8)  # per l: Re rgb a, Im rgb a
+        return np.sqrt(square[:, :, 0:channels] + square[:, :, 4 : 4 + channels]), weight  # |K_l|
     degree = 2.0 ** -np.add.outer(np.arange(terms), np.arange(terms)).ravel().astype(np.float64)
     if scalar:  # each row padded to whole texels
         return np.abs(rows.reshape(len(rows), terms, -1)[:, :, :terms].reshape(len(rows), -1))[:, :, None], degree
-    return np.abs(rows.reshape(-1, terms**2, 4)[:, :, :3]), degree
+    return np.abs(rows.reshape(-1, terms**2, 4)[:, :, :channels]), degree
 
 
 def cell_value_bounds(rep: Representation, weights: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:

@@ -39,15 +39,21 @@ class ShaderLayout:
     width: int
     height: int
     scalar: bool = False
+    alpha: bool = False
 
     @classmethod
-    def of(cls, rep: Representation, scalar: bool = False) -> ShaderLayout:
+    def of(cls, rep: Representation, scalar: bool = False, alpha: bool = False) -> ShaderLayout:
         return cls(rep.lattice.cells_per_side, rep.lattice.cell_size, rep.order, packing.uses_harmonic(rep),
-                   rep.width, rep.height, scalar)
+                   rep.width, rep.height, scalar, alpha)
 
     @property
     def texels(self) -> int:
         return packing.texels(self.order, self.harmonic, self.scalar)
+
+    @property
+    def channels(self) -> int:
+        """Of a colour field: 3, or 4 with an alpha field's (``packing``)."""
+        return 4 if self.alpha else 3
 
 
 class CanvasData:
@@ -62,6 +68,8 @@ class CanvasData:
     ----------
     rep : Representation or None
         What the buffers hold.
+    alpha : Representation or None
+        The alpha field they hold in a fourth channel (``packing``), or None.
     layout : ShaderLayout or None
     """
 
@@ -71,6 +79,7 @@ class CanvasData:
                                              else GL.GL_RGBA32F)
                          for name in [*UNITS, *_DELTA.values()]}
         self.rep: Representation | None = None
+        self.alpha: Representation | None = None
         self.layout: ShaderLayout | None = None
         self._segment_table: packing.SegmentTable | None = None
         self._mirror = np.zeros((0, 0), np.float32)  # the coefficients as uploaded, a row per cell
@@ -78,11 +87,12 @@ class CanvasData:
         self._far: tuple[np.ndarray, np.ndarray] | None = None  # bounds.value_bounds of the rows, once asked for
         self._near: np.ndarray | None = None  # bounds.near_items, flat, once asked for
 
-    def upload(self, rep: Representation) -> None:
-        """Upload all of ``rep``."""
-        self.layout = ShaderLayout.of(rep, self.weights is not None)
+    def upload(self, rep: Representation, alpha: Representation | None = None) -> None:
+        """Upload all of ``rep`` (and the ``alpha`` field of the same segments in a fourth channel)."""
+        self.layout = ShaderLayout.of(rep, self.weights is not None, alpha is not None)
         n = self.layout.cells
-        self._mirror = packing.cell_coefficients(rep, weights=self.weights).reshape(n * n, -1)
+        self.alpha = alpha
+        self._mirror = packing.cell_coefficients(rep, weights=self.weights, alpha=alpha).reshape(n * n, -1)
         self._delta = np.zeros_like(self._mirror)
         self._buffers["u_coeffs"].set_data(self._mirror)
         self._buffers["delta_coeffs"].set_data(self._delta)
@@ -91,8 +101,10 @@ class CanvasData:
         self.rep = rep
         self._far = self._near = None
 
-    def update(self, rep: Representation, cells: np.ndarray, same_geometry: bool) -> tuple[np.ndarray, bool]:
-        """Go over to ``rep`` (of the same layout), uploading the coefficients of ``cells`` (flat indices).
+    def update(self, rep: Representation, cells: np.ndarray, same_geometry: bool,
+               alpha: Representation | None = None) -> tuple[np.ndarray, bool]:
+        """Go over to ``rep`` (and ``alpha``; of the same layout), uploading the coefficients of ``cells`` (flat
+        indices).
 
         Segment lists and near points are uploaded whole when they are other
         arrays than the uploaded ones (with ``same_geometry``, only E and C of
@@ -109,18 +121,22 @@ class CanvasData:
         moved = np.empty(len(cells))
         for first in range(0, len(cells), UPDATE_CHUNK):  # none: only segments or near points may have changed
             chunk = cells[first : first + UPDATE_CHUNK]
-            fresh = packing.cell_coefficients(rep, chunk, weights=self.weights).reshape(len(chunk), -1)
+            fresh = packing.cell_coefficients(rep, chunk, weights=self.weights, alpha=alpha).reshape(len(chunk), -1)
             delta = self._delta[chunk] = fresh - self._mirror[chunk]
-            moved[first : first + len(chunk)] = bounds.far_bound(delta, layout.order, layout.harmonic, layout.scalar)
+            moved[first : first + len(chunk)] = bounds.far_bound(delta, layout.order, layout.harmonic, layout.scalar,
+                                                                 layout.channels)
             self._mirror[chunk] = fresh
             if self._far is not None:
-                fresh_bounds = bounds.value_bounds(fresh, layout.order, layout.harmonic, layout.scalar)
+                fresh_bounds = bounds.value_bounds(fresh, layout.order, layout.harmonic, layout.scalar,
+                                                   layout.channels)
                 for kept, rows in zip(self._far, fresh_bounds):
                     kept[chunk] = rows
         for start, stop in packing.cell_runs(cells):
             self._buffers["u_coeffs"].set_subdata(start * layout.texels, self._mirror[start:stop])
-        old = self.rep
-        if rep.near[0] is not old.near[0] or rep.near[1] is not old.near[1]:
+        old, old_alpha = self.rep, self.alpha
+        self.alpha = alpha
+        if (rep.near[0] is not old.near[0] or rep.near[1] is not old.near[1]
+                or (alpha is not None and alpha.near[0] is not old_alpha.near[0])):
             self._upload_segments(rep, same_geometry=same_geometry)
             self._near = None
         near_points_changed = _near(rep) is not _near(old)
@@ -132,12 +148,12 @@ class CanvasData:
 
     def value_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Each cell's value at its centre and how far the shader's value at any of its pixels may get from it,
-        ``(cells^2, 3)`` each (``(cells^2, 1)`` for a scalar field), flat cells: ``bounds.value_bounds`` of the far
-        field, an infinite spread where segments or near points add to it (``bounds.near_items``).  Kept up to
-        date by ``update`` once asked for."""
+        ``(cells^2, channels)`` each (``(cells^2, 1)`` for a scalar field), flat cells: ``bounds.value_bounds`` of
+        the far field, an infinite spread where segments or near points add to it (``bounds.near_items``).  Kept
+        up to date by ``update`` once asked for."""
         layout = self.layout
         if self._far is None:
-            self._far = bounds.value_bounds(self._mirror, layout.order, layout.harmonic, layout.scalar)
+            self._far = bounds.value_bounds(self._mirror, layout.order, layout.harmonic, layout.scalar, layout.channels)
         if self._near is None:
             self._near = bounds.near_items(self.rep).ravel()
         return bounds.unbounded_near(*self._far, self._near)
@@ -162,10 +178,14 @@ class CanvasData:
         """Upload the segment lists; with ``same_geometry``, only E and C changed since the last upload (the
         table is refilled and uploaded in place)."""
         if same_geometry and self._segment_table is not None:
-            packing.refill(self._segment_table, rep.near[0].flux, rep.near[0].jump)
+            flux, jump = rep.near[0].flux, rep.near[0].jump
+            if self.alpha is not None:
+                flux, jump = (packing.with_alpha(flux, self.alpha.near[0].flux),
+                              packing.with_alpha(jump, self.alpha.near[0].jump))
+            packing.refill(self._segment_table, flux, jump)
             self._buffers["u_segments"].set_subdata(0, self._segment_table.texels)
             return
-        table = self._segment_table = packing.segment_table(rep, weights=self.weights)
+        table = self._segment_table = packing.segment_table(rep, weights=self.weights, alpha=self.alpha)
         self._buffers["u_segments"].set_data(table.texels)
         self._buffers["u_segment_start"].set_data(table.cell_start)
 

@@ -92,7 +92,7 @@ class CanvasRenderer:
         self._data = CanvasData(weights)
         self._vao = VertexArray()
         self._cache = CachedImage(cache_format)
-        self._programs: dict[tuple[int, bool, bool], Program] = {}
+        self._programs: dict[tuple, Program] = {}
         self._rep: Representation | None = None  # what the image shows; None: a plain background
         self._layout: ShaderLayout | None = None
         self._dirty: np.ndarray | None = None  # cells to evaluate again at the next draw
@@ -151,9 +151,15 @@ class CanvasRenderer:
         """GL pixels ``(x0, y0, x1, y1)`` of the cached image changed since the last call; None: none."""
         return self._cache.take_changed()
 
-    def upload(self, rep: Representation) -> None:
-        """Upload all of ``rep``; the next ``draw`` evaluates the whole window."""
-        self._data.upload(rep)
+    @property
+    def alpha(self) -> Representation | None:
+        """The alpha field drawn in the image's fourth channel (``upload``), or None."""
+        return self._data.alpha
+
+    def upload(self, rep: Representation, alpha: Representation | None = None) -> None:
+        """Upload all of ``rep``; the next ``draw`` evaluates the whole window.  ``alpha``: a translucent layer's
+        alpha field, of ``rep``'s segments, lattice and order, drawn in the image's fourth channel."""
+        self._data.upload(rep, alpha)
         self._layout = self._data.layout
         n = self._layout.cells
         self._rep = rep
@@ -163,8 +169,9 @@ class CanvasRenderer:
         self._cached_view = None
 
     @in_plain_state
-    def update(self, rep: Representation, changed: np.ndarray) -> None:
-        """Go over to ``rep``, whose pixels differ from the uploaded one's only in the ``changed`` cells.
+    def update(self, rep: Representation, changed: np.ndarray, alpha: Representation | None = None) -> None:
+        """Go over to ``rep`` (and ``alpha``, as ``upload``'s), whose pixels differ from the uploaded one's only in
+        the ``changed`` cells.
 
         Uploads those cells' coefficients (segments and near points whole, when
         they are other arrays) and brings the cached image up to date as the
@@ -178,37 +185,41 @@ class CanvasRenderer:
         changed : numpy.ndarray
             ``(2^L, 2^L)`` bool, as ``engine.Update.changed``.
         """
-        if self._rep is None or ShaderLayout.of(rep, self._layout.scalar) != self._layout:
-            self.upload(rep)
+        if self._rep is None or ShaderLayout.of(rep, self._layout.scalar, alpha is not None) != self._layout:
+            self.upload(rep, alpha)
             return
         changed = np.asarray(changed, bool)
         n = self._layout.cells
         if changed.shape != (n, n):
             raise ValueError(f"changed must be ({n}, {n})")
         cells = np.flatnonzero(changed)
-        old = self._rep
+        old, old_alpha = self._rep, self._data.alpha
         same_geometry = bounds.same_geometry(old, rep)
         segment_moves = bounds.segment_changes(old, rep)
+        if alpha is not None and segment_moves is not None:
+            alpha_moves = bounds.segment_changes(old_alpha, alpha)
+            segment_moves = None if alpha_moves is None else np.maximum(segment_moves, alpha_moves)
         near = bounds.near_bound(old, rep, segment_moves)  # inf beside segments that moved
-        moved, near_points_changed = self._data.update(rep, cells, same_geometry)
+        moved, near_points_changed = self._data.update(rep, cells, same_geometry, alpha)
         self._rep = rep
         if near is not None and not near_points_changed:  # the bounds cover every change
             moved += near.ravel()[cells]
         else:
             moved[:] = np.inf
         exact = same_geometry and not near_points_changed  # the change can also be added to the image
-        self.last_update = self._catch_up(cells, moved, exact, old, segment_moves)
+        self.last_update = self._catch_up(cells, moved, exact, (old, old_alpha), segment_moves)
         if self._reflect and self.reach > 0 and self._near_border(self._redrawn).any():
             self._cached_view = None  # their reflections beyond the border change too
 
-    def _catch_up(self, cells: np.ndarray, moved: np.ndarray, exact: bool, old: Representation,
-                  segment_moves: np.ndarray | None) -> dict[str, int]:
+    def _catch_up(self, cells: np.ndarray, moved: np.ndarray, exact: bool,
+                  old: tuple[Representation, Representation | None], segment_moves: np.ndarray | None
+                  ) -> dict[str, int]:
         """Bring the cached image up to date with an update: add some cells' change, mark others dirty.
 
         ``moved`` bounds the change of each of ``cells``' pixels, ``segment_moves``
         each segment's (``bounds.segment_changes``); with ``exact`` the change can
-        be added to the image (a float image, and the same geometry).  Returns
-        the counts of ``last_update``.
+        be added to the image (a float image, and the same geometry).  ``old``: the representation and alpha
+        field before.  Returns the counts of ``last_update``.
         """
         rep = self._rep
         unseen = self._unseen.ravel()
@@ -242,13 +253,20 @@ class CanvasRenderer:
         return ((columns * size < reach) | ((columns + 1) * size > layout.width - reach)
                 | (rows * size < reach) | ((rows + 1) * size > layout.height - reach))
 
-    def _add_change(self, cells: np.ndarray, old: Representation, new: Representation, keep: np.ndarray) -> None:
-        """Add the change of ``cells``' colour (their far field's, the ``keep`` segments') to the image."""
+    def _add_change(self, cells: np.ndarray, old: tuple[Representation, Representation | None], new: Representation,
+                    keep: np.ndarray) -> None:
+        """Add the change of ``cells``' colour (their far field's, the ``keep`` segments') to the image; ``old``
+        the representation and alpha field before."""
         if len(cells) == 0:
             return
-        (before, _), (after, _) = old.near, new.near
-        self._data.upload_change(cells, packing.segment_table(new, after.flux - before.flux, after.jump - before.jump,
-                                                              keep, self._data.weights))
+        (before, _), (after, _) = old[0].near, new.near
+        flux, jump = after.flux - before.flux, after.jump - before.jump
+        alpha = self._data.alpha
+        if alpha is not None:
+            (before, _), (after, _) = old[1].near, alpha.near
+            flux = packing.with_alpha(flux, after.flux - before.flux)
+            jump = packing.with_alpha(jump, after.jump - before.jump)
+        self._data.upload_change(cells, packing.segment_table(new, flux, jump, keep, self._data.weights))
         self._cache.bind()
         self._pass(self._cached_view, cells, delta=True)
 
@@ -267,10 +285,10 @@ class CanvasRenderer:
         field of diffusion points alone has none, ``Representation.near``: their loop, even empty, costs llvmpipe
         5 ms a million pixels)."""
         segments = len(self._rep.near[0].p) > 0
-        key = (self._layout.order, self._layout.harmonic, self._layout.scalar, segments)
+        key = (self._layout.order, self._layout.harmonic, self._layout.scalar, self._layout.alpha, segments)
         if key not in self._programs:
             defines = {"ORDER": key[0], "HARMONIC": int(key[1]), "COEFF_TEXELS": self._layout.texels,
-                       "SCALAR": int(key[2]), "SEGMENTS": int(segments)}
+                       "SCALAR": int(key[2]), "ALPHA": int(key[3]), "SEGMENTS": int(segments)}
             self._programs[key] = Program(shader_source("canvas.vert"), shader_source("canvas.frag", defines),
                                           label="canvas shader")
         return self._programs[key]

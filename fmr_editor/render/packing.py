@@ -16,6 +16,11 @@ Layouts (``shaders/canvas.frag`` reads them):
 - **near points**: 2 texels each, ``(x, y, 1 / r^2, 0)``, ``(weight, 0)``,
   and their per-cell CSR lists (``start``, ``members``) as int32.
 
+A translucent layer's image may carry its alpha field in a fourth channel (``alpha``: the alpha field's first
+channel, when both have the same segments): its coefficient texels are (r, g, b, alpha), its segments'
+``(E, E_alpha)``, ``(C, C_alpha)`` (the shader takes each length from the end points), its near points'
+``(weight, 0)`` (an alpha field has no points).
+
 A *scalar* field (``weights``: a mask, read through its luminance; an alpha or a
 blur field, through its first channel) keeps one channel, the weighted sum of the
 three, four values a texel: the coefficients' terms in order (Re K_l, Im K_l for
@@ -55,14 +60,14 @@ def _scalars(values: np.ndarray) -> np.ndarray:
 
 
 def _padded(values: np.ndarray) -> np.ndarray:
-    """``(m, terms, 3)`` float64 to ``(m * terms, 4)`` float32 texels (rgb, 0)."""
+    """``(m, terms, 3 or 4)`` float64 to ``(m * terms, 4)`` float32 texels (rgb, 0) or (rgb, alpha)."""
     out = np.zeros(values.shape[:2] + (4,), np.float32)
-    out[..., :3] = values
+    out[..., : values.shape[2]] = values
     return out.reshape(-1, 4)
 
 
 def cell_coefficients(rep: Representation, cells: np.ndarray | None = None, harmonic: bool | None = None,
-                      weights: np.ndarray | None = None) -> np.ndarray:
+                      weights: np.ndarray | None = None, alpha: Representation | None = None) -> np.ndarray:
     """Coefficient texels of ``cells`` (flat indices, default all), ``(len(cells) * texels, 4)`` float32.
 
     Parameters
@@ -74,6 +79,8 @@ def cell_coefficients(rep: Representation, cells: np.ndarray | None = None, harm
         The harmonic form; defaults to ``uses_harmonic(rep)``.  Only for representations without points.
     weights : numpy.ndarray, optional
         ``(3,)``: the scalar field ``weights . colour`` (the module's layouts).
+    alpha : Representation, optional
+        The layer's alpha field, on ``rep``'s lattice at its order: its first channel in the fourth.
     """
     harmonic = uses_harmonic(rep) if harmonic is None else harmonic
     if harmonic and rep.points is not None:
@@ -82,19 +89,22 @@ def cell_coefficients(rep: Representation, cells: np.ndarray | None = None, harm
     n = rep.lattice.cells_per_side
     chosen = slice(None) if cells is None else np.asarray(cells, np.int64)
     local = rep.local.reshape(n * n, 3, -1)[chosen, :, : order + 1]  # a view until indexed
+    if alpha is not None:
+        local = np.concatenate([local, alpha.local.reshape(n * n, 3, -1)[chosen, :1, : order + 1]], axis=1)
+    channels = local.shape[1]
     if harmonic and weights is not None:
         k = np.einsum("c,mcl->ml", weights, local) / TWO_PI
         pairs = np.stack([k.real, k.imag], axis=2)  # (cell, l, Re/Im)
         pairs[:, 0, 1] = 0.0  # Im K_0 never shows (u = Re ...)
         return _scalars(pairs.reshape(len(local), -1))
     if harmonic:
-        out = np.zeros((len(local), order + 1, 2, 4), np.float32)  # (cell, l, Re/Im, rgb + 0)
-        out[:, :, 0, :3] = local.real.transpose(0, 2, 1) / TWO_PI
-        out[:, 1:, 1, :3] = local.imag[:, :, 1:].transpose(0, 2, 1) / TWO_PI  # Im K_0 never shows (u = Re ...)
+        out = np.zeros((len(local), order + 1, 2, 4), np.float32)  # (cell, l, Re/Im, rgb + alpha or 0)
+        out[:, :, 0, :channels] = local.real.transpose(0, 2, 1) / TWO_PI
+        out[:, 1:, 1, :channels] = local.imag[:, :, 1:].transpose(0, 2, 1) / TWO_PI  # Im K_0 never shows
         return out.reshape(-1, 4)
-    tensor = local_polynomials(local, order).reshape(len(local), 3, -1)  # (m, channel, ij)
+    tensor = local_polynomials(local, order).reshape(len(local), channels, -1)  # (m, channel, ij)
     if rep.points is not None:
-        tensor += rep.points.polynomials(order).reshape(n * n, 3, -1)[chosen]
+        tensor[:, :3] += rep.points.polynomials(order).reshape(n * n, 3, -1)[chosen]
     if weights is not None:
         rows = np.einsum("c,mct->mt", weights, tensor).reshape(len(local), order + 1, order + 1)
         padded = np.zeros((len(local), order + 1, _row_texels(order) * 4))
@@ -123,12 +133,15 @@ class SegmentTable:
         ``(entries,)`` the representation's index of each entry's segment.
     weights : numpy.ndarray or None
         A scalar field's channel weights.
+    channels : int
+        Of a colour table: 3, or 4 with the alpha field's (``(E, E_alpha)``, ``(C, C_alpha)``, no length).
     """
 
     texels: np.ndarray
     cell_start: np.ndarray
     segments: np.ndarray
     weights: np.ndarray | None = None
+    channels: int = 3
 
 
 #: Entries ``refill`` gathers at a time: its temporaries (a megabyte) come from the heap, where freed blocks are
@@ -174,7 +187,8 @@ def block_lists(cell_start: np.ndarray, cells_per_side: int) -> tuple[np.ndarray
 
 
 def segment_table(rep: Representation, flux: np.ndarray | None = None, jump: np.ndarray | None = None,
-                  keep: np.ndarray | None = None, weights: np.ndarray | None = None) -> SegmentTable:
+                  keep: np.ndarray | None = None, weights: np.ndarray | None = None,
+                  alpha: Representation | None = None) -> SegmentTable:
     """Each cell's near segments (``rep.near``), with end points relative to that cell's centre.
 
     A segment is listed in every cell of the 3x3 block around its own (up to
@@ -189,11 +203,14 @@ def segment_table(rep: Representation, flux: np.ndarray | None = None, jump: np.
         ``(segments,)`` bool: list only these.
     weights : numpy.ndarray, optional
         ``(3,)``: the table of the scalar field ``weights . colour``.
+    alpha : Representation, optional
+        The layer's alpha field, of the same near segments: E and C get its first channel's in a fourth
+        (``flux`` and ``jump``, when given, hold four columns).
     """
     (seg, cell_start), lattice = rep.near, rep.lattice
     n, size = lattice.cells_per_side, lattice.cell_size
-    flux = seg.flux if flux is None else flux
-    jump = seg.jump if jump is None else jump
+    flux = (seg.flux if alpha is None else with_alpha(seg.flux, alpha.near[0].flux)) if flux is None else flux
+    jump = (seg.jump if alpha is None else with_alpha(seg.jump, alpha.near[0].jump)) if jump is None else jump
     cell_start = np.asarray(cell_start, np.int64)
     index = np.arange(len(seg.p))
     if keep is not None:
@@ -208,15 +225,21 @@ def segment_table(rep: Representation, flux: np.ndarray | None = None, jump: np.
     table = np.zeros((len(members), 2 if weights is not None else 3, 4), np.float32)
     table[:, 0, 0:2] = p - centre
     table[:, 0, 2:4] = q - centre
-    out = SegmentTable(table.reshape(-1, 4), _int32(block_start), members, weights)
+    out = SegmentTable(table.reshape(-1, 4), _int32(block_start), members, weights, flux.shape[1])
     refill(out, flux, jump)
-    table[:, 1, 2 if weights is not None else 3] = np.hypot(*(q - p).T)
+    if out.channels == 3:
+        table[:, 1, 2 if weights is not None else 3] = np.hypot(*(q - p).T)
     return out
 
 
+def with_alpha(colour: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+    """``(m, 4)``: the segments' colour values ``(m, 3)`` and their alpha field's first channel's."""
+    return np.concatenate([colour, alpha[:, :1]], axis=1)
+
+
 def refill(table: SegmentTable, flux: np.ndarray, jump: np.ndarray) -> None:
-    """Put ``flux`` and ``jump`` ``(segments, 3)`` in place of the E and C of a table of segments with the same
-    geometry and cells (its entries' segments), in place and ``REFILL_CHUNK`` entries at a time."""
+    """Put ``flux`` and ``jump`` ``(segments, table.channels)`` in place of the E and C of a table of segments with
+    the same geometry and cells (its entries' segments), in place and ``REFILL_CHUNK`` entries at a time."""
     if table.weights is not None:  # cast and weigh the few, then gather the many
         values = np.stack([flux @ table.weights, jump @ table.weights], axis=1).astype(np.float32)
         texels = table.texels.reshape(-1, 2, 4)
@@ -225,10 +248,11 @@ def refill(table: SegmentTable, flux: np.ndarray, jump: np.ndarray) -> None:
         return
     texels = table.texels.reshape(-1, 3, 4)
     flux, jump = np.asarray(flux, np.float32), np.asarray(jump, np.float32)
+    channels = table.channels
     for start in range(0, len(texels), REFILL_CHUNK):
         members = table.segments[start : start + REFILL_CHUNK]
-        texels[start : start + REFILL_CHUNK, 1, 0:3] = flux[members]
-        texels[start : start + REFILL_CHUNK, 2, 0:3] = jump[members]
+        texels[start : start + REFILL_CHUNK, 1, 0:channels] = flux[members]
+        texels[start : start + REFILL_CHUNK, 2, 0:channels] = jump[members]
 
 
 @dataclass(frozen=True)
