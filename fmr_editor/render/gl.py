@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Iterator
-from contextlib import contextmanager
+from contextlib import AbstractContextManager, contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -107,45 +107,35 @@ def in_plain_state(method):
 
 
 @contextmanager
-def over() -> Iterator[None]:
+def _blending(colour: tuple[int, int], alpha: tuple[int, int]) -> Iterator[None]:
+    """Blend the body's fragments into the target, ``colour`` and ``alpha`` the (source, destination) factors
+    of the colour and alpha channels; then blend no more."""
+    GL.glEnable(GL.GL_BLEND)
+    GL.glBlendEquation(GL.GL_FUNC_ADD)
+    GL.glBlendFuncSeparate(*colour, *alpha)
+    try:
+        yield
+    finally:
+        GL.glBlendFunc(GL.GL_ONE, GL.GL_ZERO)
+        GL.glDisable(GL.GL_BLEND)
+
+
+def over() -> AbstractContextManager[None]:
     """Blend the body's fragments over the target by their alpha (``SRC_ALPHA, ONE_MINUS_SRC_ALPHA``); the
     target's alpha becomes the coverage, ``a + (1 - a) below`` (over an opaque target it stays 1: the window
     system composes the canvas by it)."""
-    GL.glEnable(GL.GL_BLEND)
-    GL.glBlendEquation(GL.GL_FUNC_ADD)
-    GL.glBlendFuncSeparate(GL.GL_SRC_ALPHA, GL.GL_ONE_MINUS_SRC_ALPHA, GL.GL_ONE, GL.GL_ONE_MINUS_SRC_ALPHA)
-    try:
-        yield
-    finally:
-        GL.glBlendFunc(GL.GL_ONE, GL.GL_ZERO)
-        GL.glDisable(GL.GL_BLEND)
+    return _blending((GL.GL_SRC_ALPHA, GL.GL_ONE_MINUS_SRC_ALPHA), (GL.GL_ONE, GL.GL_ONE_MINUS_SRC_ALPHA))
 
 
-@contextmanager
-def through_below() -> Iterator[None]:
-    """Blend the body's fragments ``(C, T)`` as ``C + T below`` (``ONE, SRC_ALPHA``: ``shaders/layers.frag``'s later
-    passes), the target's coverage kept."""
-    GL.glEnable(GL.GL_BLEND)
-    GL.glBlendEquation(GL.GL_FUNC_ADD)
-    GL.glBlendFuncSeparate(GL.GL_ONE, GL.GL_SRC_ALPHA, GL.GL_ZERO, GL.GL_ONE)
-    try:
-        yield
-    finally:
-        GL.glBlendFunc(GL.GL_ONE, GL.GL_ZERO)
-        GL.glDisable(GL.GL_BLEND)
+def through_below() -> AbstractContextManager[None]:
+    """Blend the body's fragments ``(C, T)`` as ``C + T below`` (``ONE, SRC_ALPHA``: ``shaders/layers.frag``'s
+    later passes), the target's coverage kept."""
+    return _blending((GL.GL_ONE, GL.GL_SRC_ALPHA), (GL.GL_ZERO, GL.GL_ONE))
 
 
-@contextmanager
-def additive() -> Iterator[None]:
+def additive() -> AbstractContextManager[None]:
     """Add the body's fragments to the target (blending ``ONE, ONE``), then blend no more."""
-    GL.glEnable(GL.GL_BLEND)
-    GL.glBlendEquation(GL.GL_FUNC_ADD)
-    GL.glBlendFunc(GL.GL_ONE, GL.GL_ONE)
-    try:
-        yield
-    finally:
-        GL.glBlendFunc(GL.GL_ONE, GL.GL_ZERO)
-        GL.glDisable(GL.GL_BLEND)
+    return _blending((GL.GL_ONE, GL.GL_ONE), (GL.GL_ONE, GL.GL_ONE))
 
 
 class Program:

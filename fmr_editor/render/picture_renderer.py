@@ -5,8 +5,8 @@ re-evaluates only its changed cells, so an edit to one layer costs what it
 costs in a one-layer document.  A translucent layer's alpha field, made of its
 image's segments, is drawn in the image's fourth channel (``carries_alpha``,
 ``packing``): the segments' integrals, the costly part, are shared, and the
-layer costs 1.15-1.2x an opaque one, not twice.  Drawing brings every shown field's image up
-to date and, when any of them or the layers' settings changed, composes them
+layer costs 1.15-1.2x an opaque one, not twice.  Drawing brings every shown
+field's image up to date and, when any of them or the layers' settings changed, composes them
 bottom up into a float image, ``m S(V) + (1 - m) below`` (``m`` with the alpha
 field's clamped value in it, for a translucent layer), as
 ``engine.composite.compose`` on the CPU: all layers in one pass
@@ -162,10 +162,10 @@ class PictureRenderer:
             self.renderers.pop(key).release()
         for key, rep in fields.items():
             renderer = self.renderers.get(key)
-            alpha = self._alphas.get(key)
-            change = changed.get(key, False) if alpha is None else merge_changes(
-                {key: changed[key]} if key in changed else {},
-                {key: changed[key[0], Role.ALPHA]} if (key[0], Role.ALPHA) in changed else {}).get(key, False)
+            alpha, alpha_key = self._alphas.get(key), (key[0], Role.ALPHA)
+            change = changed.get(key, False)  # False: unchanged
+            if alpha is not None and alpha_key in changed:  # its alpha's change as well
+                change = merge_changes({} if change is False else {key: change}, {key: changed[alpha_key]})[key]
             if renderer is None:
                 renderer = self.renderers[key] = CanvasRenderer(*self._options, weights=SCALAR_FIELDS.get(key[1]))
                 renderer.upload(rep, alpha)
