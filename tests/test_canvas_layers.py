@@ -72,6 +72,7 @@ def shown_three_layers(canvas):
 def test_the_canvas_shows_the_composite_and_follows_edits_of_one_layer(canvas, qtbot):
     document, stack, renderers = shown_three_layers(canvas)
     assert len(renderers) == 5  # three images, two masks
+    assert len(canvas.renderer._groups(stack.composite.shown)) == 1  # composed in one pass
 
     middle = document.layers[1]
     dabbed = edits.add_points(layer_edits.select_layer(document, 1, mask=True),
