@@ -196,7 +196,7 @@ class CanvasRenderer:
         old, old_alpha = self._rep, self._data.alpha
         same_geometry = bounds.same_geometry(old, rep)
         segment_moves = bounds.segment_changes(old, rep)
-        if alpha is not None and segment_moves is not None:
+        if alpha is not None and alpha is not old_alpha and segment_moves is not None:  # (the same: no moves)
             alpha_moves = bounds.segment_changes(old_alpha, alpha)
             segment_moves = None if alpha_moves is None else np.maximum(segment_moves, alpha_moves)
         near = bounds.near_bound(old, rep, segment_moves)  # inf beside segments that moved

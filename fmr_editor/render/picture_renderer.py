@@ -277,10 +277,10 @@ class PictureRenderer:
         shown = self._picture.shown or (replace(self._picture.layers[0], opacity=0.0),)
         tinted = next((layer for layer in self._picture.layers if layer.id == self._overlay), None)
         blurred = {layer.id: layer for layer in shown if layer.blur is not None}
-        keys = {(layer.id, kind) for layer in shown for kind, _ in layer.read}
+        keys = {(layer.id, role) for layer in shown for role in self._textures(layer)}  # a carried alpha: none
         if tinted is not None:
             keys |= {(tinted.id, Role.IMAGE)} | ({(tinted.id, Role.MASK)} if tinted.mask is not None else set())
-        keys = {key for key in keys if not (key[0] in blurred and key[1] in REFLECTED) and key in self.renderers}
+        keys = {key for key in keys if not (key[0] in blurred and key[1] in REFLECTED)}
         for key in [key for key in self._filters if key[0] not in blurred]:
             self._filters.pop(key).delete()
         if not self._filters and self._blur_gl is not None:
