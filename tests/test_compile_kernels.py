@@ -11,11 +11,12 @@ from fmr_editor.engine.kernels import grid, local_grid, near_rows, subcells
 from fmr_editor.engine.points import tensor_kernels
 from fmr_editor.engine.solve import entries, skeleton
 
-#: The kernels each part calls from Python (a kernel called only by another, such as ``subcells._cells``, is
-#: compiled into its caller and records no signature of its own).
+#: The kernels each part calls from Python, of three channels or four.
 KERNELS = {
-    "near_grid": (grid._near_grid, near_rows._near_rows, local_grid._local_grid),
-    "sub_cells": (subcells._subcell_grid,),
+    "near_grid": (grid._NEAR_GRID[3], near_rows._NEAR_ROWS[3], local_grid._LOCAL_GRID[3]),
+    "sub_cells": (subcells._SUBCELL_GRID[3],),
+    "four_channels": (grid._NEAR_GRID[4], near_rows._NEAR_ROWS[4], local_grid._LOCAL_GRID[4],
+                      subcells._SUBCELL_GRID[4]),
     "solver": (skeleton._forward, skeleton._backward, entries._entries_parallel, level_kernels.level_local),
     "points": (tensor_kernels.accumulate,),
     "blending": (blending.blend_layer,),

@@ -18,7 +18,8 @@ from fmr_editor.io import load_document
 from fmr_editor.io.fmr_file import thumbnail_png
 
 setup_process()
-kernels = {"near": grid._near_grid, "local": local_grid._local_grid, "subcells": subcells._subcell_grid}
+kernels = {f"{name} {channels}": table[channels] for channels in (3, 4) for name, table in
+           (("near", grid._NEAR_GRID), ("local", local_grid._LOCAL_GRID), ("subcells", subcells._SUBCELL_GRID))}
 def compiled():
     return {name: len(kernel.signatures) for name, kernel in kernels.items()}
 live = LiveStack(load_document(sys.argv[1]), Settings())

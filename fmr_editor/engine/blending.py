@@ -17,7 +17,7 @@ def _clamped(value: float) -> float:
 
 
 @numba.njit(inline="always")
-def _weight(i, mask, luma, mask_base, mask_enabled, mask_inverted, negligible, alpha, opacity):
+def _weight(i, mask, luma, mask_base, mask_enabled, mask_inverted, negligible, alpha, alpha_column, opacity):
     """Sample ``i``'s weight ``clamp(a, 0, 1) opacity clamp(M, 0, 1)``, 0 or 1 within ``negligible`` of them
     (``composite.snapped``; ``blend_layer``'s parameters)."""
     weight = opacity
@@ -29,22 +29,24 @@ def _weight(i, mask, luma, mask_base, mask_enabled, mask_inverted, negligible, a
             value = 1.0 - value
         weight *= _clamped(value)
     if alpha.shape[0] > 0:
-        weight *= _clamped(alpha[i, 0])
+        weight *= _clamped(alpha[i, alpha_column])
     if weight <= negligible:
         return 0.0
     return 1.0 if weight >= 1.0 - negligible else weight
 
 
 @numba.njit(parallel=True, cache=True)
-def layer_weights(weights, mask, luma, mask_base, mask_enabled, mask_inverted, negligible, alpha, opacity):
+def layer_weights(weights, mask, luma, mask_base, mask_enabled, mask_inverted, negligible, alpha, alpha_column,
+                  opacity):
     """``weights (n,)``: each sample's weight, as ``blend_layer`` blends with it (its parameters)."""
     for i in numba.prange(weights.shape[0]):
-        weights[i] = _weight(i, mask, luma, mask_base, mask_enabled, mask_inverted, negligible, alpha, opacity)
+        weights[i] = _weight(i, mask, luma, mask_base, mask_enabled, mask_inverted, negligible, alpha, alpha_column,
+                             opacity)
 
 
 @numba.njit(parallel=True, cache=True)
 def blend_layer(out, coverage, colour, matrix, offset, transformed, mask, luma, mask_base, mask_enabled,
-                mask_inverted, negligible, alpha, opacity, covers):
+                mask_inverted, negligible, alpha, alpha_column, opacity, covers):
     """``out``, ``coverage`` with one layer over them, in place (``composite.compose_reference``'s loop body).
 
     Parameters
@@ -52,7 +54,7 @@ def blend_layer(out, coverage, colour, matrix, offset, transformed, mask, luma, 
     out, coverage : numpy.ndarray
         ``(n, 3)`` the colours below and ``(n,)`` their coverage.
     colour : numpy.ndarray
-        ``(n, 3)`` the layer's image values.
+        ``(n, 3)`` the layer's image values, or ``(n, 4)`` (the fourth not read).
     matrix, offset : numpy.ndarray
         ``(3, 3)`` and ``(3,)``: the layer's colour transform, applied when ``transformed``.
     mask : numpy.ndarray
@@ -63,13 +65,16 @@ def blend_layer(out, coverage, colour, matrix, offset, transformed, mask, luma, 
         Weights within it of 0 or 1 are 0 or 1 (``composite.NEGLIGIBLE_WEIGHT``): the layer leaves the colour
         below as it is, or replaces it, whatever its image's (finite) values are there.
     alpha : numpy.ndarray
-        ``(n, 3)`` the alpha field's values (its first channel), or ``(0, 3)``: opaque.
+        ``(n, k)`` the alpha field's values, or ``(0, 3)``: opaque.
+    alpha_column : int
+        The column of ``alpha`` that is the alpha: 0 of the alpha field's own values, 3 of its image's values of
+        four channels that carry it.
     covers : bool
         The layer hides everything below: ``out`` becomes what it shows, ``coverage`` 1.
     """
     for i in numba.prange(out.shape[0]):
         weight = 1.0 if covers else _weight(i, mask, luma, mask_base, mask_enabled, mask_inverted, negligible, alpha,
-                                            opacity)
+                                            alpha_column, opacity)
         if weight == 0.0:
             continue
         r, g, b = _clamped(colour[i, 0]), _clamped(colour[i, 1]), _clamped(colour[i, 2])

@@ -7,7 +7,8 @@ cache (``__pycache__`` beside the source, or the user's cache directory where
 that cannot be written), so every later process only loads it.  Compiling all
 of them takes 2-4 minutes of one core (measured on a 2-core EPYC: the near
 field on a grid 67 s, the sub-cell raster 53 s, the solver's and the passes'
-kernels 80 s, the diffusion points' 35 s), which a user would otherwise wait
+kernels 80 s, the diffusion points' 35 s; the raster's kernels of four channels again), which a user would
+otherwise wait
 through in their first render, with no word about it.  ``scripts/setup.sh``
 runs this once after installing.
 
@@ -32,7 +33,7 @@ from ..model import ColorStop, DiffusionCurve, DiffusionPoint, Document, edits
 from .fmm.lattice import Lattice
 from .points.field import PointField, warm_up_points
 from .raster import rasterise
-from .raster_kernels import blending, near_grid, sub_cells
+from .raster_kernels import blending, four_channels, near_grid, sub_cells
 from .stack import LiveStack
 
 
@@ -61,8 +62,9 @@ def points() -> None:
 
 
 #: Parts that touch disjoint kernels, so that parallel processes never compile the same one twice.
-PARTS: dict[str, Callable[[], None]] = {"near_grid": near_grid, "sub_cells": sub_cells, "solver": solver,
-                                        "points": points, "blending": blending}
+PARTS: dict[str, Callable[[], None]] = {"near_grid": near_grid, "sub_cells": sub_cells,
+                                        "four_channels": four_channels, "solver": solver, "points": points,
+                                        "blending": blending}
 
 
 def sample_document(points: bool, size: int = 64) -> Document:

@@ -27,7 +27,7 @@ import numpy as np
 from ..model.color_transform import IDENTITY, ColorTransform
 from ..model.layer import MASK_LUMA
 from .blending import blend_layer, layer_weights
-from .representation import Representation
+from .representation import Representation, same_geometry
 
 #: A layer's weight within this of 0 (or 1) is 0 (1): a sharp mask is 0 or 1 only to its expansions' accuracy, 1e-6
 #: on lady_bug, and so would let the layer below it show by as much.  So weighted, a layer is not drawn where it
@@ -119,6 +119,17 @@ class LayerFields:
         return self.mask_enabled and self.mask is not None
 
     @property
+    def carries_alpha(self) -> bool:
+        """Whether the alpha field can be evaluated as its image's fourth channel (the canvas's ``packing``, the
+        raster's kernels of four channels): the same segments, lattice and order, no points of its own, and no
+        blur (a blurred layer's image and alpha are blurred apart)."""
+        image, alpha = self.image, self.alpha
+        return (alpha is not None and self.blur is None and alpha.points is None and alpha.order == image.order
+                and alpha.lattice.cells_per_side == image.lattice.cells_per_side
+                and alpha.lattice.cell_size == image.lattice.cell_size and len(alpha.near[0].p) > 0
+                and same_geometry(image, alpha))
+
+    @property
     def read(self) -> tuple[tuple[Role, Representation], ...]:
         """What drawing the layer reads: ``(Role.IMAGE, image)``, ``(Role.MASK, mask)`` when ``masked`` and
         ``(Role.ALPHA, alpha)`` when it has one."""
@@ -181,16 +192,18 @@ def compose(composite: Composite, values: Callable[[Representation], np.ndarray]
     premultiplied by its coverage.  With ``coverage``, ``(..., 4)``: the coverage ``a`` after the colour,
     ``a <- m + (1 - m) a`` from 0 up the layers (1 where a layer covers, 0 where nothing shows).
     Each layer is blended in one compiled pass (``blending.blend_layer``); ``compose_reference`` is the plain form.
+    An image's values may have a fourth channel: its layer's alpha field, carried (``LayerFields.carries_alpha``),
+    and then that alpha field's own values are not read.
     """
     count = int(np.prod(shape[:-1]))
     out, alpha = np.zeros((count, 3)), np.zeros(count)
     for layer in composite.shown:
         transform = layer.transform
-        blend_layer(out, alpha, _samples(values(layer.image), count), transform.matrix, transform.offset,
+        colour = _samples(values(layer.image), count)
+        blend_layer(out, alpha, colour, transform.matrix, transform.offset,
                     not transform.is_identity, _samples(values(layer.mask), count) if layer.masked else _NO_SAMPLES,
                     MASK_LUMA, float(layer.mask_base), layer.mask_enabled, layer.mask_inverted, NEGLIGIBLE_WEIGHT,
-                    _NO_SAMPLES if layer.alpha is None else _samples(values(layer.alpha), count),
-                    float(layer.opacity), layer.covers)
+                    *_alpha_samples(layer, values, count, colour), float(layer.opacity), layer.covers)
     out = out.reshape(shape)
     return np.concatenate([out, alpha.reshape(shape[:-1])[..., None]], axis=-1) if coverage else out
 
@@ -200,7 +213,8 @@ def hidden(composite: Composite, values: Callable[[Representation], np.ndarray],
     being 0 there or a layer above it weighing 1 there (covering it), weights ``snapped``.
 
     ``compose`` takes nothing from an image there, as long as its values are finite: they need not be
-    evaluated.  Reads ``values`` of the masks and alpha fields of the layers whose weight varies.
+    evaluated.  Reads ``values`` of the masks and alpha fields of the layers whose weight varies (of a carried
+    alpha field: its image's four channels, as ``compose`` may read them).
     """
     shown = composite.shown
     covered = np.zeros(count, bool)
@@ -213,8 +227,7 @@ def hidden(composite: Composite, values: Callable[[Representation], np.ndarray],
         weight = np.empty(count)
         layer_weights(weight, _samples(values(layer.mask), count) if layer.masked else _NO_SAMPLES, MASK_LUMA,
                       float(layer.mask_base), layer.mask_enabled, layer.mask_inverted, NEGLIGIBLE_WEIGHT,
-                      _NO_SAMPLES if layer.alpha is None else _samples(values(layer.alpha), count),
-                      float(layer.opacity))
+                      *_alpha_samples(layer, values, count), float(layer.opacity))
         result[index] = covered | (weight == 0.0)
         covered = covered | (weight == 1.0)
     return result
@@ -224,8 +237,20 @@ _NO_SAMPLES = np.zeros((0, 3))
 
 
 def _samples(values: np.ndarray, count: int) -> np.ndarray:
-    """``values (..., 3)`` as ``(count, 3)`` float64, C-contiguous (a view where they are)."""
-    return np.ascontiguousarray(values, np.float64).reshape(count, 3)
+    """``values (..., k)`` as ``(count, k)`` float64, C-contiguous (a view where they are)."""
+    return np.ascontiguousarray(values, np.float64).reshape(count, -1)
+
+
+def _alpha_samples(layer: LayerFields, values: Callable[[Representation], np.ndarray], count: int,
+                   colour: np.ndarray | None = None) -> tuple[np.ndarray, int]:
+    """``blend_layer``'s ``alpha`` and ``alpha_column`` of ``layer``: none, the alpha field's first channel, or the
+    fourth of its image's ``colour`` values (or, without them, of what ``values`` gives of its alpha field) that
+    carry it."""
+    if layer.alpha is None:
+        return _NO_SAMPLES, 0
+    if colour is None or colour.shape[1] < 4:
+        colour = _samples(values(layer.alpha), count)
+    return colour, 3 if colour.shape[1] == 4 else 0
 
 
 def compose_reference(composite: Composite, values: Callable[[Representation], np.ndarray], shape: tuple[int, ...],

@@ -18,7 +18,8 @@ expansion and summing only the others per sample.  Diffusion points add their po
 here is the numpy form of a polynomial far field (two small matrix products
 per cell, batched), kept as a reference.  Of a layered picture, each layer's image is
 evaluated only in the cells where it shows (``composite.hidden``): not where its mask hides it nor where
-a layer above covers it.  Work proceeds in bands of rows;
+a layer above covers it; a translucent layer's image is evaluated with its alpha field as a fourth channel
+(``LayerFields.carries_alpha``).  Work proceeds in bands of rows;
 with one sample a pixel the bands are written into the image directly, with
 more each band's samples go through one buffer and are averaged into it.
 """
@@ -193,12 +194,15 @@ def rasterise(
         band_ys = ys[rows.start * samples : rows.stop * samples]
         target = image[rows] if samples == 1 else buffer[: len(band_ys)]
 
-        def field(source: Representation, out: np.ndarray | None = None, skip: np.ndarray | None = None) -> np.ndarray:
-            out = np.empty((len(band_ys), len(xs), 3)) if out is None else out
+        def field(source: Representation, out: np.ndarray | None = None, skip: np.ndarray | None = None,
+                  alpha: Representation | None = None) -> np.ndarray:
+            out = np.empty((len(band_ys), len(xs), 3 if alpha is None else 4)) if out is None else out
             if method == "direct":
-                out[...] = _direct_samples(source, xs, band_ys)
+                out[..., :3] = _direct_samples(source, xs, band_ys)
+                if alpha is not None:
+                    out[..., 3] = _direct_samples(alpha, xs, band_ys)[..., 0]
             else:
-                _fmr_samples(source, order, xs, band_ys, ys, density, out, skip)
+                _fmr_samples(source, order, xs, band_ys, ys, density, out, skip, alpha)
             return out
 
         if isinstance(rep, Composite):
@@ -218,16 +222,24 @@ def rasterise(
 def _composed(composite: Composite, field: Callable, xs: np.ndarray, ys: np.ndarray, coverage: bool) -> np.ndarray:
     """``compose`` of the grid ``ys x xs``, each layer's image evaluated only in the cells where it can show
     (``composite.hidden``): a layer under a mask that hides it there, or under a layer that covers it, costs
-    nothing there.  ``field(rep, skip=cells)`` evaluates a representation but in ``cells``.
+    nothing there.  ``field(rep, skip=cells, alpha=alpha)`` evaluates a representation but in ``cells``, and an
+    alpha field of its segments as its fourth channel.
 
     The masks and alpha fields (``_weighing``) are evaluated once and held until ``compose`` reads them; each
-    image when ``compose`` reads it, so that the band holds one image at a time.
+    image when ``compose`` reads it, so that the band holds one image at a time.  A translucent layer's alpha
+    field made of its image's segments (``LayerFields.carries_alpha``) is evaluated with its image, in one pass
+    of four channels, which ``compose`` reads for both (the segments' integrals shared: lady_bug's translucent
+    twin at 512 x 512 rasterises in 8.7 ms, against 14.0-14.4 with the two evaluated apart and 7.3 opaque).
     """
     held: dict[int, np.ndarray] = {}
+    carried = {id(layer.alpha): layer.image for layer in composite.shown if layer.carries_alpha}
 
     def weights_of(source: Representation) -> np.ndarray:
         if id(source) not in held:
-            held[id(source)] = field(source)
+            image = carried.get(id(source))
+            held[id(source)] = field(source) if image is None else field(image, alpha=source)
+            if image is not None:
+                held[id(image)] = held[id(source)]
         return held[id(source)]
 
     shape = (len(ys), len(xs))
@@ -259,13 +271,18 @@ def hidden_cells(hidden_samples: np.ndarray, xs: np.ndarray, ys: np.ndarray, lat
 
 
 def _fmr_samples(rep: Representation, order: int | None, xs: np.ndarray, ys: np.ndarray, whole_ys: np.ndarray,
-                 density: float, out: np.ndarray, skip: np.ndarray | None = None) -> None:
-    """The FMR on the grid ``ys x xs`` into ``out (len(ys), len(xs), 3)``: far field, near segments and points.
+                 density: float, out: np.ndarray, skip: np.ndarray | None = None,
+                 alpha: Representation | None = None) -> None:
+    """The FMR on the grid ``ys x xs`` into ``out (len(ys), len(xs), 3 or 4)``: far field, near segments and points.
 
     ``whole_ys`` and ``density``: the rows and the samples a document pixel of the whole raster, of which this
     is a band (its sub-cells and its cells' far-field degrees are the whole's).  ``skip``: cells whose samples
-    are not needed (``subcell_field_grid``'s: finite, not their field).
+    are not needed (``subcell_field_grid``'s: finite, not their field).  ``alpha``: an alpha field of ``rep``'s
+    segments (``LayerFields.carries_alpha``), evaluated with it as a fourth channel of ``out``.
     """
+    points = rep.points
+    if alpha is not None:
+        rep = rep.with_alpha(alpha)
     (seg, cell_start), lattice = rep.near, rep.lattice
     order = rep.order if order is None else order
     split, separation = split_for(lattice.cell_size * density)
@@ -279,8 +296,12 @@ def _fmr_samples(rep: Representation, order: int | None, xs: np.ndarray, ys: np.
                            centres=rep.centre_values if centred else None, skip=skip)
     else:  # no segment carries anything (``Representation.near``): nor do the expansions they make
         out[...] = 0.0
-    if rep.points is not None:
-        rep.points.add_grid(order, xs, ys, out)
+    if points is not None and alpha is None:
+        points.add_grid(order, xs, ys, out)
+    elif points is not None:  # the points' kernels are of three channels; the alpha has none of its own
+        colour = np.zeros(out.shape[:2] + (3,))
+        points.add_grid(order, xs, ys, colour)
+        out[..., :3] += colour
 
 
 def _direct_samples(rep: Representation, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:

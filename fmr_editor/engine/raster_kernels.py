@@ -22,16 +22,16 @@ from .kernels.segment_sums import near_tables
 from .kernels.subcells import subcell_field_grid
 
 
-def _grid(cells: int, cell_size: float, split: int, samples_per_cell: int) -> None:
-    """``subcell_field_grid`` of 40 random short segments on ``cells x cells``, both precisions."""
+def _grid(cells: int, cell_size: float, split: int, samples_per_cell: int, channels: int = 3) -> None:
+    """``subcell_field_grid`` of 40 random short segments on ``cells x cells``, both precisions, of ``channels``."""
     rng = np.random.default_rng(split)
     side = cells * cell_size
     p = rng.uniform(0.1 * side, 0.9 * side, (40, 2))
     q = p + rng.uniform(-2.0, 2.0, (40, 2))
-    colours = rng.uniform(-1, 1, (40, 3))
+    colours = rng.uniform(-1, 1, (40, channels))
     unsorted = Segments(p, q, colours, np.zeros((40, 3)), np.zeros(40, bool), colours[::-1].copy())
     seg, cell_start = sort_into_cells(unsorted, Lattice(int(np.log2(cells)), side))
-    local = np.zeros((cells, cells, 3, 9), complex)
+    local = np.zeros((cells, cells, channels, 9), complex)
     coordinates = (np.arange(cells * samples_per_cell) + 0.5) * cell_size / samples_per_cell
     tables = near_tables(seg.p, seg.q, seg.flux, seg.jump)
     for precision in ("double", "single"):
@@ -50,13 +50,20 @@ def sub_cells() -> None:
     _grid(4, 64.0, split=2, samples_per_cell=32)
 
 
+def four_channels() -> None:
+    """``near_grid`` and ``sub_cells`` of four channels: a translucent layer's image with its alpha field."""
+    _grid(8, 8.0, split=1, samples_per_cell=4, channels=4)
+    _grid(8, 8.0, split=1, samples_per_cell=2, channels=4)
+    _grid(4, 64.0, split=2, samples_per_cell=32, channels=4)
+
+
 def blending() -> None:
     """The composition of a layered picture (``blending``), with the arguments ``composite.compose`` gives, and
     the cells a layer is hidden in (``grid.cells_all``)."""
     samples = np.zeros((1, 3))
     blend_layer(np.zeros((1, 3)), np.zeros(1), samples, IDENTITY.matrix, IDENTITY.offset, False, samples, MASK_LUMA,
-                1.0, True, False, NEGLIGIBLE_WEIGHT, samples, 1.0, False)
-    layer_weights(np.zeros(1), samples, MASK_LUMA, 1.0, True, False, NEGLIGIBLE_WEIGHT, samples, 1.0)
+                1.0, True, False, NEGLIGIBLE_WEIGHT, samples, 0, 1.0, False)
+    layer_weights(np.zeros(1), samples, MASK_LUMA, 1.0, True, False, NEGLIGIBLE_WEIGHT, samples, 0, 1.0)
     cells_all(np.ones((1, 1), bool), np.arange(2), np.arange(2))
 
 
@@ -64,4 +71,5 @@ def load_raster_kernels() -> None:
     """Load (from numba's cache, else compile) the kernels of every kind of CPU render."""
     near_grid()
     sub_cells()
+    four_channels()
     blending()

@@ -9,7 +9,7 @@ downward (M2L, L2L); a document with diffusion points adds a fifth, points
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 
 import numpy as np
@@ -133,6 +133,26 @@ class Representation:
             return seg.take(np.zeros(len(seg.p), bool)), np.zeros_like(self.cell_start)
         return seg, self.cell_start
 
+    def with_alpha(self, alpha: Representation) -> Representation:
+        """This image and ``alpha``, an alpha field of the same ``near`` segments, lattice and order
+        (``LayerFields.carries_alpha``), as one field of four channels, the alpha field's first channel fourth and
+        no points: what the raster's kernels evaluate in one pass, the segments' integrals shared.  The last one
+        made is kept."""
+        kept = self.__dict__.get("_with_alpha")
+        if kept is not None and kept[0] is alpha:
+            return kept[1]
+        (seg, cell_start), alpha_segments = self.near, alpha.near[0]
+        terms = self.order + 1
+        combined = Representation(
+            self.width, self.height, self.lattice,
+            replace(seg, flux=np.concatenate([seg.flux, alpha_segments.flux[:, :1]], axis=1),
+                    jump=np.concatenate([seg.jump, alpha_segments.jump[:, :1]], axis=1)),
+            cell_start, np.concatenate([self.local[..., :terms], alpha.local[:, :, :1, :terms]], axis=2), self.order,
+            centres=None if self.centres is None or alpha.centres is None else
+            np.concatenate([self.centres, alpha.centres[..., :1]], axis=2))
+        self.__dict__["_with_alpha"] = alpha, combined  # a frozen dataclass's memo, as ``cached_property``'s
+        return combined
+
     @cached_property
     def near_tables(self) -> tuple[np.ndarray, np.ndarray]:
         """``segment_sums.near_tables`` of the ``near`` segments, kept for the point evaluations that follow (a
@@ -163,6 +183,13 @@ class Representation:
             point_coeffs = self.points.polynomials(order)
             coeffs += point_coeffs if cells is None else point_coeffs[cells]
         return coeffs
+
+
+def same_geometry(before: Representation, after: Representation) -> bool:
+    """Whether both have the same ``near`` segments in the same cells (only their E and C may differ)."""
+    (old, old_start), (new, new_start) = before.near, after.near
+    return old is new or (np.array_equal(old_start, new_start) and np.array_equal(old.p, new.p)
+                          and np.array_equal(old.q, new.q))
 
 
 def choose_levels(curves: Segments | np.ndarray, side: float, per_cell: float = SEGMENTS_PER_CELL) -> int:

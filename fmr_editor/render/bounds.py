@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..engine import Representation
+from ..engine import Representation, same_geometry
 from . import packing
 
 
@@ -133,13 +133,6 @@ def single_layer_bound(length: np.ndarray, cell_size: float) -> np.ndarray:
     with np.errstate(divide="ignore", invalid="ignore"):
         singular = np.where(m > 0, 2 * m * (1 - np.log(m)), 0.0)
     return (length * max(np.log(far), 0.0) + singular) / (2 * np.pi)
-
-
-def same_geometry(before: Representation, after: Representation) -> bool:
-    """Whether both have the same ``near`` segments in the same cells (only their E and C may differ)."""
-    (old, old_start), (new, new_start) = before.near, after.near
-    return old is new or (np.array_equal(old_start, new_start) and np.array_equal(old.p, new.p)
-                          and np.array_equal(old.q, new.q))
 
 
 def segment_changes(before: Representation, after: Representation) -> np.ndarray | None:

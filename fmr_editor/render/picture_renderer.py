@@ -3,7 +3,7 @@
 Each field (a layer's image, a mask) keeps its own cached window image and
 re-evaluates only its changed cells, so an edit to one layer costs what it
 costs in a one-layer document.  A translucent layer's alpha field, made of its
-image's segments, is drawn in the image's fourth channel (``carries_alpha``,
+image's segments, is drawn in the image's fourth channel (``LayerFields.carries_alpha``,
 ``packing``): the segments' integrals, the costly part, are shared, and the
 layer costs 1.15-1.2x an opaque one, not twice.  Drawing brings every shown
 field's image up to date and, when any of them or the layers' settings changed, composes them
@@ -34,7 +34,6 @@ from ..engine.blur import largest_blur
 from ..model.layer import MASK_LUMA
 from . import culling
 from .blur_filter import BlurFilter, BlurPlan, FramebufferPool, read_first_channel
-from .bounds import same_geometry
 from .cached_image import CachedImage, show_scaled, union
 from .canvas_renderer import TOLERANCE, CanvasRenderer
 from .gl import BufferTexture, Program, VertexArray, in_plain_state, over, plain_state, shader_source, through_below
@@ -155,7 +154,7 @@ class PictureRenderer:
         if isinstance(changed, np.ndarray):
             changed = {(0, Role.IMAGE): changed}
         picture = picture_of(picture)
-        self._alphas = {(layer.id, Role.IMAGE): layer.alpha for layer in picture.layers if carries_alpha(layer)}
+        self._alphas = {(layer.id, Role.IMAGE): layer.alpha for layer in picture.layers if layer.carries_alpha}
         fields = {key: rep for key, rep in _fields(picture, self._overlay).items()
                   if not (key[1] is Role.ALPHA and (key[0], Role.IMAGE) in self._alphas)}
         for key in [key for key in self.renderers if key not in fields]:
@@ -556,16 +555,6 @@ class PictureRenderer:
         self._programs.clear()
         self._vao = self._cell_list = self._background = self._blur_gl = None
         self._filters.clear()
-
-
-def carries_alpha(layer: LayerFields) -> bool:
-    """Whether ``layer``'s alpha field can be drawn in its image's fourth channel (``packing``): the same segments,
-    lattice and order, no points of its own, and no blur (a blurred layer's image and alpha are blurred apart)."""
-    image, alpha = layer.image, layer.alpha
-    return (alpha is not None and layer.blur is None and alpha.points is None and alpha.order == image.order
-            and alpha.lattice.cells_per_side == image.lattice.cells_per_side
-            and alpha.lattice.cell_size == image.lattice.cell_size and len(alpha.near[0].p) > 0
-            and same_geometry(image, alpha))
 
 
 #: ``layers.frag``'s ``translucent`` argument by (an alpha field, in the image's fourth channel): none, the alpha

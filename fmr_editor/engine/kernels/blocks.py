@@ -19,14 +19,16 @@ import numba
 
 from .fastmath import POLY_MATH, double_layer, log_r2, potentials_from
 
-#: Rows of a gathered table: p, q, tangent, length (as ``segment_sums.segment_table``), the three channels of E,
-#: then of C; the first ``GEOMETRY`` are the segment's geometry.
+#: Rows of a gathered table: p, q, tangent, length (as ``segment_sums.segment_table``), the channels of E, then of
+#: C; the first ``GEOMETRY`` are the segment's geometry.  Three channels (colour) or four (an alpha field with the
+#: same segments after them: ``raster``'s carried alpha).
 GEOMETRY, BLOCK_ROWS = 7, 13
 
 
 @numba.njit(cache=True, inline="always", fastmath=POLY_MATH, error_model="numpy")
 def gather_block(cy, first, last, n, cell_start, table, weights, seg, shares_p, flux_free):
-    """Copy the segments of cells ``first <= cx < last`` in rows ``cy - 1`` to ``cy + 1`` into ``seg (13, >= m)``; m.
+    """Copy the segments of cells ``first <= cx < last`` in rows ``cy - 1`` to ``cy + 1`` into
+    ``seg (GEOMETRY + 2 channels, >= m)``; m.
 
     ``table, weights``: ``segment_sums.near_tables`` of segments sorted by
     cell (``cell_start`` their offsets, ``n`` cells a side).
@@ -35,14 +37,16 @@ def gather_block(cy, first, last, n, cell_start, table, weights, seg, shares_p, 
     border's), so it has no single layer.
     """
     k = 0
+    four = weights.shape[0] == 8
     for row in range(max(cy - 1, 0), min(cy + 2, n)):
         for j in range(cell_start[row * n + first], cell_start[row * n + last]):
             for c in range(GEOMETRY):
                 seg[c, k] = table[c, j]
-            for c in range(6):
+            for c in range(weights.shape[0]):
                 seg[GEOMETRY + c, k] = weights[c, j]
             shares_p[k] = k > 0 and seg[0, k] == seg[2, k - 1] and seg[1, k] == seg[3, k - 1]
-            flux_free[k] = weights[0, j] == 0.0 and weights[1, j] == 0.0 and weights[2, j] == 0.0
+            flux_free[k] = (weights[0, j] == 0.0 and weights[1, j] == 0.0 and weights[2, j] == 0.0
+                            and (not four or weights[3, j] == 0.0))
             k += 1
     return k
 
@@ -53,7 +57,7 @@ def never(x, y, px, py, qx, qy):
     return False
 
 
-def samples_loop(layers, double, log_r2_of, doubt):
+def samples_loop(layers, double, log_r2_of, doubt, channels=3):
     """The samples-innermost sum over a gathered table, for the precision of the given layer functions.
 
     Parameters
@@ -66,26 +70,35 @@ def samples_loop(layers, double, log_r2_of, doubt):
         ``(x, y, px, py) -> log |p - x|^2`` (``fastmath.log_r2``).
     doubt : numba function
         ``(x, y, px, py, qx, qy) -> bool``: the pair's values may miss their error bound (``never``: none).
+    channels : {3, 4}
+        Of the table and ``acc``.  The fourth is written out beside the three, not as a loop over channels:
+        the channels' weights are each segment's constants, held in registers across the samples' loop.
 
     Returns
     -------
     numba function
-        ``loop(m, count, seg, shares_p, flux_free, sx, sy, acc, logs, doubtful)``: ``acc (3, count)`` = the
+        ``loop(m, count, seg, shares_p, flux_free, sx, sy, acc, logs, doubtful)``: ``acc (channels, count)`` = the
         field of the ``m`` segments of ``seg`` (``gather_block``'s layout, in the precision of the functions)
         at the ``count`` samples ``sx, sy``; ``logs (2, >= count)`` is scratch; ``doubtful[i]`` (int32) is
         set to 1 where a pair at sample i is in doubt (and left as it is elsewhere).  A segment continuing
         the previous one takes its logarithm at p from it; a flux-free one costs its double layer only.
     """
 
+    if channels not in (3, 4):
+        raise ValueError("channels must be 3 or 4")
+    four = channels == 4  # a constant of the compiled loop: its branches fold away
+    e_row, c_row = GEOMETRY, GEOMETRY + channels
+
     @numba.njit(inline="always", fastmath=POLY_MATH, error_model="numpy")
     def loop(m, count, seg, shares_p, flux_free, sx, sy, acc, logs, doubtful):
-        for c in range(3):
+        for c in range(channels):
             for i in range(count):
                 acc[c, i] = 0.0
         current, known = 0, False  # logs[current] holds log|p - x|^2 of segment k when known
         for k in range(m):
             px, py, qx, qy = seg[0, k], seg[1, k], seg[2, k], seg[3, k]
-            c0, c1, c2 = seg[10, k], seg[11, k], seg[12, k]
+            c0, c1, c2 = seg[c_row, k], seg[c_row + 1, k], seg[c_row + 2, k]
+            c3 = seg[c_row + 3, k] if four else 0.0
             if flux_free[k]:
                 for i in range(count):
                     d = double(sx[i], sy[i], px, py, qx, qy)
@@ -93,10 +106,13 @@ def samples_loop(layers, double, log_r2_of, doubt):
                     acc[0, i] -= c0 * d
                     acc[1, i] -= c1 * d
                     acc[2, i] -= c2 * d
+                    if four:
+                        acc[3, i] -= c3 * d
                 known = False
                 continue
             tx, ty, h = seg[4, k], seg[5, k], seg[6, k]
-            e0, e1, e2 = seg[7, k], seg[8, k], seg[9, k]
+            e0, e1, e2 = seg[e_row, k], seg[e_row + 1, k], seg[e_row + 2, k]
+            e3 = seg[e_row + 3, k] if four else 0.0
             if shares_p[k] and known:
                 current = 1 - current  # the previous segment's log at q is this one's log at p
             else:
@@ -109,10 +125,14 @@ def samples_loop(layers, double, log_r2_of, doubt):
                 acc[0, i] += e0 * s - c0 * d
                 acc[1, i] += e1 * s - c1 * d
                 acc[2, i] += e2 * s - c2 * d
+                if four:
+                    acc[3, i] += e3 * s - c3 * d
             known = True
 
     return loop
 
 
-#: The float64 loop (``samples_loop`` of ``fastmath``'s layers).
+#: The float64 loop (``samples_loop`` of ``fastmath``'s layers), of three channels and of four.
 by_samples = samples_loop(potentials_from, double_layer, log_r2, never)
+by_samples4 = samples_loop(potentials_from, double_layer, log_r2, never, channels=4)
+

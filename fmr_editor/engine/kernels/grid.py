@@ -9,11 +9,11 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from .blocks import BLOCK_ROWS, by_samples, gather_block
+from .blocks import GEOMETRY, by_samples, by_samples4, gather_block
 from .fastmath import POLY_MATH
 from .near_rows import near_rows
 from .segment_sums import near_tables
-from .single import SINGLE_BUDGET, by_samples_single, error_bounds, gather_single
+from .single import SINGLE_BUDGET, by_samples_single, by_samples_single4, error_bounds, gather_single
 
 # --- Near field on a tensor grid of samples -------------------------------------------
 #
@@ -28,94 +28,139 @@ GRID_MATH = POLY_MATH
 ROW_SAMPLES = 2
 
 
-@numba.njit(cache=True, inline="always", fastmath=GRID_MATH, error_model="numpy")
-def _samples_single(m, count, xc, yc, cell_size, seg, shares_p, flux_free, sx, sy, acc, logs, doubtful, scratch):
-    """``blocks.by_samples`` through ``single``'s float32 loop about (xc, yc) into the float64 ``acc (3, count)``.
-
-    Samples with a pair in doubt (``single.doubt_single``) are summed again in float64.
-    """
-    block, sx32, sy32, acc32, logs32 = scratch
-    inv_size = 1.0 / cell_size
-    t0, t1, t2 = gather_single(m, seg, xc, yc, inv_size, cell_size, block)
-    for i in range(count):
-        sx32[i] = np.float32((sx[i] - xc) * inv_size)
-        sy32[i] = np.float32((sy[i] - yc) * inv_size)
-        doubtful[i] = 0
-    by_samples_single(m, count, block, shares_p, flux_free, sx32, sy32, acc32, logs32, doubtful)
-    for i in range(count):
-        acc[0, i] = acc32[0, i] + t0
-        acc[1, i] = acc32[1, i] + t1
-        acc[2, i] = acc32[2, i] + t2
-    for i in range(count):
-        if doubtful[i]:
-            by_samples(m, 1, seg, shares_p, flux_free, sx[i:], sy[i:], acc[:, i:], logs, doubtful)
+# Each count of channels (3 or 4) has kernels of its own, made by the factories below, in which the fourth
+# channel's lines fold away or stay (``blocks.samples_loop``): three channels run as they always did.  A cached
+# kernel's closure holds its constants alone, the kernels it calls being module globals: numba keys a closure's
+# cache by its closure's values, and a compiled function among them pickles differently in every process.
 
 
-@numba.njit(cache=True, fastmath=GRID_MATH, error_model="numpy")
-def _near_row(cy, xs, ys, x_start, y_start, n, cell_start, cell_size, table, weights, single, skip, out, seg,
-              shares_p, flux_free, sx, sy, acc, logs, doubtful, scratch):
-    """Add the near field of the samples of cell row ``cy``, one column of segments at a time.
+def _samples_single_of(channels):
+    """``samples_single`` of ``channels``: ``blocks.by_samples`` through ``single``'s float32 loop about (xc, yc)
+    into the float64 ``acc (channels, count)``; samples with a pair in doubt (``single.doubt_single``) are summed
+    again in float64."""
+    double_loop, single_loop = (by_samples4, by_samples_single4) if channels == 4 else (by_samples, by_samples_single)
 
-    The samples of cells ``cx - 1`` to ``cx + 1`` of the row (a window) see the
-    segments of cells ``cx`` in rows ``cy - 1`` to ``cy + 1`` (a column): over
-    all ``cx`` that is each sample against its 3x3 block.  ``single[cy, cx]``:
-    the visit runs in float32.  A window leaves out the cells at its ends where ``skip`` (``(n, n)``, or
-    ``(0, 0)``: none).  The rest are the thread's scratch arrays.
-    """
-    ya, yb = y_start[cy], y_start[cy + 1]
-    rows = yb - ya
-    skipping = skip.shape[0] > 0
-    for cx in range(n):
-        first, last = max(cx - 1, 0), min(cx + 2, n)
-        if skipping:
-            while first < last and skip[cy, first]:
-                first += 1
-            while last > first and skip[cy, last - 1]:
-                last -= 1
-        xa, xb = x_start[first], x_start[last]
-        width = xb - xa
-        if width == 0:
-            continue
-        m = gather_block(cy, cx, cx + 1, n, cell_start, table, weights, seg, shares_p, flux_free)
-        if m == 0:
-            continue
-        count = rows * width
-        for a in range(rows):
-            for b in range(width):
-                sx[a * width + b] = xs[xa + b]
-                sy[a * width + b] = ys[ya + a]
-        if single[cy, cx]:
-            _samples_single(m, count, (cx + 0.5) * cell_size, (cy + 0.5) * cell_size, cell_size, seg, shares_p,
-                            flux_free, sx, sy, acc, logs, doubtful, scratch)
-        else:
-            by_samples(m, count, seg, shares_p, flux_free, sx, sy, acc, logs, doubtful)
-        for a in range(rows):
-            for b in range(width):
-                for c in range(3):
-                    out[ya + a, xa + b, c] += acc[c, a * width + b]
+    @numba.njit(inline="always", fastmath=GRID_MATH, error_model="numpy")
+    def samples_single(m, count, xc, yc, cell_size, seg, shares_p, flux_free, sx, sy, acc, logs, doubtful, scratch):
+        block, sx32, sy32, acc32, logs32, terms = scratch
+        inv_size = 1.0 / cell_size
+        gather_single(m, seg, xc, yc, inv_size, cell_size, block, terms, channels)
+        for i in range(count):
+            sx32[i] = np.float32((sx[i] - xc) * inv_size)
+            sy32[i] = np.float32((sy[i] - yc) * inv_size)
+            doubtful[i] = 0
+        single_loop(m, count, block, shares_p, flux_free, sx32, sy32, acc32, logs32, doubtful)
+        for c in range(channels):
+            t = terms[c]
+            for i in range(count):
+                acc[c, i] = acc32[c, i] + t
+        for i in range(count):
+            if doubtful[i]:
+                double_loop(m, 1, seg, shares_p, flux_free, sx[i:], sy[i:], acc[:, i:], logs, doubtful)
+
+    return samples_single
 
 
-@numba.njit(parallel=True, cache=True, error_model="numpy")
-def _near_grid(xs, ys, x_start, y_start, n, cell_start, cell_size, table, weights, capacity, most, single, any_single,
-               skip, out):
-    """Threads take rows of cells (dynamically: ``numba.parallel_chunksize(1)``); each writes its own samples."""
-    for cy in numba.prange(n):
-        lo, hi = max(cy - 1, 0), min(cy + 2, n)
-        if y_start[cy] == y_start[cy + 1] or cell_start[lo * n] == cell_start[hi * n]:
-            continue
-        seg = np.empty((BLOCK_ROWS, capacity))
-        shares_p, flux_free = np.empty(capacity, np.bool_), np.empty(capacity, np.bool_)
-        sx, sy = np.empty(most), np.empty(most)
-        acc, logs, doubtful = np.empty((3, most)), np.empty((2, most)), np.zeros(most, np.int32)
-        most32 = most if any_single else 0
-        scratch = (np.empty((BLOCK_ROWS, capacity), np.float32), np.empty(most32, np.float32),
-                   np.empty(most32, np.float32), np.empty((3, most32), np.float32), np.empty((2, most32), np.float32))
-        _near_row(cy, xs, ys, x_start, y_start, n, cell_start, cell_size, table, weights, single, skip, out, seg,
-                  shares_p, flux_free, sx, sy, acc, logs, doubtful, scratch)
+_samples_single3, _samples_single4 = _samples_single_of(3), _samples_single_of(4)
 
 
-def grid_arrays(xs: np.ndarray, ys: np.ndarray, out: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Checked grid coordinates (contiguous, sorted) and an output ``(len(ys), len(xs), 3)`` to add to.
+def _near_row_of(channels):
+    """``near_row`` of ``channels``."""
+    four = channels == 4
+
+    @numba.njit(cache=True, fastmath=GRID_MATH, error_model="numpy")
+    def near_row(cy, xs, ys, x_start, y_start, n, cell_start, cell_size, table, weights, single, skip, out, seg,
+                 shares_p, flux_free, sx, sy, acc, logs, doubtful, scratch):
+        """Add the near field of the samples of cell row ``cy``, one column of segments at a time.
+
+        The samples of cells ``cx - 1`` to ``cx + 1`` of the row (a window) see the
+        segments of cells ``cx`` in rows ``cy - 1`` to ``cy + 1`` (a column): over
+        all ``cx`` that is each sample against its 3x3 block.  ``single[cy, cx]``:
+        the visit runs in float32.  A window leaves out the cells at its ends where ``skip`` (``(n, n)``, or
+        ``(0, 0)``: none).  The rest are the thread's scratch arrays.
+        """
+        ya, yb = y_start[cy], y_start[cy + 1]
+        rows = yb - ya
+        skipping = skip.shape[0] > 0
+        for cx in range(n):
+            first, last = max(cx - 1, 0), min(cx + 2, n)
+            if skipping:
+                while first < last and skip[cy, first]:
+                    first += 1
+                while last > first and skip[cy, last - 1]:
+                    last -= 1
+            xa, xb = x_start[first], x_start[last]
+            width = xb - xa
+            if width == 0:
+                continue
+            m = gather_block(cy, cx, cx + 1, n, cell_start, table, weights, seg, shares_p, flux_free)
+            if m == 0:
+                continue
+            count = rows * width
+            for a in range(rows):
+                for b in range(width):
+                    sx[a * width + b] = xs[xa + b]
+                    sy[a * width + b] = ys[ya + a]
+            xc, yc = (cx + 0.5) * cell_size, (cy + 0.5) * cell_size
+            if single[cy, cx] and four:
+                _samples_single4(m, count, xc, yc, cell_size, seg, shares_p, flux_free, sx, sy, acc, logs, doubtful,
+                                 scratch)
+            elif single[cy, cx]:
+                _samples_single3(m, count, xc, yc, cell_size, seg, shares_p, flux_free, sx, sy, acc, logs, doubtful,
+                                 scratch)
+            elif four:
+                by_samples4(m, count, seg, shares_p, flux_free, sx, sy, acc, logs, doubtful)
+            else:
+                by_samples(m, count, seg, shares_p, flux_free, sx, sy, acc, logs, doubtful)
+            for a in range(rows):
+                for b in range(width):
+                    for c in range(channels):
+                        out[ya + a, xa + b, c] += acc[c, a * width + b]
+
+    return near_row
+
+
+_near_row3, _near_row4 = _near_row_of(3), _near_row_of(4)
+
+
+def _near_grid_of(channels):
+    """``near_grid`` of ``channels``: threads take rows of cells (dynamically: ``numba.parallel_chunksize(1)``);
+    each writes its own samples."""
+    four = channels == 4
+    rows = GEOMETRY + 2 * channels
+
+    @numba.njit(parallel=True, cache=True, error_model="numpy")
+    def near_grid(xs, ys, x_start, y_start, n, cell_start, cell_size, table, weights, capacity, most, single,
+                  any_single, skip, out):
+        for cy in numba.prange(n):
+            lo, hi = max(cy - 1, 0), min(cy + 2, n)
+            if y_start[cy] == y_start[cy + 1] or cell_start[lo * n] == cell_start[hi * n]:
+                continue
+            seg = np.empty((rows, capacity))
+            shares_p, flux_free = np.empty(capacity, np.bool_), np.empty(capacity, np.bool_)
+            sx, sy = np.empty(most), np.empty(most)
+            acc, logs, doubtful = np.empty((channels, most)), np.empty((2, most)), np.zeros(most, np.int32)
+            most32 = most if any_single else 0
+            scratch = (np.empty((rows, capacity), np.float32), np.empty(most32, np.float32),
+                       np.empty(most32, np.float32), np.empty((channels, most32), np.float32),
+                       np.empty((2, most32), np.float32), np.empty(channels))
+            if four:
+                _near_row4(cy, xs, ys, x_start, y_start, n, cell_start, cell_size, table, weights, single, skip, out,
+                           seg, shares_p, flux_free, sx, sy, acc, logs, doubtful, scratch)
+            else:
+                _near_row3(cy, xs, ys, x_start, y_start, n, cell_start, cell_size, table, weights, single, skip, out,
+                           seg, shares_p, flux_free, sx, sy, acc, logs, doubtful, scratch)
+
+    return near_grid
+
+
+#: The near field's kernel of each count of channels.
+_NEAR_GRID = {channels: _near_grid_of(channels) for channels in (3, 4)}
+
+
+def grid_arrays(xs: np.ndarray, ys: np.ndarray, out: np.ndarray | None,
+                channels: int = 3) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Checked grid coordinates (contiguous, sorted) and an output ``(len(ys), len(xs), channels)`` to add to.
 
     Raises ``ValueError`` for unsorted coordinates or an ``out`` of the wrong
     shape, type or layout; a missing ``out`` is zeros.
@@ -124,7 +169,7 @@ def grid_arrays(xs: np.ndarray, ys: np.ndarray, out: np.ndarray | None) -> tuple
     ys = np.ascontiguousarray(ys, dtype=np.float64)
     if (np.diff(xs) < 0).any() or (np.diff(ys) < 0).any():
         raise ValueError("grid coordinates must be sorted")
-    shape = (len(ys), len(xs), 3)
+    shape = (len(ys), len(xs), channels)
     if out is None:
         out = np.zeros(shape)
     elif out.shape != shape or out.dtype != np.float64 or not out.flags.c_contiguous:
@@ -175,7 +220,8 @@ def near_field_grid(
     precision: str = "double",
     skip: np.ndarray | None = None,
 ) -> np.ndarray:
-    """``near_sum`` on the tensor grid ``ys x xs``, ``(len(ys), len(xs), 3)``.
+    """``near_sum`` on the tensor grid ``ys x xs``, ``(len(ys), len(xs), channels)``: as many channels as ``flux``
+    and ``jump`` have columns (3, or 4 with an alpha field's after the colour's).
 
     Works by rows of cells: in a row, the samples of three neighbouring cells
     against the segments of the middle one's column of three cells (gathered
@@ -192,7 +238,7 @@ def near_field_grid(
     cells_per_side, cell_size, cell_start, p, q, flux, jump
         As for ``near_sum``: the lattice and the segments sorted by cell.
     out : numpy.ndarray, optional
-        ``(len(ys), len(xs), 3)`` float64 C-contiguous; the near field is
+        ``(len(ys), len(xs), channels)`` float64 C-contiguous; the near field is
         *added* to it (the far field, say) and it is returned.
     tables : tuple of numpy.ndarray, optional
         ``segment_sums.near_tables(p, q, flux, jump)``, when kept from an earlier call.
@@ -207,7 +253,7 @@ def near_field_grid(
     """
     if precision not in ("double", "single"):
         raise ValueError(f"unknown precision {precision!r}; use 'double' or 'single'")
-    xs, ys, out = grid_arrays(xs, ys, out)
+    xs, ys, out = grid_arrays(xs, ys, out, np.shape(flux)[1])
     n = int(cells_per_side)
     if out.size == 0 or len(p) == 0:
         return out
@@ -227,8 +273,9 @@ def near_field_grid(
     if skip is not None and skip.shape != (n, n):
         raise ValueError(f"skip must have the shape {(n, n)}")
     with numba.parallel_chunksize(1):
-        _near_grid(xs, ys, x_start, y_start, n, cell_start, float(cell_size), table, weights, capacity, most,
-                   single, bool(single.any()), _NO_SKIP if skip is None else np.ascontiguousarray(skip, np.bool_), out)
+        _NEAR_GRID[out.shape[2]](xs, ys, x_start, y_start, n, cell_start, float(cell_size), table, weights,
+                                 capacity, most, single, bool(single.any()),
+                                 _NO_SKIP if skip is None else np.ascontiguousarray(skip, np.bool_), out)
     return out
 
 

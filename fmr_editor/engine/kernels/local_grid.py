@@ -6,7 +6,8 @@ of that cell's scaled local expansion ``L`` (docs/design.md section 3), written
 straight into the image; ``d`` is the degree the cell's samples need, by their
 largest distance from its centre (``cell_degree``: at most ``order``, the
 constant term alone at the centre).  Threads take rows of cells; each cell's
-samples are evaluated by Horner's rule in ``w``, the three channels side by side,
+samples are evaluated by Horner's rule in ``w``, the channels side by side (three, or four: a translucent
+layer's image with its alpha field, ``raster``),
 or, in cells of many samples, all at once with the powers of ``w`` (a loop
 over the samples that vectorises).  The cost is pixels x order plus one read of the cells'
 coefficients.  Cells of few samples read them as they are, with no table: at
@@ -60,40 +61,66 @@ def local_field_reference(local: np.ndarray, order: int, xs: np.ndarray, ys: np.
     return (coeffs * w[..., None, None] ** np.arange(order + 1)).sum(-1).real / (2 * np.pi)
 
 
-@numba.njit(cache=True, inline="always", fastmath=FAST_MATH, error_model="numpy")
-def by_powers(coeffs, order, count, xi, eta, scale, scratch):
-    """``scratch[2:5, :count]`` = the three channels of ``scale Re sum_l coeffs[c, l] w^l`` at ``w = xi + i eta``.
+def _powers_sum(channels):
+    """``by_powers`` of ``channels`` (3 or 4), the fourth written out beside the three (``blocks.samples_loop``)."""
+    four = channels == 4
 
-    Samples innermost (the loop vectorises); ``scratch (>= 5, >= count)``, its rows 0 and 1 the powers of ``w``.
-    """
-    re, im, a0, a1, a2 = scratch[0], scratch[1], scratch[2], scratch[3], scratch[4]
-    for i in range(count):
-        re[i], im[i] = 1.0, 0.0
-        a0[i], a1[i], a2[i] = 0.0, 0.0, 0.0
-    for l in range(order + 1):
-        r0, r1, r2 = coeffs[0, l].real * scale, coeffs[1, l].real * scale, coeffs[2, l].real * scale
-        i0, i1, i2 = coeffs[0, l].imag * scale, coeffs[1, l].imag * scale, coeffs[2, l].imag * scale
+    @numba.njit(inline="always", fastmath=FAST_MATH, error_model="numpy")
+    def by_powers(coeffs, order, count, xi, eta, scale, scratch):
+        re, im, a0, a1, a2 = scratch[0], scratch[1], scratch[2], scratch[3], scratch[4]
+        a3 = scratch[5] if four else scratch[4]
         for i in range(count):
-            p, q = re[i], im[i]
-            a0[i] += r0 * p - i0 * q
-            a1[i] += r1 * p - i1 * q
-            a2[i] += r2 * p - i2 * q
-            re[i], im[i] = p * xi[i] - q * eta[i], p * eta[i] + q * xi[i]
+            re[i], im[i] = 1.0, 0.0
+            a0[i], a1[i], a2[i] = 0.0, 0.0, 0.0
+            if four:
+                a3[i] = 0.0
+        for l in range(order + 1):
+            r0, r1, r2 = coeffs[0, l].real * scale, coeffs[1, l].real * scale, coeffs[2, l].real * scale
+            i0, i1, i2 = coeffs[0, l].imag * scale, coeffs[1, l].imag * scale, coeffs[2, l].imag * scale
+            r3, i3 = (coeffs[3, l].real * scale, coeffs[3, l].imag * scale) if four else (0.0, 0.0)
+            for i in range(count):
+                p, q = re[i], im[i]
+                a0[i] += r0 * p - i0 * q
+                a1[i] += r1 * p - i1 * q
+                a2[i] += r2 * p - i2 * q
+                if four:
+                    a3[i] += r3 * p - i3 * q
+                re[i], im[i] = p * xi[i] - q * eta[i], p * eta[i] + q * xi[i]
+
+    return by_powers
 
 
-@numba.njit(cache=True, inline="always", fastmath=FAST_MATH, error_model="numpy")
-def _by_horner(coeffs, order, xi, eta):
-    """``Re sum_l coeffs[c, l] w^l`` at one ``w = xi + i eta`` by Horner's rule, the three channels side by side."""
-    r0, i0 = coeffs[0, order].real, coeffs[0, order].imag
-    r1, i1 = coeffs[1, order].real, coeffs[1, order].imag
-    r2, i2 = coeffs[2, order].real, coeffs[2, order].imag
-    for l in range(order - 1, -1, -1):
-        a0, a1, a2 = coeffs[0, l], coeffs[1, l], coeffs[2, l]
-        r0, i0 = r0 * xi - i0 * eta + a0.real, r0 * eta + i0 * xi + a0.imag
-        r1, i1 = r1 * xi - i1 * eta + a1.real, r1 * eta + i1 * xi + a1.imag
-        r2, i2 = r2 * xi - i2 * eta + a2.real, r2 * eta + i2 * xi + a2.imag
-    return r0, r1, r2
+#: ``scratch[2:2 + channels, :count]`` = the channels of ``scale Re sum_l coeffs[c, l] w^l`` at ``w = xi + i eta``,
+#: ``coeffs (channels, > order)``: ``by_powers`` of three channels, ``by_powers4`` of four.  Samples innermost (the
+#: loop vectorises); ``scratch (>= 2 + channels, >= count)``, its rows 0 and 1 the powers of ``w``.
+by_powers, by_powers4 = _powers_sum(3), _powers_sum(4)
 
+
+def _horner(channels):
+    """``Re sum_l coeffs[c, l] w^l`` at one ``w = xi + i eta`` by Horner's rule, the ``channels`` (3 or 4) side by
+    side: four values (the fourth 0 of three channels)."""
+    four = channels == 4
+
+    @numba.njit(inline="always", fastmath=FAST_MATH, error_model="numpy")
+    def by_horner(coeffs, order, xi, eta):
+        r0, i0 = coeffs[0, order].real, coeffs[0, order].imag
+        r1, i1 = coeffs[1, order].real, coeffs[1, order].imag
+        r2, i2 = coeffs[2, order].real, coeffs[2, order].imag
+        r3, i3 = (coeffs[3, order].real, coeffs[3, order].imag) if four else (0.0, 0.0)
+        for l in range(order - 1, -1, -1):
+            a0, a1, a2 = coeffs[0, l], coeffs[1, l], coeffs[2, l]
+            r0, i0 = r0 * xi - i0 * eta + a0.real, r0 * eta + i0 * xi + a0.imag
+            r1, i1 = r1 * xi - i1 * eta + a1.real, r1 * eta + i1 * xi + a1.imag
+            r2, i2 = r2 * xi - i2 * eta + a2.real, r2 * eta + i2 * xi + a2.imag
+            if four:
+                a3 = coeffs[3, l]
+                r3, i3 = r3 * xi - i3 * eta + a3.real, r3 * eta + i3 * xi + a3.imag
+        return r0, r1, r2, r3
+
+    return by_horner
+
+
+_by_horner3, _by_horner4 = _horner(3), _horner(4)
 
 @numba.njit(cache=True)
 def _largest_offsets(coordinates, start, inv):
@@ -125,75 +152,94 @@ def cell_degree(order, degrees, radius2):
     return min(order, degrees[max(int(np.ceil(position)) - 1, 0)])
 
 
-@numba.njit(parallel=True, cache=True, fastmath=FAST_MATH, error_model="numpy")
-def _local_grid(local, centres, order, degrees, across, down, xs, ys, x_start, y_start, cell_size, skip, skipping,
-                zero_skipped, out):
-    """Overwrite ``out``'s samples with their cell's expansion, except in cells where ``skipping and skip`` (with
-    ``zero_skipped``, 0 there); cells of degree 0 read ``centres`` unless it is empty."""
-    n = local.shape[0]
-    centred = centres.shape[0] > 0
-    inv = 1.0 / cell_size
-    widest = 0
-    for cx in range(n):
-        widest = max(widest, x_start[cx + 1] - x_start[cx])
-    for cy in numba.prange(n):
-        ya, rows = y_start[cy], y_start[cy + 1] - y_start[cy]
-        if rows == 0:
-            continue
-        coeffs = np.empty((3, order + 1), np.complex128)
-        scratch = np.empty((7, rows * widest if rows * widest >= FLAT else 0))
+def _local_kernel(channels):
+    """``local_grid`` of ``channels`` (3 or 4), a compiled kernel each (as ``grid._near_grid_of``)."""
+    four = channels == 4
+
+    @numba.njit(parallel=True, cache=True, fastmath=FAST_MATH, error_model="numpy")
+    def local_grid(local, centres, order, degrees, across, down, xs, ys, x_start, y_start, cell_size, skip, skipping,
+                   zero_skipped, out):
+        """Overwrite ``out``'s samples with their cell's expansion, except in cells where ``skipping and skip`` (with
+        ``zero_skipped``, 0 there); cells of degree 0 read ``centres`` unless it is empty."""
+        n = local.shape[0]
+        centred = centres.shape[0] > 0
+        inv = 1.0 / cell_size
+        widest = 0
         for cx in range(n):
-            xa, width = x_start[cx], x_start[cx + 1] - x_start[cx]
-            if width == 0:
+            widest = max(widest, x_start[cx + 1] - x_start[cx])
+        for cy in numba.prange(n):
+            ya, rows = y_start[cy], y_start[cy + 1] - y_start[cy]
+            if rows == 0:
                 continue
-            if skipping and skip[cy, cx]:
-                if zero_skipped:
-                    out[ya : ya + rows, xa : xa + width] = 0.0
-                continue
-            degree = cell_degree(order, degrees, across[cx] + down[cy])
-            if degree == 0 and centred:  # one contiguous read, not three terms 144 bytes apart
+            coeffs = np.empty((channels, order + 1), np.complex128)
+            scratch = np.empty((4 + channels, rows * widest if rows * widest >= FLAT else 0))
+            for cx in range(n):
+                xa, width = x_start[cx], x_start[cx + 1] - x_start[cx]
+                if width == 0:
+                    continue
+                if skipping and skip[cy, cx]:
+                    if zero_skipped:
+                        out[ya : ya + rows, xa : xa + width] = 0.0
+                    continue
+                degree = cell_degree(order, degrees, across[cx] + down[cy])
+                if degree == 0 and centred:  # one contiguous read, not three terms 144 bytes apart
+                    for a in range(rows):
+                        for b in range(xa, xa + width):
+                            for c in range(channels):
+                                out[ya + a, b, c] = centres[cy, cx, c]
+                    continue
+                if rows * width < FLAT:  # from the coefficients as they are: a copy would cost as much again
+                    for a in range(rows):
+                        eta = ys[ya + a] * inv - (cy + 0.5)
+                        for b in range(xa, xa + width):
+                            xi = xs[b] * inv - (cx + 0.5)
+                            if four:
+                                r0, r1, r2, r3 = _by_horner4(local[cy, cx], degree, xi, eta)
+                            else:
+                                r0, r1, r2, r3 = _by_horner3(local[cy, cx], degree, xi, eta)
+                            out[ya + a, b, 0], out[ya + a, b, 1] = r0 * INV_TWO_PI, r1 * INV_TWO_PI
+                            out[ya + a, b, 2] = r2 * INV_TWO_PI
+                            if four:
+                                out[ya + a, b, 3] = r3 * INV_TWO_PI
+                    continue
+                for c in range(channels):
+                    for l in range(degree + 1):
+                        coeffs[c, l] = local[cy, cx, c, l]
+                xi, eta = scratch[2 + channels], scratch[3 + channels]
                 for a in range(rows):
-                    for b in range(xa, xa + width):
-                        out[ya + a, b, 0], out[ya + a, b, 1] = centres[cy, cx, 0], centres[cy, cx, 1]
-                        out[ya + a, b, 2] = centres[cy, cx, 2]
-                continue
-            if rows * width < FLAT:  # from the coefficients as they are: a copy would cost as much again
+                    for b in range(width):
+                        xi[a * width + b] = xs[xa + b] * inv - (cx + 0.5)
+                        eta[a * width + b] = ys[ya + a] * inv - (cy + 0.5)
+                if four:
+                    by_powers4(coeffs, degree, rows * width, xi, eta, INV_TWO_PI, scratch)
+                else:
+                    by_powers(coeffs, degree, rows * width, xi, eta, INV_TWO_PI, scratch)
                 for a in range(rows):
-                    eta = ys[ya + a] * inv - (cy + 0.5)
-                    for b in range(xa, xa + width):
-                        r0, r1, r2 = _by_horner(local[cy, cx], degree, xs[b] * inv - (cx + 0.5), eta)
-                        out[ya + a, b, 0], out[ya + a, b, 1] = r0 * INV_TWO_PI, r1 * INV_TWO_PI
-                        out[ya + a, b, 2] = r2 * INV_TWO_PI
-                continue
-            for c in range(3):
-                for l in range(degree + 1):
-                    coeffs[c, l] = local[cy, cx, c, l]
-            xi, eta = scratch[5], scratch[6]
-            for a in range(rows):
-                for b in range(width):
-                    xi[a * width + b] = xs[xa + b] * inv - (cx + 0.5)
-                    eta[a * width + b] = ys[ya + a] * inv - (cy + 0.5)
-            by_powers(coeffs, degree, rows * width, xi, eta, INV_TWO_PI, scratch)
-            for a in range(rows):
-                for b in range(width):
-                    i = a * width + b
-                    out[ya + a, xa + b, 0], out[ya + a, xa + b, 1] = scratch[2, i], scratch[3, i]
-                    out[ya + a, xa + b, 2] = scratch[4, i]
+                    for b in range(width):
+                        i = a * width + b
+                        for c in range(channels):
+                            out[ya + a, xa + b, c] = scratch[2 + c, i]
+
+    return local_grid
+
+
+#: The far field's kernel of each count of channels.
+_LOCAL_GRID = {channels: _local_kernel(channels) for channels in (3, 4)}
 
 
 def local_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.ndarray, cell_size: float,
                      out: np.ndarray | None = None, skip: np.ndarray | None = None,
                      degrees: np.ndarray | None = None, offsets: tuple[np.ndarray, np.ndarray] | None = None,
                      centres: np.ndarray | None = None, zero_skipped: bool = False) -> np.ndarray:
-    """``(1/2pi) Re sum_{l <= d} L_l w^l`` of each sample's cell on the grid ``ys x xs``, ``(len(ys), len(xs), 3)``,
-    ``d`` the cell's degree (``cell_degree``: at most ``order``).
+    """``(1/2pi) Re sum_{l <= d} L_l w^l`` of each sample's cell on the grid ``ys x xs``, ``(len(ys), len(xs),
+    channels)``, ``d`` the cell's degree (``cell_degree``: at most ``order``).
 
     Compiled twin of ``local_field_reference``.
 
     Parameters
     ----------
     local : numpy.ndarray
-        ``(n, n, 3, > order)`` complex scaled local expansions of the fine cells.
+        ``(n, n, channels, > order)`` complex scaled local expansions of the fine cells, 3 or 4 channels.
     order : int
         Highest term evaluated.
     xs, ys : numpy.ndarray
@@ -202,7 +248,7 @@ def local_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.ndarr
     cell_size : float
         Fine cell size in pixels.
     out : numpy.ndarray, optional
-        C-contiguous float64 ``(len(ys), len(xs), 3)``, *overwritten* (but in
+        C-contiguous float64 ``(len(ys), len(xs), channels)``, *overwritten* (but in
         skipped cells) and returned; zeros when missing.
     skip : numpy.ndarray, optional
         ``(n, n)`` bool: cells whose samples are left as they are in ``out`` (``zero_skipped``: made 0).
@@ -213,7 +259,7 @@ def local_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.ndarr
         ``largest_offsets`` of the columns and rows of cells, when the grid is a band of a larger one (whose
         cells' degrees must not depend on the band); by default of ``xs`` and ``ys``.
     centres : numpy.ndarray, optional
-        ``(n, n, 3)`` float64 ``Re L_0 / 2pi`` of each cell (``Representation.centre_values``): what cells of
+        ``(n, n, channels)`` float64 ``Re L_0 / 2pi`` of each cell (``Representation.centre_values``): what cells of
         degree 0 read instead of ``local``, the same values from one contiguous row (at level 10, one sample a
         cell at 1024^2, this far field went 12.5 -> 1.2 ms).
     """
@@ -221,19 +267,21 @@ def local_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.ndarr
         raise ValueError(f"order must be between 0 and {local.shape[-1] - 1}")
     # a writeable copy (a read-only array would compile the kernel anew)
     degrees = np.full(1, order, np.int64) if degrees is None else np.array(degrees, np.int64)
-    xs, ys, out = grid_arrays(xs, ys, out)
-    n = local.shape[0]
+    n, channels = local.shape[0], local.shape[2]
+    if channels not in (3, 4):
+        raise ValueError("local must have 3 or 4 channels")
+    xs, ys, out = grid_arrays(xs, ys, out, channels)
     if skip is not None and skip.shape != (n, n):
         raise ValueError(f"skip must have the shape {(n, n)}")
-    if centres is not None and (centres.shape != (n, n, 3) or centres.dtype != np.float64):
-        raise ValueError(f"centres must be float64 of the shape {(n, n, 3)}")
+    if centres is not None and (centres.shape != (n, n, channels) or centres.dtype != np.float64):
+        raise ValueError(f"centres must be float64 of the shape {(n, n, channels)}")
     if out.size == 0:
         return out
     flags = np.zeros((1, 1), np.bool_) if skip is None else np.ascontiguousarray(skip, np.bool_)
     across, down = offsets or (largest_offsets(xs, cell_size, n), largest_offsets(ys, cell_size, n))
     with numba.parallel_chunksize(1):
-        _local_grid(np.asarray(local, np.complex128), _NO_CENTRES if centres is None else np.ascontiguousarray(centres),
-                    int(order), degrees, across, down, xs, ys,
-                    grid_cell_runs(xs, cell_size, n), grid_cell_runs(ys, cell_size, n), float(cell_size), flags,
-                    skip is not None, bool(zero_skipped), out)
+        _LOCAL_GRID[channels](np.asarray(local, np.complex128),
+                              _NO_CENTRES if centres is None else np.ascontiguousarray(centres), int(order), degrees,
+                              across, down, xs, ys, grid_cell_runs(xs, cell_size, n), grid_cell_runs(ys, cell_size, n),
+                              float(cell_size), flags, skip is not None, bool(zero_skipped), out)
     return out

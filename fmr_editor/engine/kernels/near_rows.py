@@ -26,49 +26,69 @@ from .fastmath import POLY_MATH
 from .segment_sums import segment_potentials
 
 
-@numba.njit(cache=True, fastmath=POLY_MATH, error_model="numpy")
-def _row(cy, xs, ys, x_start, y_start, n, cell_start, table, weights, column, out):
-    """Add the near field of the samples of cell row ``cy`` to ``out``."""
-    nx = xs.shape[0]
-    ya, rows = y_start[cy], y_start[cy + 1] - y_start[cy]
-    k0, k1 = cell_start[max(cy - 1, 0) * n], cell_start[min(cy + 2, n) * n]
-    m = k1 - k0
-    single, double, x = np.empty(m), np.empty(m), np.empty(m)
-    first, stop = np.empty(m, np.int64), np.empty(m, np.int64)
-    acc = np.zeros((3, rows, nx))
-    width = 0
-    for i in range(m):
-        cx = column[k0 + i]
-        first[i], stop[i] = x_start[max(cx - 1, 0)], x_start[min(cx + 2, n)]
-        width = max(width, stop[i] - first[i])
-    px, py, qx, qy = table[0, k0:k1], table[1, k0:k1], table[2, k0:k1], table[3, k0:k1]
-    tx, ty, h = table[4, k0:k1], table[5, k0:k1], table[6, k0:k1]
-    for a in range(rows):
-        y = ys[ya + a]
-        for j in range(width):
-            for i in range(m):
-                x[i] = xs[min(first[i] + j, nx - 1)]  # past a window's end: computed, not added
-            for i in range(m):
-                single[i], double[i] = segment_potentials(x[i], y, px[i], py[i], qx[i], qy[i], tx[i], ty[i], h[i])
-            for i in range(m):
-                b = first[i] + j
-                if b < stop[i]:
-                    k, s, d = k0 + i, single[i], double[i]
-                    acc[0, a, b] += weights[0, k] * s - weights[3, k] * d
-                    acc[1, a, b] += weights[1, k] * s - weights[4, k] * d
-                    acc[2, a, b] += weights[2, k] * s - weights[5, k] * d
-    for a in range(rows):
-        for b in range(nx):
-            for c in range(3):
-                out[ya + a, b, c] += acc[c, a, b]
+def _row_of(channels):
+    """``row_of`` of ``channels`` (3 or 4), a compiled kernel each (as ``grid._near_grid_of``)."""
+
+    @numba.njit(cache=True, fastmath=POLY_MATH, error_model="numpy")
+    def row_of(cy, xs, ys, x_start, y_start, n, cell_start, table, weights, column, out):
+        """Add the near field of the samples of cell row ``cy`` to ``out``."""
+        nx = xs.shape[0]
+        ya, rows = y_start[cy], y_start[cy + 1] - y_start[cy]
+        k0, k1 = cell_start[max(cy - 1, 0) * n], cell_start[min(cy + 2, n) * n]
+        m = k1 - k0
+        single, double, x = np.empty(m), np.empty(m), np.empty(m)
+        first, stop = np.empty(m, np.int64), np.empty(m, np.int64)
+        acc = np.zeros((channels, rows, nx))
+        width = 0
+        for i in range(m):
+            cx = column[k0 + i]
+            first[i], stop[i] = x_start[max(cx - 1, 0)], x_start[min(cx + 2, n)]
+            width = max(width, stop[i] - first[i])
+        px, py, qx, qy = table[0, k0:k1], table[1, k0:k1], table[2, k0:k1], table[3, k0:k1]
+        tx, ty, h = table[4, k0:k1], table[5, k0:k1], table[6, k0:k1]
+        for a in range(rows):
+            y = ys[ya + a]
+            for j in range(width):
+                for i in range(m):
+                    x[i] = xs[min(first[i] + j, nx - 1)]  # past a window's end: computed, not added
+                for i in range(m):
+                    single[i], double[i] = segment_potentials(x[i], y, px[i], py[i], qx[i], qy[i], tx[i], ty[i], h[i])
+                for i in range(m):
+                    b = first[i] + j
+                    if b < stop[i]:
+                        k, s, d = k0 + i, single[i], double[i]
+                        for c in range(channels):
+                            acc[c, a, b] += weights[c, k] * s - weights[channels + c, k] * d
+        for a in range(rows):
+            for b in range(nx):
+                for c in range(channels):
+                    out[ya + a, b, c] += acc[c, a, b]
+
+    return row_of
 
 
-@numba.njit(parallel=True, cache=True, error_model="numpy")
-def _near_rows(xs, ys, x_start, y_start, n, cell_start, table, weights, column, out):
-    """Threads take rows of cells (dynamically: ``numba.parallel_chunksize(1)``); each writes its own samples."""
-    for cy in numba.prange(n):
-        if y_start[cy] < y_start[cy + 1] and cell_start[max(cy - 1, 0) * n] < cell_start[min(cy + 2, n) * n]:
-            _row(cy, xs, ys, x_start, y_start, n, cell_start, table, weights, column, out)
+_row3, _row4 = _row_of(3), _row_of(4)
+
+
+def _near_rows_of(channels):
+    """``near_rows_of`` of ``channels``: threads take rows of cells (dynamically: ``numba.parallel_chunksize(1)``);
+    each writes its own samples."""
+    four = channels == 4
+
+    @numba.njit(parallel=True, cache=True, error_model="numpy")
+    def near_rows_of(xs, ys, x_start, y_start, n, cell_start, table, weights, column, out):
+        for cy in numba.prange(n):
+            if y_start[cy] < y_start[cy + 1] and cell_start[max(cy - 1, 0) * n] < cell_start[min(cy + 2, n) * n]:
+                if four:
+                    _row4(cy, xs, ys, x_start, y_start, n, cell_start, table, weights, column, out)
+                else:
+                    _row3(cy, xs, ys, x_start, y_start, n, cell_start, table, weights, column, out)
+
+    return near_rows_of
+
+
+#: The kernel of each count of channels.
+_NEAR_ROWS = {channels: _near_rows_of(channels) for channels in (3, 4)}
 
 
 def near_rows(xs: np.ndarray, ys: np.ndarray, x_start: np.ndarray, y_start: np.ndarray, n: int,
@@ -77,4 +97,4 @@ def near_rows(xs: np.ndarray, ys: np.ndarray, x_start: np.ndarray, y_start: np.n
     arguments, checked, with the cells' runs of samples ``x_start, y_start``)."""
     column = (np.repeat(np.arange(n * n, dtype=np.int64), np.diff(cell_start)) % n).astype(np.int64)
     with numba.parallel_chunksize(1):
-        _near_rows(xs, ys, x_start, y_start, n, cell_start, table, weights, column, out)
+        _NEAR_ROWS[out.shape[2]](xs, ys, x_start, y_start, n, cell_start, table, weights, column, out)

@@ -160,26 +160,23 @@ def potentials_single(x, y, px, py, qx, qy, tx, ty, h, log_p):
 
 
 @numba.njit(cache=True, inline="always", fastmath=POLY_MATH, error_model="numpy")
-def gather_single(m, seg, xc, yc, inv_size, size, block):
-    """The ``m`` gathered segments of ``seg (13, m)`` (``blocks``' layout, pixels) in cell units about
-    ``(xc, yc)``, in float32 ``block (13, m)``: E scaled by the cell size (``S = r S_unit + ...``).
+def gather_single(m, seg, xc, yc, inv_size, size, block, terms, channels):
+    """The ``m`` gathered segments of ``seg (7 + 2 channels, m)`` (``blocks``' layout, pixels) in cell units about
+    ``(xc, yc)``, in float32 ``block`` of the same rows: E scaled by the cell size (``S = r S_unit + ...``).
 
-    Returns the float64 ``sum E h ln(r) / 2pi`` of each channel (``ln_size_terms``).
+    ``terms (channels,)`` = the float64 ``sum E h ln(r) / 2pi`` of each channel.
     """
     log_size = math.log(size) / (2.0 * math.pi)
-    t0 = t1 = t2 = 0.0
+    terms[:] = 0.0
     for k in range(m):
         block[0, k], block[1, k] = F((seg[0, k] - xc) * inv_size), F((seg[1, k] - yc) * inv_size)
         block[2, k], block[3, k] = F((seg[2, k] - xc) * inv_size), F((seg[3, k] - yc) * inv_size)
         block[4, k], block[5, k], block[6, k] = F(seg[4, k]), F(seg[5, k]), F(seg[6, k] * inv_size)
-        for c in range(3):
-            block[7 + c, k] = F(seg[7 + c, k] * size)
-            block[10 + c, k] = F(seg[10 + c, k])
         h = seg[6, k] * log_size
-        t0 += seg[7, k] * h
-        t1 += seg[8, k] * h
-        t2 += seg[9, k] * h
-    return t0, t1, t2
+        for c in range(channels):
+            block[7 + c, k] = F(seg[7 + c, k] * size)
+            block[7 + channels + c, k] = F(seg[7 + channels + c, k])
+            terms[c] += seg[7 + c, k] * h
 
 
 @numba.njit(cache=True, inline="always", fastmath=POLY_MATH, error_model="numpy")
@@ -200,13 +197,19 @@ def doubt_single(x, y, px, py, qx, qy):
 
 
 #: ``blocks.by_samples`` in float32: ``acc (3, count)`` from ``block (13, m)`` at ``sx, sy`` (all in cell units,
-#: float32; ``acc`` lacks ``gather_single``'s terms); samples with a pair in doubt are marked.
+#: float32; ``acc`` lacks ``gather_single``'s terms); samples with a pair in doubt are marked.  ``4``: of four
+#: channels.
 by_samples_single = samples_loop(potentials_single, double_layer_single, log_r2_single, doubt_single)
+by_samples_single4 = samples_loop(potentials_single, double_layer_single, log_r2_single, doubt_single, channels=4)
 
 
 def _largest_channel(values: np.ndarray) -> np.ndarray:
-    """``|values|.max(axis=1)`` of ``(k, 3)`` values (numpy's reduction over a short axis took 13 ms for 188,436)."""
-    return np.maximum(np.maximum(np.abs(values[:, 0]), np.abs(values[:, 1])), np.abs(values[:, 2]))
+    """``|values|.max(axis=1)`` of ``(k, channels)`` values, column by column (numpy's reduction over a short axis
+    took 13 ms for 188,436)."""
+    largest = np.abs(values[:, 0])
+    for column in range(1, values.shape[1]):
+        np.maximum(largest, np.abs(values[:, column]), out=largest)
+    return largest
 
 
 def error_bounds(cells_per_side: int, cell_size: float, cell_start: np.ndarray, flux: np.ndarray,

@@ -43,10 +43,10 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from .blocks import BLOCK_ROWS, by_samples, gather_block
+from .blocks import GEOMETRY, by_samples, by_samples4, gather_block
 from .fastmath import FAST_MATH, INV_TWO_PI, POLY_MATH, TWO_PI, log_r2, potentials_from
 from .grid import grid_arrays, grid_cell_runs, near_field_grid
-from .local_grid import by_powers, local_field_grid
+from .local_grid import by_powers, by_powers4, local_field_grid
 from .segment_sums import near_tables
 
 #: Default separation, in sub-cell sizes, from a sub-cell's centre beyond which a segment is expanded:
@@ -56,7 +56,8 @@ SEPARATION = 2.0
 
 def p2l_reference(p: np.ndarray, q: np.ndarray, flux: np.ndarray, jump: np.ndarray, centre: complex, size: float,
                   order: int) -> np.ndarray:
-    """Scaled local expansion ``(3, order + 1)`` about ``centre`` (cell ``size``) of straight segments; plain numpy.
+    """Scaled local expansion ``(channels, order + 1)`` about ``centre`` (cell ``size``) of straight segments
+    (plain numpy).
 
     ``(1/2pi) Re sum_l L_l ((z - centre) / size)^l`` approximates their field
     ``sum E S - C D`` near ``centre``; ``L_0`` is real (its field at the centre
@@ -71,7 +72,7 @@ def p2l_reference(p: np.ndarray, q: np.ndarray, flux: np.ndarray, jump: np.ndarr
     j = [None, np.log(vq / vp) / t]
     for m in range(2, order + 2):
         j.append((vp ** (1 - m) - vq ** (1 - m)) / ((m - 1) * t))
-    out = np.zeros((3, order + 1), complex)
+    out = np.zeros((flux.shape[1], order + 1), complex)
     out[:, 0] = TWO_PI * direct_sum_reference(np.array([[centre.real, centre.imag]]), p, q, flux, jump)[0]
     n0 = -1j * t
     for order_l in range(1, order + 1):
@@ -114,16 +115,20 @@ def _p2l_state(count, far, xc, yc, size, state):
 
 @numba.njit(cache=True, fastmath=FAST_MATH, error_model="numpy")
 def _p2l_sums(count, far, state, size, order, coeffs):
-    """Add the expansions of ``far (13, count)`` (from ``_p2l_state``) to ``coeffs (3, order + 1)``.
+    """Add the expansions of ``far (7 + 2 channels, count)`` (from ``_p2l_state``) to ``coeffs (channels,
+    order + 1)``, 3 or 4 channels.
 
     ``J_m = (vp^(1-m) - vq^(1-m)) conj(t) / (m - 1)`` for ``m >= 2``; ``L_l`` takes ``-size J_l / l`` times
     E and ``-n0 J_(l+1)`` times C.  Not inlined: its reassociating flags let the sums over segments
-    vectorise (it overwrites ``state``'s rows 2, 3 and 8 to 11).
+    vectorise (it overwrites ``state``'s rows 2, 3 and 8 to 11).  A fourth channel is summed in a loop of its
+    own, which keeps the three channels' loop as it is.
     """
-    for c in range(3):
+    channels = coeffs.shape[0]
+    e_row, c_row = GEOMETRY, GEOMETRY + channels
+    for c in range(channels):
         total = 0.0
         for k in range(count):
-            total += far[7 + c, k] * state[0, k] - far[10 + c, k] * state[1, k]
+            total += far[e_row + c, k] * state[0, k] - far[c_row + c, k] * state[1, k]
         coeffs[c, 0] += TWO_PI * total
     for k in range(count):
         state[8, k], state[9, k], state[10, k], state[11, k] = state[4, k], state[5, k], state[6, k], state[7, k]
@@ -142,7 +147,8 @@ def _p2l_sums(count, far, state, size, order, coeffs):
         for k in range(count):
             tx, ty, jr, ji = far[4, k], far[5, k], state[2, k], state[3, k]
             nr, ni = ty * jr + tx * ji, ty * ji - tx * jr  # n0 J, n0 = -i t
-            e0, e1, e2, c0, c1, c2 = far[7, k], far[8, k], far[9, k], far[10, k], far[11, k], far[12, k]
+            e0, e1, e2 = far[e_row, k], far[e_row + 1, k], far[e_row + 2, k]
+            c0, c1, c2 = far[c_row, k], far[c_row + 1, k], far[c_row + 2, k]
             er0 += e0 * jr
             ei0 += e0 * ji
             er1 += e1 * jr
@@ -155,23 +161,36 @@ def _p2l_sums(count, far, state, size, order, coeffs):
             ci1 += c1 * ni
             cr2 += c2 * nr
             ci2 += c2 * ni
+        er3 = ei3 = cr3 = ci3 = 0.0
+        if channels == 4:
+            for k in range(count):
+                tx, ty, jr, ji = far[4, k], far[5, k], state[2, k], state[3, k]
+                e3, c3 = far[10, k], far[14, k]
+                er3 += e3 * jr
+                ei3 += e3 * ji
+                cr3 += c3 * (ty * jr + tx * ji)
+                ci3 += c3 * (ty * ji - tx * jr)
         if m <= order:
             f = -size / m
             coeffs[0, m] += complex(f * er0, f * ei0)
             coeffs[1, m] += complex(f * er1, f * ei1)
             coeffs[2, m] += complex(f * er2, f * ei2)
+            if channels == 4:
+                coeffs[3, m] += complex(f * er3, f * ei3)
         if m >= 2:
             coeffs[0, m - 1] -= complex(cr0, ci0)
             coeffs[1, m - 1] -= complex(cr1, ci1)
             coeffs[2, m - 1] -= complex(cr2, ci2)
+            if channels == 4:
+                coeffs[3, m - 1] -= complex(cr3, ci3)
 
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
 def _shift(parent, order, dx, dy, split, coeffs):
-    """``coeffs (3, order + 1)`` = ``parent``'s polynomial in ``w`` re-expanded in ``w' = split (w - d)``,
+    """``coeffs (channels, order + 1)`` = ``parent``'s polynomial in ``w`` re-expanded in ``w' = split (w - d)``,
     ``d = dx + i dy``."""
     d = complex(dx, dy)
-    for c in range(3):
+    for c in range(coeffs.shape[0]):
         for l in range(order + 1):
             coeffs[c, l] = parent[c, l]
         if split == 1:  # d = 0: the parent's own polynomial
@@ -197,88 +216,123 @@ def _sub_runs(coords, start, stop, origin, inv_sub, split, runs):
     runs[split] = stop
 
 
-@numba.njit(cache=True, fastmath=POLY_MATH, error_model="numpy")
-def _cells(cells, lo, hi, local, order, xs, ys, x_start, y_start, n, cell_size, split, reach, cell_start, table,
-           weights, out, seg, shares_p, flux_free, sub, sub_shares, sub_ff, far_seg, state, sx, sy, acc, powers, logs,
-           doubtful, coeffs, parent, xruns, yruns):
-    """Write the field (far + near) of the samples of ``cells[lo:hi]`` into ``out``; the rest are the thread's scratch.
+def _cells_of(channels):
+    """``cells_of`` of ``channels`` (3 or 4), a compiled kernel each (as ``grid._near_grid_of``)."""
+    four = channels == 4
+    rows = GEOMETRY + 2 * channels
 
-    One call per run of cells: a call passes some thirty arrays (reference counts and all).
-    """
-    for item in range(lo, hi):
-        cy, cx = cells[item] // n, cells[item] % n
-        ya0, yb0, xa0, xb0 = y_start[cy], y_start[cy + 1], x_start[cx], x_start[cx + 1]
-        if ya0 == yb0 or xa0 == xb0:
-            continue
-        m = gather_block(cy, max(cx - 1, 0), min(cx + 2, n), n, cell_start, table, weights, seg, shares_p, flux_free)
-        for c in range(3):
-            for l in range(order + 1):
-                parent[c, l] = local[cy, cx, c, l]
-        size = cell_size / split
-        inv_size = 1.0 / size
-        _sub_runs(xs, xa0, xb0, cx * cell_size, inv_size, split, xruns)
-        _sub_runs(ys, ya0, yb0, cy * cell_size, inv_size, split, yruns)
-        for a in range(split):
-            ya, yb = yruns[a], yruns[a + 1]
-            for b in range(split):
-                xa, xb = xruns[b], xruns[b + 1]
-                width = xb - xa
-                count = (yb - ya) * width
-                if count == 0:
-                    continue
-                xc, yc = cx * cell_size + (b + 0.5) * size, cy * cell_size + (a + 0.5) * size
-                _shift(parent, order, (b + 0.5) / split - 0.5, (a + 0.5) / split - 0.5, split, coeffs)
-                near, count_far = 0, 0
-                reach2 = (reach * size) ** 2
-                for k in range(m):
-                    if _distance2(xc, yc, seg, k) >= reach2:
-                        for c in range(BLOCK_ROWS):
-                            far_seg[c, count_far] = seg[c, k]
-                        count_far += 1
+    @numba.njit(cache=True, fastmath=POLY_MATH, error_model="numpy")
+    def cells_of(cells, lo, hi, local, order, xs, ys, x_start, y_start, n, cell_size, split, reach, cell_start,
+                 table, weights, out, seg, shares_p, flux_free, sub, sub_shares, sub_ff, far_seg, state, sx, sy, acc,
+                 powers, logs, doubtful, coeffs, parent, xruns, yruns):
+        """Write the field (far + near) of the samples of ``cells[lo:hi]`` into ``out``; the rest are the thread's
+        scratch.
+
+        One call per run of cells: a call passes some thirty arrays (reference counts and all).
+        """
+        for item in range(lo, hi):
+            cy, cx = cells[item] // n, cells[item] % n
+            ya0, yb0, xa0, xb0 = y_start[cy], y_start[cy + 1], x_start[cx], x_start[cx + 1]
+            if ya0 == yb0 or xa0 == xb0:
+                continue
+            m = gather_block(cy, max(cx - 1, 0), min(cx + 2, n), n, cell_start, table, weights, seg, shares_p,
+                             flux_free)
+            for c in range(channels):
+                for l in range(order + 1):
+                    parent[c, l] = local[cy, cx, c, l]
+            size = cell_size / split
+            inv_size = 1.0 / size
+            _sub_runs(xs, xa0, xb0, cx * cell_size, inv_size, split, xruns)
+            _sub_runs(ys, ya0, yb0, cy * cell_size, inv_size, split, yruns)
+            for a in range(split):
+                ya, yb = yruns[a], yruns[a + 1]
+                for b in range(split):
+                    xa, xb = xruns[b], xruns[b + 1]
+                    width = xb - xa
+                    count = (yb - ya) * width
+                    if count == 0:
+                        continue
+                    xc, yc = cx * cell_size + (b + 0.5) * size, cy * cell_size + (a + 0.5) * size
+                    _shift(parent, order, (b + 0.5) / split - 0.5, (a + 0.5) / split - 0.5, split, coeffs)
+                    near, count_far = 0, 0
+                    reach2 = (reach * size) ** 2
+                    for k in range(m):
+                        if _distance2(xc, yc, seg, k) >= reach2:
+                            for c in range(rows):
+                                far_seg[c, count_far] = seg[c, k]
+                            count_far += 1
+                        else:
+                            for c in range(rows):
+                                sub[c, near] = seg[c, k]
+                            sub_shares[near] = near > 0 and shares_p[k] and sub[0, near] == sub[2, near - 1] and \
+                                sub[1, near] == sub[3, near - 1]
+                            sub_ff[near] = flux_free[k]
+                            near += 1
+                    if count_far > 0:
+                        _p2l_state(count_far, far_seg, xc, yc, size, state)
+                        _p2l_sums(count_far, far_seg, state, size, order, coeffs)
+                    xi, eta, far = powers[2 + channels], powers[3 + channels], powers[2 : 2 + channels]
+                    for i in range(yb - ya):
+                        for j in range(width):
+                            sx[i * width + j], sy[i * width + j] = xs[xa + j], ys[ya + i]
+                            xi[i * width + j] = (xs[xa + j] - xc) * inv_size
+                            eta[i * width + j] = (ys[ya + i] - yc) * inv_size
+                    if four:
+                        by_powers4(coeffs, order, count, xi, eta, INV_TWO_PI, powers)
                     else:
-                        for c in range(BLOCK_ROWS):
-                            sub[c, near] = seg[c, k]
-                        sub_shares[near] = near > 0 and shares_p[k] and sub[0, near] == sub[2, near - 1] and \
-                            sub[1, near] == sub[3, near - 1]
-                        sub_ff[near] = flux_free[k]
-                        near += 1
-                if count_far > 0:
-                    _p2l_state(count_far, far_seg, xc, yc, size, state)
-                    _p2l_sums(count_far, far_seg, state, size, order, coeffs)
-                xi, eta, far = powers[5], powers[6], powers[2:5]
-                for i in range(yb - ya):
-                    for j in range(width):
-                        sx[i * width + j], sy[i * width + j] = xs[xa + j], ys[ya + i]
-                        xi[i * width + j] = (xs[xa + j] - xc) * inv_size
-                        eta[i * width + j] = (ys[ya + i] - yc) * inv_size
-                by_powers(coeffs, order, count, xi, eta, INV_TWO_PI, powers)
-                if near > 0:
-                    by_samples(near, count, sub, sub_shares, sub_ff, sx, sy, acc, logs, doubtful)
-                    for c in range(3):
-                        for i in range(count):
-                            far[c, i] += acc[c, i]
-                for i in range(yb - ya):
-                    for j in range(width):
-                        for c in range(3):
-                            out[ya + i, xa + j, c] = far[c, i * width + j]
+                        by_powers(coeffs, order, count, xi, eta, INV_TWO_PI, powers)
+                    if near > 0 and four:
+                        by_samples4(near, count, sub, sub_shares, sub_ff, sx, sy, acc, logs, doubtful)
+                    elif near > 0:
+                        by_samples(near, count, sub, sub_shares, sub_ff, sx, sy, acc, logs, doubtful)
+                    if near > 0:
+                        for c in range(channels):
+                            for i in range(count):
+                                far[c, i] += acc[c, i]
+                    for i in range(yb - ya):
+                        for j in range(width):
+                            for c in range(channels):
+                                out[ya + i, xa + j, c] = far[c, i * width + j]
 
 
-@numba.njit(parallel=True, cache=True, error_model="numpy")
-def _subcell_grid(local, order, xs, ys, x_start, y_start, n, cell_size, split, reach, cell_start, table, weights,
-                  cells, group_start, capacity, most, out):
-    for g in numba.prange(group_start.shape[0] - 1):
-        seg, sub = np.empty((BLOCK_ROWS, capacity)), np.empty((BLOCK_ROWS, capacity))
-        shares_p, flux_free = np.empty(capacity, np.bool_), np.empty(capacity, np.bool_)
-        sub_shares, sub_ff = np.empty(capacity, np.bool_), np.empty(capacity, np.bool_)
-        far_seg, state = np.empty((BLOCK_ROWS, capacity)), np.empty((12, capacity))
-        powers = np.empty((7, most))
-        sx, sy = np.empty(most), np.empty(most)
-        acc, logs, doubtful = np.empty((3, most)), np.empty((2, most)), np.zeros(most, np.int32)
-        coeffs, parent = np.empty((3, order + 1), np.complex128), np.empty((3, order + 1), np.complex128)
-        xruns, yruns = np.empty(split + 1, np.int64), np.empty(split + 1, np.int64)
-        _cells(cells, group_start[g], group_start[g + 1], local, order, xs, ys, x_start, y_start, n, cell_size, split,
-               reach, cell_start, table, weights, out, seg, shares_p, flux_free, sub, sub_shares, sub_ff, far_seg,
-               state, sx, sy, acc, powers, logs, doubtful, coeffs, parent, xruns, yruns)
+    return cells_of
+
+
+_cells3, _cells4 = _cells_of(3), _cells_of(4)
+
+
+def _subcell_grid_of(channels):
+    """``subcell_grid`` of ``channels``."""
+    four = channels == 4
+    rows = GEOMETRY + 2 * channels
+
+    @numba.njit(parallel=True, cache=True, error_model="numpy")
+    def subcell_grid(local, order, xs, ys, x_start, y_start, n, cell_size, split, reach, cell_start, table, weights,
+                     cells, group_start, capacity, most, out):
+        for g in numba.prange(group_start.shape[0] - 1):
+            seg, sub = np.empty((rows, capacity)), np.empty((rows, capacity))
+            shares_p, flux_free = np.empty(capacity, np.bool_), np.empty(capacity, np.bool_)
+            sub_shares, sub_ff = np.empty(capacity, np.bool_), np.empty(capacity, np.bool_)
+            far_seg, state = np.empty((rows, capacity)), np.empty((12, capacity))
+            powers = np.empty((4 + channels, most))
+            sx, sy = np.empty(most), np.empty(most)
+            acc, logs, doubtful = np.empty((channels, most)), np.empty((2, most)), np.zeros(most, np.int32)
+            coeffs = np.empty((channels, order + 1), np.complex128)
+            parent = np.empty((channels, order + 1), np.complex128)
+            xruns, yruns = np.empty(split + 1, np.int64), np.empty(split + 1, np.int64)
+            run = (cells, group_start[g], group_start[g + 1], local, order, xs, ys, x_start, y_start, n, cell_size,
+                   split, reach, cell_start, table, weights, out, seg, shares_p, flux_free, sub, sub_shares, sub_ff,
+                   far_seg, state, sx, sy, acc, powers, logs, doubtful, coeffs, parent, xruns, yruns)
+            if four:
+                _cells4(*run)
+            else:
+                _cells3(*run)
+
+    return subcell_grid
+
+
+#: The sub-cells' kernel of each count of channels.
+_SUBCELL_GRID = {channels: _subcell_grid_of(channels) for channels in (3, 4)}
 
 
 @numba.njit(cache=True)
@@ -326,12 +380,14 @@ def subcell_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.nda
                        tables: tuple[np.ndarray, np.ndarray] | None = None, precision: str = "double",
                        degrees: np.ndarray | None = None, offsets: tuple[np.ndarray, np.ndarray] | None = None,
                        centres: np.ndarray | None = None, skip: np.ndarray | None = None) -> np.ndarray:
-    """The field of an FMR's segments (far and near) on the tensor grid ``ys x xs``, ``(len(ys), len(xs), 3)``.
+    """The field of an FMR's segments (far and near) on the tensor grid ``ys x xs``, ``(len(ys), len(xs),
+    channels)``.
 
     Parameters
     ----------
     local : numpy.ndarray
-        ``(n, n, 3, > order)`` complex scaled local expansions of the fine cells.
+        ``(n, n, channels, > order)`` complex scaled local expansions of the fine cells, 3 or 4 channels (as
+        ``flux`` and ``jump`` have columns).
     order : int
         Degree of the polynomials evaluated (and of the segments' expansions).
     xs, ys : numpy.ndarray
@@ -345,7 +401,7 @@ def subcell_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.nda
     separation : float
         Segments at least this many sub-cell sizes from a sub-cell's centre are expanded (``inf``: none).
     out : numpy.ndarray, optional
-        C-contiguous float64 ``(len(ys), len(xs), 3)``, overwritten and returned.
+        C-contiguous float64 ``(len(ys), len(xs), channels)``, overwritten and returned.
     tables : tuple of numpy.ndarray, optional
         ``segment_sums.near_tables(p, q, flux, jump)``, when kept.
     precision : {"double", "single"}
@@ -361,7 +417,7 @@ def subcell_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.nda
         raise ValueError(f"order must be between 0 and {local.shape[-1] - 1}")
     if split < 1:
         raise ValueError("split must be at least 1")
-    xs, ys, out = grid_arrays(xs, ys, out)
+    xs, ys, out = grid_arrays(xs, ys, out, local.shape[2])
     if out.size == 0:
         return out
     n = local.shape[0]
@@ -383,7 +439,7 @@ def subcell_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.nda
         return out
     table, weights = tables or near_tables(p, q, flux, jump)
     with numba.parallel_chunksize(1):
-        _subcell_grid(np.asarray(local, np.complex128), int(order), xs, ys, x_start, y_start, n, float(cell_size),
-                      int(split), float(separation), cell_start, table, weights, cells, group_start, capacity, most,
-                      out)
+        _SUBCELL_GRID[out.shape[2]](np.asarray(local, np.complex128), int(order), xs, ys, x_start, y_start, n,
+                                    float(cell_size), int(split), float(separation), cell_start, table, weights, cells,
+                                    group_start, capacity, most, out)
     return out
