@@ -5,13 +5,18 @@ from __future__ import annotations
 import numba
 import numpy as np
 import pytest
+from shapes import circle_points
 from test_raster import chains_and_strays
 
+from fmr_editor.engine import Settings, build, rasterise
+from fmr_editor.engine import representation as representation_module
 from fmr_editor.engine.fmm.lattice import Lattice, sort_into_cells
 from fmr_editor.engine.geometry.segments import Segments
+from fmr_editor.engine.kernels import grid as grid_module
 from fmr_editor.engine.kernels import single
 from fmr_editor.engine.kernels.fastmath import POLY_MATH, log_r2, potentials_from
 from fmr_editor.engine.kernels.grid import near_field_grid
+from fmr_editor.model import ColorStop, DiffusionCurve, Document
 
 
 @numba.njit(fastmath=POLY_MATH, error_model="numpy")
@@ -130,3 +135,21 @@ def test_error_bounds_sum_the_blocks():
             expected = (8.0 * np.abs(seg.flux[block]).max(axis=1).sum() * (single.PAIR_SINGLE + rounding)
                         + np.abs(seg.jump[block]).max(axis=1).sum() * (single.PAIR_DOUBLE + rounding))
             assert bounds[cy, cx] == pytest.approx(expected, rel=1e-12)
+
+
+def test_a_representation_keeps_its_bounds_for_every_raster(monkeypatch):
+    stops = (ColorStop(0.0, (0.9, 0.2, 0.1)),)
+    rep = build(Document(64, 64, (DiffusionCurve(circle_points(32, 30, 20), left=stops),)), Settings(levels=3))
+    counted = []
+
+    def counting(*args):
+        counted.append(args)
+        return single.error_bounds(*args)
+
+    for module in (representation_module, grid_module):
+        monkeypatch.setattr(module, "error_bounds", counting)
+    first = rasterise(rep, samples=1)  # 8 samples a cell side: the near field's column visits, float32 allowed
+    np.testing.assert_array_equal(rasterise(rep, samples=1), first)
+    assert len(counted) == 1
+    np.testing.assert_array_equal(rep.near_bounds, single.error_bounds(8, 8.0, rep.near[1], rep.near[0].flux,
+                                                                       rep.near[0].jump))

@@ -293,7 +293,8 @@ def _fmr_samples(rep: Representation, order: int | None, xs: np.ndarray, ys: np.
         subcell_field_grid(rep.local, order, xs, ys, size, cell_start, seg.p, seg.q, seg.flux, seg.jump,
                            split=split, separation=separation, out=out, tables=rep.near_tables,
                            precision=NEAR_PRECISION, degrees=sample_degrees(order), offsets=offsets,
-                           centres=rep.centre_values if centred else None, skip=skip)
+                           centres=rep.centre_values if centred else None, skip=skip,
+                           bounds=rep.near_bounds if split == 1 else None)
     else:  # no segment carries anything (``Representation.near``): nor do the expansions they make
         out[...] = 0.0
     if points is not None and alpha is None:

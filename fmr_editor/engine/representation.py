@@ -19,6 +19,7 @@ from .fmm.lattice import Lattice
 from .geometry.segments import Segments
 from .kernels.fastmath import INV_TWO_PI
 from .kernels.segment_sums import near_tables
+from .kernels.single import error_bounds
 from .points.field import PointField
 
 
@@ -159,6 +160,13 @@ class Representation:
         live representation hands out the same ``Representation`` until it changes)."""
         seg = self.near[0]
         return near_tables(seg.p, seg.q, seg.flux, seg.jump)
+
+    @cached_property
+    def near_bounds(self) -> np.ndarray:
+        """``kernels.single.error_bounds`` of the ``near`` segments: the raster's float32 near field's bound in each
+        cell, kept as ``near_tables`` are."""
+        (seg, cell_start), lattice = self.near, self.lattice
+        return error_bounds(lattice.cells_per_side, lattice.cell_size, cell_start, seg.flux, seg.jump)
 
     def polynomials(self, order: int | None = None, cells: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
         """Cell polynomials ``c[row, column, channel, i, j]`` of ``xi^i eta^j``.

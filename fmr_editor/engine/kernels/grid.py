@@ -219,6 +219,7 @@ def near_field_grid(
     tables: tuple[np.ndarray, np.ndarray] | None = None,
     precision: str = "double",
     skip: np.ndarray | None = None,
+    bounds: np.ndarray | None = None,
 ) -> np.ndarray:
     """``near_sum`` on the tensor grid ``ys x xs``, ``(len(ys), len(xs), channels)``: as many channels as ``flux``
     and ``jump`` have columns (3, or 4 with an alpha field's after the colour's).
@@ -250,6 +251,8 @@ def near_field_grid(
         ``(cells_per_side,) * 2`` bool: cells whose samples need no near field (``raster``: a layer hidden
         there); theirs get a part of it or none, the other samples all of it, as without ``skip``.  Lattices
         of at most ``ROW_SAMPLES`` samples a cell side sum every cell.
+    bounds : numpy.ndarray, optional
+        ``single.error_bounds`` of these segments, when kept from an earlier call.
     """
     if precision not in ("double", "single"):
         raise ValueError(f"unknown precision {precision!r}; use 'double' or 'single'")
@@ -267,8 +270,9 @@ def near_field_grid(
     capacity, most = _column_sizes(n, cell_start, x_start, y_start)
     single = np.zeros((n, n), np.bool_)
     if precision == "single":
-        bounded = np.pad(error_bounds(n, cell_size, cell_start, flux, jump) <= SINGLE_BUDGET, ((0, 0), (1, 1)),
-                         constant_values=True)
+        if bounds is None:
+            bounds = error_bounds(n, cell_size, cell_start, flux, jump)
+        bounded = np.pad(bounds <= SINGLE_BUDGET, ((0, 0), (1, 1)), constant_values=True)
         single = bounded[:, :-2] & bounded[:, 1:-1] & bounded[:, 2:]  # every cell of the visit's window
     if skip is not None and skip.shape != (n, n):
         raise ValueError(f"skip must have the shape {(n, n)}")

@@ -379,7 +379,8 @@ def subcell_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.nda
                        split: int = 1, separation: float = SEPARATION, out: np.ndarray | None = None,
                        tables: tuple[np.ndarray, np.ndarray] | None = None, precision: str = "double",
                        degrees: np.ndarray | None = None, offsets: tuple[np.ndarray, np.ndarray] | None = None,
-                       centres: np.ndarray | None = None, skip: np.ndarray | None = None) -> np.ndarray:
+                       centres: np.ndarray | None = None, skip: np.ndarray | None = None,
+                       bounds: np.ndarray | None = None) -> np.ndarray:
     """The field of an FMR's segments (far and near) on the tensor grid ``ys x xs``, ``(len(ys), len(xs),
     channels)``.
 
@@ -404,6 +405,8 @@ def subcell_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.nda
         C-contiguous float64 ``(len(ys), len(xs), channels)``, overwritten and returned.
     tables : tuple of numpy.ndarray, optional
         ``segment_sums.near_tables(p, q, flux, jump)``, when kept.
+    bounds : numpy.ndarray, optional
+        ``single.error_bounds`` of the segments, when kept (``grid.near_field_grid``'s).
     precision : {"double", "single"}
         Of the near field of cells not split (``grid.near_field_grid``'s); sub-cells sum theirs in float64.
     degrees, offsets, centres : optional
@@ -426,7 +429,7 @@ def subcell_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.nda
         local_field_grid(local, order, xs, ys, cell_size, out=out, skip=skip, degrees=degrees, offsets=offsets,
                          centres=centres, zero_skipped=True)
         return near_field_grid(xs, ys, n, cell_size, cell_start, p, q, flux, jump, out=out, tables=tables,
-                               precision=precision, skip=skip)
+                               precision=precision, skip=skip, bounds=bounds)
     counts = np.pad(np.diff(cell_start).reshape(n, n), 1)
     near = sum(counts[1 + dy : 1 + dy + n, 1 + dx : 1 + dx + n] for dy in (-1, 0, 1) for dx in (-1, 0, 1)) > 0
     local_field_grid(local, order, xs, ys, cell_size, out=out, skip=near if skip is None else near | skip,
