@@ -25,7 +25,7 @@ from .points.gauss import GaussPoints
 from .process import setup_process
 from .raster import evaluate_points, output_size, rasterise
 from .raster_kernels import load_raster_kernels
-from .representation import MAX_LEVELS, Representation, Settings, same_geometry
+from .representation import MAX_LEVELS, Representation, Settings, same_geometry, with_alpha
 from .solve.clone import SeamlessClone, Similarity
 from .stack import LiveStack, StackUpdate, build, composite_of
 
@@ -35,5 +35,5 @@ __all__ = [
     "PointField", "Progress", "Representation", "Role", "SeamlessClone", "Segments", "Settings", "Similarity",
     "StackUpdate", "Update", "build",
     "available_memory", "check_image_memory", "clone_points", "composite_of", "evaluate_points", "load_raster_kernels",
-    "local_polynomials", "output_size", "rasterise", "same_geometry", "setup_process",
+    "local_polynomials", "output_size", "rasterise", "same_geometry", "setup_process", "with_alpha",
 ]

@@ -245,12 +245,13 @@ def _alpha_samples(layer: LayerFields, values: Callable[[Representation], np.nda
                    colour: np.ndarray | None = None) -> tuple[np.ndarray, int]:
     """``blend_layer``'s ``alpha`` and ``alpha_column`` of ``layer``: none, the alpha field's first channel, or the
     fourth of its image's ``colour`` values (or, without them, of what ``values`` gives of its alpha field) that
-    carry it."""
+    carry it (``carries_alpha``)."""
     if layer.alpha is None:
         return _NO_SAMPLES, 0
-    if colour is None or colour.shape[1] < 4:
-        colour = _samples(values(layer.alpha), count)
-    return colour, 3 if colour.shape[1] == 4 else 0
+    if colour is not None and colour.shape[1] == 4 and layer.carries_alpha:
+        return colour, 3
+    alpha = _samples(values(layer.alpha), count)
+    return alpha, 3 if alpha.shape[1] == 4 else 0
 
 
 def compose_reference(composite: Composite, values: Callable[[Representation], np.ndarray], shape: tuple[int, ...],

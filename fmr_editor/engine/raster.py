@@ -26,6 +26,7 @@ more each band's samples go through one buffer and are averaged into it.
 
 from __future__ import annotations
 
+from collections import Counter
 from collections.abc import Callable
 
 import numpy as np
@@ -201,8 +202,8 @@ def rasterise(
                 out[..., :3] = _direct_samples(source, xs, band_ys)
                 if alpha is not None:
                     out[..., 3] = _direct_samples(alpha, xs, band_ys)[..., 0]
-            else:
-                _fmr_samples(source, order, xs, band_ys, ys, density, out, skip, alpha)
+                return out
+            _fmr_samples(source, order, xs, band_ys, ys, density, out, skip, alpha)
             return out
 
         if isinstance(rep, Composite):
@@ -226,13 +227,16 @@ def _composed(composite: Composite, field: Callable, xs: np.ndarray, ys: np.ndar
     alpha field of its segments as its fourth channel.
 
     The masks and alpha fields (``_weighing``) are evaluated once and held until ``compose`` reads them; each
-    image when ``compose`` reads it, so that the band holds one image at a time.  A translucent layer's alpha
-    field made of its image's segments (``LayerFields.carries_alpha``) is evaluated with its image, in one pass
-    of four channels, which ``compose`` reads for both (the segments' integrals shared: lady_bug's translucent
-    twin at 512 x 512 rasterises in 8.7 ms, against 14.0-14.4 with the two evaluated apart and 7.3 opaque).
+    other image when ``compose`` reads it.  A translucent layer's alpha field made of its image's segments
+    (``LayerFields.carries_alpha``) is evaluated with its image, in one pass of four channels, which ``compose``
+    reads for both (the segments' integrals shared: lady_bug's translucent twin at 512 x 512 rasterises in
+    8.7 ms, against 14.0-14.4 with the two evaluated apart and 7.3 opaque); not where another layer shows the
+    same image, which would read that image's values too.
     """
     held: dict[int, np.ndarray] = {}
-    carried = {id(layer.alpha): layer.image for layer in composite.shown if layer.carries_alpha}
+    shows = Counter(id(layer.image) for layer in composite.shown)
+    carried = {id(layer.alpha): layer.image for layer in composite.shown
+               if shows[id(layer.image)] == 1 and layer.carries_alpha}
 
     def weights_of(source: Representation) -> np.ndarray:
         if id(source) not in held:
@@ -280,28 +284,31 @@ def _fmr_samples(rep: Representation, order: int | None, xs: np.ndarray, ys: np.
     are not needed (``subcell_field_grid``'s: finite, not their field).  ``alpha``: an alpha field of ``rep``'s
     segments (``LayerFields.carries_alpha``), evaluated with it as a fourth channel of ``out``.
     """
-    points = rep.points
-    if alpha is not None:
-        rep = rep.with_alpha(alpha)
     (seg, cell_start), lattice = rep.near, rep.lattice
     order = rep.order if order is None else order
     split, separation = split_for(lattice.cell_size * density)
     n, size = lattice.cells_per_side, lattice.cell_size
     offsets = largest_offsets(xs, size, n), largest_offsets(whole_ys, size, n)
     centred = rep.centres is not None or all(np.any(axis == 0.0) for axis in offsets)  # samples on cell centres
+    centres = rep.centre_values if centred else None
+    if alpha is None:
+        flux, jump, tables, fourth = seg.flux, seg.jump, rep.near_tables, None
+        bounds = rep.near_bounds if split == 1 else None
+    else:
+        flux, jump, tables, bounds = rep.joined_with(alpha)
+        fourth = alpha.local, alpha.centre_values if centred else None
     if len(seg.p):
-        subcell_field_grid(rep.local, order, xs, ys, size, cell_start, seg.p, seg.q, seg.flux, seg.jump,
-                           split=split, separation=separation, out=out, tables=rep.near_tables,
-                           precision=NEAR_PRECISION, degrees=sample_degrees(order), offsets=offsets,
-                           centres=rep.centre_values if centred else None, skip=skip,
-                           bounds=rep.near_bounds if split == 1 else None)
+        subcell_field_grid(rep.local, order, xs, ys, size, cell_start, seg.p, seg.q, flux, jump, split=split,
+                           separation=separation, out=out, tables=tables, precision=NEAR_PRECISION,
+                           degrees=sample_degrees(order), offsets=offsets, centres=centres, skip=skip,
+                           bounds=bounds, fourth=fourth)
     else:  # no segment carries anything (``Representation.near``): nor do the expansions they make
         out[...] = 0.0
-    if points is not None and alpha is None:
-        points.add_grid(order, xs, ys, out)
-    elif points is not None:  # the points' kernels are of three channels; the alpha has none of its own
+    if rep.points is not None and alpha is None:
+        rep.points.add_grid(order, xs, ys, out)
+    elif rep.points is not None:  # the points' kernels are of three channels; the alpha has none of its own
         colour = np.zeros(out.shape[:2] + (3,))
-        points.add_grid(order, xs, ys, colour)
+        rep.points.add_grid(order, xs, ys, colour)
         out[..., :3] += colour
 
 

@@ -31,12 +31,13 @@ def _grid(cells: int, cell_size: float, split: int, samples_per_cell: int, chann
     colours = rng.uniform(-1, 1, (40, channels))
     unsorted = Segments(p, q, colours, np.zeros((40, 3)), np.zeros(40, bool), colours[::-1].copy())
     seg, cell_start = sort_into_cells(unsorted, Lattice(int(np.log2(cells)), side))
-    local = np.zeros((cells, cells, channels, 9), complex)
+    local = np.zeros((cells, cells, 3, 9), complex)
     coordinates = (np.arange(cells * samples_per_cell) + 0.5) * cell_size / samples_per_cell
     tables = near_tables(seg.p, seg.q, seg.flux, seg.jump)
     for precision in ("double", "single"):
         subcell_field_grid(local, 8, coordinates, coordinates, cell_size, cell_start, seg.p, seg.q, seg.flux,
-                           seg.jump, split=split, tables=tables, precision=precision)
+                           seg.jump, split=split, tables=tables, precision=precision,
+                           fourth=(local, None) if channels == 4 else None)
 
 
 def near_grid() -> None:

@@ -9,7 +9,8 @@ downward (M2L, L2L); a document with diffusion points adds a fifth, points
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+import weakref
+from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
@@ -134,25 +135,20 @@ class Representation:
             return seg.take(np.zeros(len(seg.p), bool)), np.zeros_like(self.cell_start)
         return seg, self.cell_start
 
-    def with_alpha(self, alpha: Representation) -> Representation:
-        """This image and ``alpha``, an alpha field of the same ``near`` segments, lattice and order
-        (``LayerFields.carries_alpha``), as one field of four channels, the alpha field's first channel fourth and
-        no points: what the raster's kernels evaluate in one pass, the segments' integrals shared.  The last one
-        made is kept."""
-        kept = self.__dict__.get("_with_alpha")
-        if kept is not None and kept[0] is alpha:
+    def joined_with(self, alpha: Representation) -> tuple[np.ndarray, np.ndarray, tuple, np.ndarray]:
+        """The ``near`` segments' E and C ``(m, 4)`` with those of ``alpha``'s first channel, an alpha field of the
+        same segments (``composite.LayerFields.carries_alpha``), their ``near_tables`` and ``near_bounds``: what the
+        raster's kernels of four channels take with the two fields' expansions.  The last ones made are kept (a
+        few rows a segment), without keeping ``alpha``."""
+        kept = self.__dict__.get("_joined")
+        if kept is not None and kept[0]() is alpha:
             return kept[1]
-        (seg, cell_start), alpha_segments = self.near, alpha.near[0]
-        terms = self.order + 1
-        combined = Representation(
-            self.width, self.height, self.lattice,
-            replace(seg, flux=np.concatenate([seg.flux, alpha_segments.flux[:, :1]], axis=1),
-                    jump=np.concatenate([seg.jump, alpha_segments.jump[:, :1]], axis=1)),
-            cell_start, np.concatenate([self.local[..., :terms], alpha.local[:, :, :1, :terms]], axis=2), self.order,
-            centres=None if self.centres is None or alpha.centres is None else
-            np.concatenate([self.centres, alpha.centres[..., :1]], axis=2))
-        self.__dict__["_with_alpha"] = alpha, combined  # a frozen dataclass's memo, as ``cached_property``'s
-        return combined
+        (seg, cell_start), lattice, alpha_segments = self.near, self.lattice, alpha.near[0]
+        flux, jump = with_alpha(seg.flux, alpha_segments.flux), with_alpha(seg.jump, alpha_segments.jump)
+        joined = (flux, jump, near_tables(seg.p, seg.q, flux, jump),
+                  error_bounds(lattice.cells_per_side, lattice.cell_size, cell_start, flux, jump))
+        self.__dict__["_joined"] = weakref.ref(alpha), joined  # a frozen dataclass's memo, as ``cached_property``'s
+        return joined
 
     @cached_property
     def near_tables(self) -> tuple[np.ndarray, np.ndarray]:
@@ -191,6 +187,13 @@ class Representation:
             point_coeffs = self.points.polynomials(order)
             coeffs += point_coeffs if cells is None else point_coeffs[cells]
         return coeffs
+
+
+def with_alpha(colour: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+    """``(m, 4)``: segments' colour values ``(m, 3)`` (E or C) and their alpha field's first channel's: a layer
+    whose alpha field has its image's segments (``composite.LayerFields.carries_alpha``) as one field of four
+    channels."""
+    return np.concatenate([colour, alpha[:, :1]], axis=1)
 
 
 def same_geometry(before: Representation, after: Representation) -> bool:

@@ -35,7 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..engine import Representation, local_polynomials
+from ..engine import Representation, local_polynomials, with_alpha
 
 TWO_PI = 2.0 * np.pi
 
@@ -230,11 +230,6 @@ def segment_table(rep: Representation, flux: np.ndarray | None = None, jump: np.
     if out.channels == 3:
         table[:, 1, 2 if weights is not None else 3] = np.hypot(*(q - p).T)
     return out
-
-
-def with_alpha(colour: np.ndarray, alpha: np.ndarray) -> np.ndarray:
-    """``(m, 4)``: the segments' colour values ``(m, 3)`` and their alpha field's first channel's."""
-    return np.concatenate([colour, alpha[:, :1]], axis=1)
 
 
 def refill(table: SegmentTable, flux: np.ndarray, jump: np.ndarray) -> None:

@@ -2,7 +2,7 @@
 
 The grid kernels copy the segments near a group of samples (a cell's 3x3
 block, a column of three cells, a sub-cell's near part) into one table of
-``BLOCK_ROWS`` rows, so the loop over the samples reads contiguous memory
+``GEOMETRY + 2 channels`` rows, so the loop over the samples reads contiguous memory
 (``gather_block``), and sum them with the samples innermost, where the loop
 vectorises (``samples_loop``).  The loop is written once and made for a
 precision from that precision's layer functions: ``by_samples`` here from
@@ -22,7 +22,7 @@ from .fastmath import POLY_MATH, double_layer, log_r2, potentials_from
 #: Rows of a gathered table: p, q, tangent, length (as ``segment_sums.segment_table``), the channels of E, then of
 #: C; the first ``GEOMETRY`` are the segment's geometry.  Three channels (colour) or four (an alpha field with the
 #: same segments after them: ``raster``'s carried alpha).
-GEOMETRY, BLOCK_ROWS = 7, 13
+GEOMETRY = 7
 
 
 @numba.njit(cache=True, inline="always", fastmath=POLY_MATH, error_model="numpy")

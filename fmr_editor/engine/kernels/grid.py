@@ -287,7 +287,7 @@ _NO_SKIP = np.zeros((0, 0), np.bool_)
 
 
 def _column_sizes(n: int, cell_start: np.ndarray, x_start: np.ndarray, y_start: np.ndarray) -> tuple[int, int]:
-    """The most segments in a column of three cells and the most samples in a window of three (``_near_row``)."""
+    """The most segments in a column of three cells and the most samples in a window of three (``near_row``)."""
     counts = np.diff(cell_start).reshape(n, n)
     column = counts.copy()
     column[1:] += counts[:-1]

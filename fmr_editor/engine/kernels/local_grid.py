@@ -25,6 +25,7 @@ from .fastmath import FAST_MATH, INV_TWO_PI
 from .grid import grid_arrays, grid_cell_runs
 
 _NO_CENTRES = np.zeros((0, 0, 3))
+_NO_FOURTH = np.zeros((0, 0, 1, 1), np.complex128)
 
 #: The largest distance from its cell's centre a sample inside the cell can have (a corner's), in cell sizes.
 CORNER_RADIUS = np.sqrt(0.5)
@@ -157,10 +158,11 @@ def _local_kernel(channels):
     four = channels == 4
 
     @numba.njit(parallel=True, cache=True, fastmath=FAST_MATH, error_model="numpy")
-    def local_grid(local, centres, order, degrees, across, down, xs, ys, x_start, y_start, cell_size, skip, skipping,
-                   zero_skipped, out):
+    def local_grid(local, fourth, centres, fourth_centres, order, degrees, across, down, xs, ys, x_start, y_start,
+                   cell_size, skip, skipping, zero_skipped, out):
         """Overwrite ``out``'s samples with their cell's expansion, except in cells where ``skipping and skip`` (with
-        ``zero_skipped``, 0 there); cells of degree 0 read ``centres`` unless it is empty."""
+        ``zero_skipped``, 0 there); cells of degree 0 read ``centres`` unless it is empty.  Of four channels, the
+        fourth is ``fourth``'s first (and ``fourth_centres``')."""
         n = local.shape[0]
         centred = centres.shape[0] > 0
         inv = 1.0 / cell_size
@@ -185,16 +187,23 @@ def _local_kernel(channels):
                 if degree == 0 and centred:  # one contiguous read, not three terms 144 bytes apart
                     for a in range(rows):
                         for b in range(xa, xa + width):
-                            for c in range(channels):
+                            for c in range(3):
                                 out[ya + a, b, c] = centres[cy, cx, c]
+                            if four:
+                                out[ya + a, b, 3] = fourth_centres[cy, cx, 0]
                     continue
+                if four:  # the four channels' coefficients side by side
+                    for l in range(degree + 1):
+                        for c in range(3):
+                            coeffs[c, l] = local[cy, cx, c, l]
+                        coeffs[3, l] = fourth[cy, cx, 0, l]
                 if rows * width < FLAT:  # from the coefficients as they are: a copy would cost as much again
                     for a in range(rows):
                         eta = ys[ya + a] * inv - (cy + 0.5)
                         for b in range(xa, xa + width):
                             xi = xs[b] * inv - (cx + 0.5)
                             if four:
-                                r0, r1, r2, r3 = _by_horner4(local[cy, cx], degree, xi, eta)
+                                r0, r1, r2, r3 = _by_horner4(coeffs, degree, xi, eta)
                             else:
                                 r0, r1, r2, r3 = _by_horner3(local[cy, cx], degree, xi, eta)
                             out[ya + a, b, 0], out[ya + a, b, 1] = r0 * INV_TWO_PI, r1 * INV_TWO_PI
@@ -202,9 +211,10 @@ def _local_kernel(channels):
                             if four:
                                 out[ya + a, b, 3] = r3 * INV_TWO_PI
                     continue
-                for c in range(channels):
-                    for l in range(degree + 1):
-                        coeffs[c, l] = local[cy, cx, c, l]
+                if not four:
+                    for c in range(3):
+                        for l in range(degree + 1):
+                            coeffs[c, l] = local[cy, cx, c, l]
                 xi, eta = scratch[2 + channels], scratch[3 + channels]
                 for a in range(rows):
                     for b in range(width):
@@ -230,16 +240,17 @@ _LOCAL_GRID = {channels: _local_kernel(channels) for channels in (3, 4)}
 def local_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.ndarray, cell_size: float,
                      out: np.ndarray | None = None, skip: np.ndarray | None = None,
                      degrees: np.ndarray | None = None, offsets: tuple[np.ndarray, np.ndarray] | None = None,
-                     centres: np.ndarray | None = None, zero_skipped: bool = False) -> np.ndarray:
+                     centres: np.ndarray | None = None, zero_skipped: bool = False,
+                     fourth: tuple[np.ndarray, np.ndarray | None] | None = None) -> np.ndarray:
     """``(1/2pi) Re sum_{l <= d} L_l w^l`` of each sample's cell on the grid ``ys x xs``, ``(len(ys), len(xs),
-    channels)``, ``d`` the cell's degree (``cell_degree``: at most ``order``).
+    channels)``, ``d`` the cell's degree (``cell_degree``: at most ``order``): 3 channels, or 4 with ``fourth``.
 
     Compiled twin of ``local_field_reference``.
 
     Parameters
     ----------
     local : numpy.ndarray
-        ``(n, n, channels, > order)`` complex scaled local expansions of the fine cells, 3 or 4 channels.
+        ``(n, n, 3, > order)`` complex scaled local expansions of the fine cells.
     order : int
         Highest term evaluated.
     xs, ys : numpy.ndarray
@@ -259,29 +270,38 @@ def local_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.ndarr
         ``largest_offsets`` of the columns and rows of cells, when the grid is a band of a larger one (whose
         cells' degrees must not depend on the band); by default of ``xs`` and ``ys``.
     centres : numpy.ndarray, optional
-        ``(n, n, channels)`` float64 ``Re L_0 / 2pi`` of each cell (``Representation.centre_values``): what cells of
+        ``(n, n, 3)`` float64 ``Re L_0 / 2pi`` of each cell (``Representation.centre_values``): what cells of
         degree 0 read instead of ``local``, the same values from one contiguous row (at level 10, one sample a
         cell at 1024^2, this far field went 12.5 -> 1.2 ms).
+    fourth : tuple of numpy.ndarray, optional
+        ``(local, centres)`` of another field of the lattice (a translucent layer's alpha field): the first
+        channel of each is evaluated as a fourth channel (``centres`` wanted when ``centres`` is given).  Its
+        expansions are read where they are, not joined to ``local`` (a copy the size of the expansions).
     """
     if not 0 <= order < local.shape[-1]:
         raise ValueError(f"order must be between 0 and {local.shape[-1] - 1}")
     # a writeable copy (a read-only array would compile the kernel anew)
     degrees = np.full(1, order, np.int64) if degrees is None else np.array(degrees, np.int64)
-    n, channels = local.shape[0], local.shape[2]
-    if channels not in (3, 4):
-        raise ValueError("local must have 3 or 4 channels")
+    n, channels = local.shape[0], 3 if fourth is None else 4
+    fourth_local, fourth_centres = (_NO_FOURTH, None) if fourth is None else fourth
     xs, ys, out = grid_arrays(xs, ys, out, channels)
     if skip is not None and skip.shape != (n, n):
         raise ValueError(f"skip must have the shape {(n, n)}")
-    if centres is not None and (centres.shape != (n, n, channels) or centres.dtype != np.float64):
-        raise ValueError(f"centres must be float64 of the shape {(n, n, channels)}")
+    for values in (centres, fourth_centres):
+        if values is not None and (values.shape[:2] != (n, n) or values.ndim != 3 or values.dtype != np.float64):
+            raise ValueError(f"centres must be float64 of the shape {(n, n, 3)}")
+    if fourth is not None and (fourth_local.shape[:2] != (n, n) or fourth_local.shape[-1] <= order
+                               or (centres is None) != (fourth_centres is None)):
+        raise ValueError("the fourth channel's expansions (and centres) must match the others'")
     if out.size == 0:
         return out
     flags = np.zeros((1, 1), np.bool_) if skip is None else np.ascontiguousarray(skip, np.bool_)
     across, down = offsets or (largest_offsets(xs, cell_size, n), largest_offsets(ys, cell_size, n))
     with numba.parallel_chunksize(1):
-        _LOCAL_GRID[channels](np.asarray(local, np.complex128),
-                              _NO_CENTRES if centres is None else np.ascontiguousarray(centres), int(order), degrees,
-                              across, down, xs, ys, grid_cell_runs(xs, cell_size, n), grid_cell_runs(ys, cell_size, n),
-                              float(cell_size), flags, skip is not None, bool(zero_skipped), out)
+        _LOCAL_GRID[channels](np.asarray(local, np.complex128), np.asarray(fourth_local, np.complex128),
+                              _NO_CENTRES if centres is None else np.ascontiguousarray(centres),
+                              _NO_CENTRES if fourth_centres is None else np.ascontiguousarray(fourth_centres),
+                              int(order), degrees, across, down, xs, ys, grid_cell_runs(xs, cell_size, n),
+                              grid_cell_runs(ys, cell_size, n), float(cell_size), flags, skip is not None,
+                              bool(zero_skipped), out)
     return out

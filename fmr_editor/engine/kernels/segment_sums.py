@@ -95,7 +95,7 @@ def segment_table(p: np.ndarray, q: np.ndarray) -> np.ndarray:
 
 
 def _weights(flux: np.ndarray, jump: np.ndarray) -> np.ndarray:
-    """``(6, n)`` rows: the three channels of E, then of C."""
+    """``(2 channels, n)`` rows: the channels of E, then of C."""
     return np.ascontiguousarray(np.concatenate([np.asarray(flux, np.float64).T, np.asarray(jump, np.float64).T]))
 
 

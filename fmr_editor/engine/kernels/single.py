@@ -196,7 +196,7 @@ def doubt_single(x, y, px, py, qx, qy):
     return near_end or (abs(cross) < _CROSS and dot <= _ZERO)
 
 
-#: ``blocks.by_samples`` in float32: ``acc (3, count)`` from ``block (13, m)`` at ``sx, sy`` (all in cell units,
+#: ``blocks.by_samples`` in float32: ``acc (3, count)`` from ``block (7 + 6, m)`` at ``sx, sy`` (all in cell units,
 #: float32; ``acc`` lacks ``gather_single``'s terms); samples with a pair in doubt are marked.  ``4``: of four
 #: channels.
 by_samples_single = samples_loop(potentials_single, double_layer_single, log_r2_single, doubt_single)

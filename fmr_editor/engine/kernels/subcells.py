@@ -91,7 +91,8 @@ def _distance2(x, y, seg, k):
 
 @numba.njit(cache=True, inline="always", fastmath=POLY_MATH, error_model="numpy")
 def _p2l_state(count, far, xc, yc, size, state):
-    """Per segment of ``far (13, count)``, what its expansion about (xc, yc) starts from, into ``state (12, count)``.
+    """Per segment of ``far (7 + 2 channels, count)``, what its expansion about (xc, yc) starts from, into
+    ``state (12, count)``.
 
     Rows: ``S`` and ``D`` at the centre, ``J_1`` (re, im) and ``1 / vp``, ``1 / vq`` (re, im); rows 8 to
     11 are ``_p2l_sums``' scratch.  The
@@ -222,9 +223,9 @@ def _cells_of(channels):
     rows = GEOMETRY + 2 * channels
 
     @numba.njit(cache=True, fastmath=POLY_MATH, error_model="numpy")
-    def cells_of(cells, lo, hi, local, order, xs, ys, x_start, y_start, n, cell_size, split, reach, cell_start,
-                 table, weights, out, seg, shares_p, flux_free, sub, sub_shares, sub_ff, far_seg, state, sx, sy, acc,
-                 powers, logs, doubtful, coeffs, parent, xruns, yruns):
+    def cells_of(cells, lo, hi, local, fourth, order, xs, ys, x_start, y_start, n, cell_size, split, reach,
+                 cell_start, table, weights, out, seg, shares_p, flux_free, sub, sub_shares, sub_ff, far_seg, state,
+                 sx, sy, acc, powers, logs, doubtful, coeffs, parent, xruns, yruns):
         """Write the field (far + near) of the samples of ``cells[lo:hi]`` into ``out``; the rest are the thread's
         scratch.
 
@@ -237,9 +238,12 @@ def _cells_of(channels):
                 continue
             m = gather_block(cy, max(cx - 1, 0), min(cx + 2, n), n, cell_start, table, weights, seg, shares_p,
                              flux_free)
-            for c in range(channels):
+            for c in range(3):
                 for l in range(order + 1):
                     parent[c, l] = local[cy, cx, c, l]
+            if four:
+                for l in range(order + 1):
+                    parent[3, l] = fourth[cy, cx, 0, l]
             size = cell_size / split
             inv_size = 1.0 / size
             _sub_runs(xs, xa0, xb0, cx * cell_size, inv_size, split, xruns)
@@ -307,8 +311,8 @@ def _subcell_grid_of(channels):
     rows = GEOMETRY + 2 * channels
 
     @numba.njit(parallel=True, cache=True, error_model="numpy")
-    def subcell_grid(local, order, xs, ys, x_start, y_start, n, cell_size, split, reach, cell_start, table, weights,
-                     cells, group_start, capacity, most, out):
+    def subcell_grid(local, fourth, order, xs, ys, x_start, y_start, n, cell_size, split, reach, cell_start, table,
+                     weights, cells, group_start, capacity, most, out):
         for g in numba.prange(group_start.shape[0] - 1):
             seg, sub = np.empty((rows, capacity)), np.empty((rows, capacity))
             shares_p, flux_free = np.empty(capacity, np.bool_), np.empty(capacity, np.bool_)
@@ -320,9 +324,9 @@ def _subcell_grid_of(channels):
             coeffs = np.empty((channels, order + 1), np.complex128)
             parent = np.empty((channels, order + 1), np.complex128)
             xruns, yruns = np.empty(split + 1, np.int64), np.empty(split + 1, np.int64)
-            run = (cells, group_start[g], group_start[g + 1], local, order, xs, ys, x_start, y_start, n, cell_size,
-                   split, reach, cell_start, table, weights, out, seg, shares_p, flux_free, sub, sub_shares, sub_ff,
-                   far_seg, state, sx, sy, acc, powers, logs, doubtful, coeffs, parent, xruns, yruns)
+            run = (cells, group_start[g], group_start[g + 1], local, fourth, order, xs, ys, x_start, y_start, n,
+                   cell_size, split, reach, cell_start, table, weights, out, seg, shares_p, flux_free, sub, sub_shares,
+                   sub_ff, far_seg, state, sx, sy, acc, powers, logs, doubtful, coeffs, parent, xruns, yruns)
             if four:
                 _cells4(*run)
             else:
@@ -372,6 +376,7 @@ def _plan(n, cell_start, x_start, y_start, groups, skip):
 #: Groups of cells per thread (taken dynamically).
 GROUPS_PER_THREAD = 8
 _NO_SKIP = np.zeros((0, 0), np.bool_)
+_NO_FOURTH = np.zeros((0, 0, 1, 1), np.complex128)
 
 
 def subcell_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.ndarray, cell_size: float,
@@ -380,15 +385,15 @@ def subcell_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.nda
                        tables: tuple[np.ndarray, np.ndarray] | None = None, precision: str = "double",
                        degrees: np.ndarray | None = None, offsets: tuple[np.ndarray, np.ndarray] | None = None,
                        centres: np.ndarray | None = None, skip: np.ndarray | None = None,
-                       bounds: np.ndarray | None = None) -> np.ndarray:
+                       bounds: np.ndarray | None = None,
+                       fourth: tuple[np.ndarray, np.ndarray | None] | None = None) -> np.ndarray:
     """The field of an FMR's segments (far and near) on the tensor grid ``ys x xs``, ``(len(ys), len(xs),
-    channels)``.
+    channels)``: 3 channels, or 4 with ``fourth``.
 
     Parameters
     ----------
     local : numpy.ndarray
-        ``(n, n, channels, > order)`` complex scaled local expansions of the fine cells, 3 or 4 channels (as
-        ``flux`` and ``jump`` have columns).
+        ``(n, n, 3, > order)`` complex scaled local expansions of the fine cells.
     order : int
         Degree of the polynomials evaluated (and of the segments' expansions).
     xs, ys : numpy.ndarray
@@ -396,7 +401,8 @@ def subcell_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.nda
     cell_size : float
         Fine cell size in pixels.
     cell_start, p, q, flux, jump : numpy.ndarray
-        The segments sorted by fine cell, as for ``segment_sums.near_sum``.
+        The segments sorted by fine cell, as for ``segment_sums.near_sum`` (with ``fourth``, ``flux`` and
+        ``jump`` have a fourth column: the other field's).
     split : int
         Sub-cells per side of a fine cell (1: none).
     separation : float
@@ -415,25 +421,31 @@ def subcell_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.nda
     skip : numpy.ndarray, optional
         ``(n, n)`` bool: cells whose samples are not needed (``raster``: a layer hidden there).  They are 0 plus
         a part of their near field or none; the other samples are as without ``skip``.
+    fourth : tuple of numpy.ndarray, optional
+        ``(local, centres)`` of a field of the same segments (a translucent layer's alpha field), whose first
+        channel is evaluated as a fourth (``local_grid.local_field_grid``'s).
     """
     if not 0 <= order < local.shape[-1]:
         raise ValueError(f"order must be between 0 and {local.shape[-1] - 1}")
     if split < 1:
         raise ValueError("split must be at least 1")
-    xs, ys, out = grid_arrays(xs, ys, out, local.shape[2])
+    channels = 3 if fourth is None else 4
+    if np.shape(flux)[1] != channels:
+        raise ValueError(f"flux and jump must have {channels} columns")
+    xs, ys, out = grid_arrays(xs, ys, out, channels)
     if out.size == 0:
         return out
     n = local.shape[0]
     cell_start = np.asarray(cell_start, np.int64)
     if split == 1:
         local_field_grid(local, order, xs, ys, cell_size, out=out, skip=skip, degrees=degrees, offsets=offsets,
-                         centres=centres, zero_skipped=True)
+                         centres=centres, zero_skipped=True, fourth=fourth)
         return near_field_grid(xs, ys, n, cell_size, cell_start, p, q, flux, jump, out=out, tables=tables,
                                precision=precision, skip=skip, bounds=bounds)
     counts = np.pad(np.diff(cell_start).reshape(n, n), 1)
     near = sum(counts[1 + dy : 1 + dy + n, 1 + dx : 1 + dx + n] for dy in (-1, 0, 1) for dx in (-1, 0, 1)) > 0
     local_field_grid(local, order, xs, ys, cell_size, out=out, skip=near if skip is None else near | skip,
-                     degrees=degrees, offsets=offsets, centres=centres, zero_skipped=skip is not None)
+                     degrees=degrees, offsets=offsets, centres=centres, zero_skipped=skip is not None, fourth=fourth)
     x_start, y_start = grid_cell_runs(xs, cell_size, n), grid_cell_runs(ys, cell_size, n)
     cells, group_start, capacity, most = _plan(n, cell_start, x_start, y_start,
                                                GROUPS_PER_THREAD * numba.get_num_threads(),
@@ -442,7 +454,8 @@ def subcell_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.nda
         return out
     table, weights = tables or near_tables(p, q, flux, jump)
     with numba.parallel_chunksize(1):
-        _SUBCELL_GRID[out.shape[2]](np.asarray(local, np.complex128), int(order), xs, ys, x_start, y_start, n,
-                                    float(cell_size), int(split), float(separation), cell_start, table, weights, cells,
-                                    group_start, capacity, most, out)
+        _SUBCELL_GRID[channels](np.asarray(local, np.complex128),
+                                np.asarray(_NO_FOURTH if fourth is None else fourth[0], np.complex128), int(order), xs,
+                                ys, x_start, y_start, n, float(cell_size), int(split), float(separation), cell_start,
+                                table, weights, cells, group_start, capacity, most, out)
     return out
