@@ -135,4 +135,3 @@ def samples_loop(layers, double, log_r2_of, doubt, channels=3):
 #: The float64 loop (``samples_loop`` of ``fastmath``'s layers), of three channels and of four.
 by_samples = samples_loop(potentials_from, double_layer, log_r2, never)
 by_samples4 = samples_loop(potentials_from, double_layer, log_r2, never, channels=4)
-
