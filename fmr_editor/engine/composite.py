@@ -21,6 +21,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from enum import StrEnum
+from functools import cached_property
 
 import numpy as np
 
@@ -118,11 +119,12 @@ class LayerFields:
         """True when the weight varies over the canvas (an enabled mask with items)."""
         return self.mask_enabled and self.mask is not None
 
-    @property
+    @cached_property
     def carries_alpha(self) -> bool:
         """Whether the alpha field can be evaluated as its image's fourth channel (the canvas's ``packing``, the
         raster's kernels of four channels): the same segments, lattice and order, no points of its own, and no
-        blur (a blurred layer's image and alpha are blurred apart)."""
+        blur (a blurred layer's image and alpha are blurred apart).  Kept: every band of a raster and every draw
+        asks, and comparing the segments reads them all."""
         image, alpha = self.image, self.alpha
         return (alpha is not None and self.blur is None and alpha.points is None and alpha.order == image.order
                 and alpha.lattice.cells_per_side == image.lattice.cells_per_side

@@ -25,7 +25,8 @@ from .fastmath import FAST_MATH, INV_TWO_PI
 from .grid import grid_arrays, grid_cell_runs
 
 _NO_CENTRES = np.zeros((0, 0, 3))
-_NO_FOURTH = np.zeros((0, 0, 1, 1), np.complex128)
+#: The kernels' ``fourth`` expansions of three channels: none.
+NO_FOURTH = np.zeros((0, 0, 1, 1), np.complex128)
 
 #: The largest distance from its cell's centre a sample inside the cell can have (a corner's), in cell sizes.
 CORNER_RADIUS = np.sqrt(0.5)
@@ -283,7 +284,7 @@ def local_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.ndarr
     # a writeable copy (a read-only array would compile the kernel anew)
     degrees = np.full(1, order, np.int64) if degrees is None else np.array(degrees, np.int64)
     n, channels = local.shape[0], 3 if fourth is None else 4
-    fourth_local, fourth_centres = (_NO_FOURTH, None) if fourth is None else fourth
+    fourth_local, fourth_centres = (NO_FOURTH, None) if fourth is None else fourth
     xs, ys, out = grid_arrays(xs, ys, out, channels)
     if skip is not None and skip.shape != (n, n):
         raise ValueError(f"skip must have the shape {(n, n)}")

@@ -46,7 +46,7 @@ import numpy as np
 from .blocks import GEOMETRY, by_samples, by_samples4, gather_block
 from .fastmath import FAST_MATH, INV_TWO_PI, POLY_MATH, TWO_PI, log_r2, potentials_from
 from .grid import grid_arrays, grid_cell_runs, near_field_grid
-from .local_grid import by_powers, by_powers4, local_field_grid
+from .local_grid import NO_FOURTH, by_powers, by_powers4, local_field_grid
 from .segment_sums import near_tables
 
 #: Default separation, in sub-cell sizes, from a sub-cell's centre beyond which a segment is expanded:
@@ -376,7 +376,6 @@ def _plan(n, cell_start, x_start, y_start, groups, skip):
 #: Groups of cells per thread (taken dynamically).
 GROUPS_PER_THREAD = 8
 _NO_SKIP = np.zeros((0, 0), np.bool_)
-_NO_FOURTH = np.zeros((0, 0, 1, 1), np.complex128)
 
 
 def subcell_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.ndarray, cell_size: float,
@@ -455,7 +454,7 @@ def subcell_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.nda
     table, weights = tables or near_tables(p, q, flux, jump)
     with numba.parallel_chunksize(1):
         _SUBCELL_GRID[channels](np.asarray(local, np.complex128),
-                                np.asarray(_NO_FOURTH if fourth is None else fourth[0], np.complex128), int(order), xs,
+                                np.asarray(NO_FOURTH if fourth is None else fourth[0], np.complex128), int(order), xs,
                                 ys, x_start, y_start, n, float(cell_size), int(split), float(separation), cell_start,
                                 table, weights, cells, group_start, capacity, most, out)
     return out
