@@ -23,7 +23,9 @@ def _weight(i, mask, luma, mask_base, mask_enabled, mask_inverted, negligible, a
     weight = opacity
     if mask_enabled:
         value = mask_base
-        if mask.shape[0] > 0:
+        if mask.shape[0] > 0 and mask.shape[1] == 1:  # the luminance already (``composite.scalar_reads``)
+            value += mask[i, 0]
+        elif mask.shape[0] > 0:
             value += mask[i, 0] * luma[0] + mask[i, 1] * luma[1] + mask[i, 2] * luma[2]
         if mask_inverted:
             value = 1.0 - value
@@ -58,7 +60,8 @@ def blend_layer(out, coverage, colour, matrix, offset, transformed, mask, luma, 
     matrix, offset : numpy.ndarray
         ``(3, 3)`` and ``(3,)``: the layer's colour transform, applied when ``transformed``.
     mask : numpy.ndarray
-        ``(n, 3)`` the mask's values, or ``(0, 3)``: none (``mask_base`` alone, when ``mask_enabled``).
+        ``(n, 3)`` the mask's values, ``(n, 1)`` their luminance, or ``(0, 3)``: none (``mask_base`` alone, when
+        ``mask_enabled``).
     luma : numpy.ndarray
         ``(3,)`` weights of the mask's luminance.
     negligible : float

@@ -195,7 +195,8 @@ def compose(composite: Composite, values: Callable[[Representation], np.ndarray]
     ``a <- m + (1 - m) a`` from 0 up the layers (1 where a layer covers, 0 where nothing shows).
     Each layer is blended in one compiled pass (``blending.blend_layer``); ``compose_reference`` is the plain form.
     An image's values may have a fourth channel: its layer's alpha field, carried (``LayerFields.carries_alpha``),
-    and then that alpha field's own values are not read.
+    and then that alpha field's own values are not read.  A mask's or an alpha field's values may be the one
+    channel it is read through (``scalar_reads``).
     """
     count = int(np.prod(shape[:-1]))
     out, alpha = np.zeros((count, 3)), np.zeros(count)
@@ -236,6 +237,21 @@ def hidden(composite: Composite, values: Callable[[Representation], np.ndarray],
 
 
 _NO_SAMPLES = np.zeros((0, 3))
+#: The weights of the one channel an alpha field is read through: its first.
+FIRST_CHANNEL = np.array([1.0, 0.0, 0.0])
+
+
+def scalar_reads(composite: Composite) -> dict[int, np.ndarray]:
+    """By ``id``, the representations ``composite.shown`` reads only through one combination ``w . colour`` of
+    their channels, and that ``w (3,)``: a mask's luminance (``MASK_LUMA``), an alpha field's first channel
+    (``FIRST_CHANNEL``).  ``compose`` and ``hidden`` take such a field's values as that one channel ``(..., 1)`` or
+    as its colour; a field read in two ways (a mask that is also an image, say) is not listed."""
+    weights = {Role.MASK: MASK_LUMA, Role.ALPHA: FIRST_CHANNEL}
+    roles: dict[int, set[Role]] = {}
+    for layer in composite.shown:
+        for role, rep in layer.read:
+            roles.setdefault(id(rep), set()).add(role)
+    return {key: weights[role] for key, (role, *others) in roles.items() if not others and role in weights}
 
 
 def _samples(values: np.ndarray, count: int) -> np.ndarray:

@@ -31,7 +31,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from .composite import Composite, Role, compose, hidden
+from .composite import Composite, Role, compose, hidden, scalar_reads
 from .fmm.lattice import Lattice
 from .fmm.orders import sample_degrees
 from .kernels.grid import cells_all, grid_cell_runs
@@ -196,7 +196,9 @@ def rasterise(
         target = image[rows] if samples == 1 else buffer[: len(band_ys)]
 
         def field(source: Representation, out: np.ndarray | None = None, skip: np.ndarray | None = None,
-                  alpha: Representation | None = None) -> np.ndarray:
+                  alpha: Representation | None = None, scalar: np.ndarray | None = None) -> np.ndarray:
+            if scalar is not None and method == "fmr" and not len(source.near[0].p):
+                return _scalar_points(source, order, xs, band_ys, scalar)
             out = np.empty((len(band_ys), len(xs), 3 if alpha is None else 4)) if out is None else out
             if method == "direct":
                 out[..., :3] = _direct_samples(source, xs, band_ys)
@@ -223,24 +225,27 @@ def rasterise(
 def _composed(composite: Composite, field: Callable, xs: np.ndarray, ys: np.ndarray, coverage: bool) -> np.ndarray:
     """``compose`` of the grid ``ys x xs``, each layer's image evaluated only in the cells where it can show
     (``composite.hidden``): a layer under a mask that hides it there, or under a layer that covers it, costs
-    nothing there.  ``field(rep, skip=cells, alpha=alpha)`` evaluates a representation but in ``cells``, and an
-    alpha field of its segments as its fourth channel.
+    nothing there.  ``field(rep, skip=cells, alpha=alpha, scalar=w)`` evaluates a representation but in ``cells``,
+    an alpha field of its segments as its fourth channel, and, of diffusion points alone, ``w . colour`` only.
 
     The masks and alpha fields (``_weighing``) are evaluated once and held until ``compose`` reads them; each
     other image when ``compose`` reads it.  A translucent layer's alpha field made of its image's segments
     (``LayerFields.carries_alpha``) is evaluated with its image, in one pass of four channels (the segments'
     integrals shared), which ``compose`` reads for both; not where another layer shows the same image, which
-    would read that image's values too.
+    would read that image's values too.  A mask or alpha field of diffusion points alone (a soft mask) is
+    evaluated in the one channel it is read through (``composite.scalar_reads``), a third of its work.
     """
     held: dict[int, np.ndarray] = {}
     shows = Counter(id(layer.image) for layer in composite.shown)
     carried = {id(layer.alpha): layer.image for layer in composite.shown
                if shows[id(layer.image)] == 1 and layer.carries_alpha}
+    scalars = scalar_reads(composite)
 
     def weights_of(source: Representation) -> np.ndarray:
         if id(source) not in held:
             image = carried.get(id(source))
-            held[id(source)] = field(source) if image is None else field(image, alpha=source)
+            held[id(source)] = (field(source, scalar=scalars.get(id(source))) if image is None
+                                else field(image, alpha=source))
             if image is not None:
                 held[id(image)] = held[id(source)]
         return held[id(source)]
@@ -309,6 +314,16 @@ def _fmr_samples(rep: Representation, order: int | None, xs: np.ndarray, ys: np.
         colour = np.zeros(out.shape[:2] + (3,))
         rep.points.add_grid(order, xs, ys, colour)
         out[..., :3] += colour
+
+
+def _scalar_points(rep: Representation, order: int | None, xs: np.ndarray, ys: np.ndarray,
+                   scalar: np.ndarray) -> np.ndarray:
+    """``(len(ys), len(xs), 1)``: ``scalar . colour`` of a field of diffusion points alone (no ``near`` segments) on
+    the grid ``ys x xs``, a third of the work of its colour."""
+    out = np.zeros((len(ys), len(xs), 1))
+    if rep.points is not None:
+        rep.points.add_grid(rep.order if order is None else order, xs, ys, out, scalar)
+    return out
 
 
 def _direct_samples(rep: Representation, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:

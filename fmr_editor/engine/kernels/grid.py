@@ -284,6 +284,7 @@ def near_field_grid(
 
 
 _NO_SKIP = np.zeros((0, 0), np.bool_)
+_NO_SCALAR = np.zeros(0)
 
 
 def _column_sizes(n: int, cell_start: np.ndarray, x_start: np.ndarray, y_start: np.ndarray) -> tuple[int, int]:
@@ -301,9 +302,9 @@ def _column_sizes(n: int, cell_start: np.ndarray, x_start: np.ndarray, y_start: 
 
 
 @numba.njit(parallel=True, cache=True, fastmath=GRID_MATH, error_model="numpy")
-def _far_grid(poly, degree, xs, ys, x_start, y_start, cell_size, out, add):
+def _far_grid(poly, scalar, degree, xs, ys, x_start, y_start, cell_size, out, add):
     """Horner in eta, then in xi, up to ``degree`` per axis; the inner loops run over a cell's samples (they
-    vectorise)."""
+    vectorise).  With ``scalar (3,)`` (not empty), one channel: each cell's polynomial of ``scalar . colour``."""
     n = poly.shape[0]
     for cy in numba.prange(n):
         ya, yb = y_start[cy], y_start[cy + 1]
@@ -316,6 +317,7 @@ def _far_grid(poly, degree, xs, ys, x_start, y_start, cell_size, out, add):
         partial = np.empty((degree + 1, rows))
         xi = np.empty(x_start[n] - x_start[0])
         values = np.empty_like(xi)
+        mixed = np.empty((degree + 1, degree + 1))
         for cx in range(n):
             xa, xb = x_start[cx], x_start[cx + 1]
             cols = xb - xa
@@ -323,8 +325,14 @@ def _far_grid(poly, degree, xs, ys, x_start, y_start, cell_size, out, add):
                 continue
             for b in range(cols):
                 xi[b] = xs[xa + b] / cell_size - (cx + 0.5)
-            for c in range(3):
+            for c in range(out.shape[2]):
                 coeffs = poly[cy, cx, c]
+                if scalar.shape[0]:
+                    for i in range(degree + 1):
+                        for j in range(degree + 1):
+                            mixed[i, j] = (scalar[0] * poly[cy, cx, 0, i, j] + scalar[1] * poly[cy, cx, 1, i, j]
+                                           + scalar[2] * poly[cy, cx, 2, i, j])
+                    coeffs = mixed
                 # partial[i, a] = sum_j coeffs[i, j] eta_a^j
                 for i in range(degree + 1):
                     for a in range(rows):
@@ -348,8 +356,10 @@ def _far_grid(poly, degree, xs, ys, x_start, y_start, cell_size, out, add):
 
 
 def far_field_grid(poly: np.ndarray, xs: np.ndarray, ys: np.ndarray, cell_size: float,
-                   order: int | None = None, out: np.ndarray | None = None) -> np.ndarray:
-    """Cell polynomials on the tensor grid ``ys x xs``, ``(len(ys), len(xs), 3)``.
+                   order: int | None = None, out: np.ndarray | None = None,
+                   scalar: np.ndarray | None = None) -> np.ndarray:
+    """Cell polynomials on the tensor grid ``ys x xs``, ``(len(ys), len(xs), 3)``; with ``scalar (3,)``, those of
+    the one channel ``scalar . colour`` (a mask's luminance: a third of the work), ``(len(ys), len(xs), 1)``.
 
     Compiled twin of ``raster.far_field_reference``.
 
@@ -364,13 +374,15 @@ def far_field_grid(poly: np.ndarray, xs: np.ndarray, ys: np.ndarray, cell_size: 
     order : int, optional
         Only the terms ``i, j <= order`` (all by default; a higher order adds nothing).
     out : numpy.ndarray, optional
-        C-contiguous float64 ``(len(ys), len(xs), 3)``: the polynomials are *added* to it.
+        C-contiguous float64 of that shape: the polynomials are *added* to it.
+    scalar : numpy.ndarray, optional
     """
     fresh = out is None
-    xs, ys, out = grid_arrays(xs, ys, out)
+    xs, ys, out = grid_arrays(xs, ys, out, 3 if scalar is None else 1)
     n, own = poly.shape[0], poly.shape[-1] - 1
     degree = own if order is None else min(int(order), own)
     if out.size:
-        _far_grid(np.ascontiguousarray(poly, dtype=np.float64), degree, xs, ys,
+        _far_grid(np.ascontiguousarray(poly, dtype=np.float64),
+                  _NO_SCALAR if scalar is None else np.ascontiguousarray(scalar, np.float64), degree, xs, ys,
                   grid_cell_runs(xs, cell_size, n), grid_cell_runs(ys, cell_size, n), float(cell_size), out, not fresh)
     return out

@@ -120,17 +120,17 @@ def _near_grid(xs, ys, x_start, y_start, n, cell_start, members, px, py, inv_r2,
                 for b in range(xb - xa):
                     d = xs[xa + b] - px[p]
                     ex[b] = math.exp(-d * d * inv_r2[p])
-                w0, w1, w2 = w[p, 0], w[p, 1], w[p, 2]
                 for a in range(yb - ya):
                     for b in range(xb - xa):
                         v = ey[a] * ex[b]
-                        out[ya + a, xa + b, 0] += w0 * v
-                        out[ya + a, xa + b, 1] += w1 * v
-                        out[ya + a, xa + b, 2] += w2 * v
+                        for c in range(w.shape[1]):
+                            out[ya + a, xa + b, c] += w[p, c] * v
 
 
-def near_grid(near: NearPoints, xs: np.ndarray, ys: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
-    """The near points' exact sum on the tensor grid ``ys x xs``, ``(len(ys), len(xs), 3)``.
+def near_grid(near: NearPoints, xs: np.ndarray, ys: np.ndarray, out: np.ndarray | None = None,
+              scalar: np.ndarray | None = None) -> np.ndarray:
+    """The near points' exact sum on the tensor grid ``ys x xs``, ``(len(ys), len(xs), 3)``; with ``scalar``
+    ``(3,)``, the one channel ``scalar . colour`` (a mask's luminance), ``(len(ys), len(xs), 1)``.
 
     Parameters
     ----------
@@ -138,15 +138,17 @@ def near_grid(near: NearPoints, xs: np.ndarray, ys: np.ndarray, out: np.ndarray 
     xs, ys : numpy.ndarray
         Sorted sample coordinates in document pixels.
     out : numpy.ndarray, optional
-        C-contiguous float64 ``(len(ys), len(xs), 3)``; the sum is *added* to it.
+        C-contiguous float64 of that shape; the sum is *added* to it.
+    scalar : numpy.ndarray, optional
     """
-    xs, ys, out = grid_arrays(xs, ys, out)
+    xs, ys, out = grid_arrays(xs, ys, out, 3 if scalar is None else 1)
     if len(near) == 0 or out.size == 0:
         return out
     n, size = near.lattice.cells_per_side, near.lattice.cell_size
     p = near.points
+    weights = p.weights if scalar is None else p.weights @ np.reshape(scalar, (3, 1))
     _near_grid(xs, ys, grid_cell_runs(xs, size, n), grid_cell_runs(ys, size, n), n, near.cell_start,
-               near.members, p.positions[:, 0].copy(), p.positions[:, 1].copy(), 1.0 / p.radii**2, p.weights, out)
+               near.members, p.positions[:, 0].copy(), p.positions[:, 1].copy(), 1.0 / p.radii**2, weights, out)
     return out
 
 
