@@ -73,6 +73,22 @@ def test_compiled_local_field_equals_the_reference(xs, ys):
         np.testing.assert_allclose(got, expected, rtol=0, atol=1e-9 * np.abs(expected).max())
 
 
+@pytest.mark.parametrize("in_step", [True, False])
+def test_a_row_of_cells_whose_samples_lie_alike_makes_the_powers_of_w_once(in_step):
+    """In a raster in step with the lattice (8 samples a cell side, as lady_bug at 512^2) every cell's samples lie
+    where its neighbour's do, and a row of cells makes one table of the powers of ``w``; samples moved in every
+    other cell make one a cell.  The values are the reference's either way."""
+    local = random_expansions(np.random.default_rng(40), 8, 11)
+    xs = sample_coordinates(64, 64, 1)
+    if not in_step:
+        xs = xs + 0.3 * (xs // 8 % 2)  # still in their cells
+    made, degrees = np.zeros(8, np.int64), sample_degrees(8)
+    got = local_field_grid(local, 8, xs, xs, 8.0, degrees=degrees, tables_made=made)
+    expected = local_field_reference(local, 8, xs, xs, 8.0, degrees)
+    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12 * np.abs(expected).max())
+    assert made.tolist() == [1 if in_step else 8] * 8
+
+
 def test_each_cell_takes_the_degree_its_samples_places_need():
     """Cells whose samples lie nearer their centre take fewer terms (``orders.sample_degrees``): at the centre
     the constant term alone (the higher terms, poisoned here, are never read), a band of a grid the whole

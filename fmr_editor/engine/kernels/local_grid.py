@@ -9,8 +9,10 @@ constant term alone at the centre).  Threads take rows of cells; each cell's
 samples are evaluated by Horner's rule in ``w``, the channels side by side (three, or four: a translucent
 layer's image with its alpha field, ``raster``),
 or, in cells of many samples, all at once with the powers of ``w`` (a loop
-over the samples that vectorises).  The cost is pixels x order plus one read of the cells'
-coefficients.  Cells of few samples read them as they are, with no table: at
+over the samples that vectorises).  Those powers depend only on where the samples lie in their cell: a
+row's cells read the table of them the last cell made (``powers_table``) while their samples lie where its
+did, as every cell's do but at the edges in a raster in step with the lattice.  The cost is pixels x order
+plus one read of the cells' coefficients.  Cells of few samples read them as they are, with no table: at
 level 10 (one sample a cell at 1024^2) a table made the far field 1.4x slower.
 
 ``local_field_reference`` is the plain numpy form; the tests compare them.
@@ -25,6 +27,7 @@ from .fastmath import FAST_MATH, INV_TWO_PI
 from .grid import grid_arrays, grid_cell_runs
 
 _NO_CENTRES = np.zeros((0, 0, 3))
+_NO_COUNTS = np.zeros(0, np.int64)
 #: The kernels' ``fourth`` expansions of three channels: none.
 NO_FOURTH = np.zeros((0, 0, 1, 1), np.complex128)
 
@@ -98,6 +101,52 @@ def _powers_sum(channels):
 by_powers, by_powers4 = _powers_sum(3), _powers_sum(4)
 
 
+@numba.njit(inline="always", fastmath=FAST_MATH, error_model="numpy")
+def powers_table(order, count, xi, eta, table):
+    """``table[2 l, :count]`` and ``table[2 l + 1, :count]``: the real and imaginary parts of ``w^l``, ``l <= order``,
+    at ``w = xi + i eta``, by ``by_powers``' recurrence."""
+    for i in range(count):
+        table[0, i], table[1, i] = 1.0, 0.0
+    for l in range(order):
+        re, im, next_re, next_im = table[2 * l], table[2 * l + 1], table[2 * l + 2], table[2 * l + 3]
+        for i in range(count):
+            next_re[i], next_im[i] = re[i] * xi[i] - im[i] * eta[i], re[i] * eta[i] + im[i] * xi[i]
+
+
+def _table_sum(channels):
+    """``from_table`` of ``channels`` (3 or 4), the fourth written out beside the three (``blocks.samples_loop``)."""
+    four = channels == 4
+
+    @numba.njit(inline="always", fastmath=FAST_MATH, error_model="numpy")
+    def from_table(coeffs, order, count, table, scale, scratch):
+        a0, a1, a2 = scratch[2], scratch[3], scratch[4]
+        a3 = scratch[5] if four else scratch[4]
+        for l in range(order + 1):
+            r0, r1, r2 = coeffs[0, l].real * scale, coeffs[1, l].real * scale, coeffs[2, l].real * scale
+            i0, i1, i2 = coeffs[0, l].imag * scale, coeffs[1, l].imag * scale, coeffs[2, l].imag * scale
+            r3, i3 = (coeffs[3, l].real * scale, coeffs[3, l].imag * scale) if four else (0.0, 0.0)
+            re, im = table[2 * l], table[2 * l + 1]
+            if l == 0:
+                for i in range(count):
+                    a0[i], a1[i], a2[i] = r0 * re[i] - i0 * im[i], r1 * re[i] - i1 * im[i], r2 * re[i] - i2 * im[i]
+                    if four:
+                        a3[i] = r3 * re[i] - i3 * im[i]
+                continue
+            for i in range(count):
+                a0[i] += r0 * re[i] - i0 * im[i]
+                a1[i] += r1 * re[i] - i1 * im[i]
+                a2[i] += r2 * re[i] - i2 * im[i]
+                if four:
+                    a3[i] += r3 * re[i] - i3 * im[i]
+
+    return from_table
+
+
+#: ``by_powers`` from the powers of ``w`` in a ``powers_table`` (``table (2 (order + 1), >= count)``), made once for
+#: every cell whose samples lie where the first one's do: ``from_table`` of three channels, ``from_table4`` of four.
+from_table, from_table4 = _table_sum(3), _table_sum(4)
+
+
 def _horner(channels):
     """``Re sum_l coeffs[c, l] w^l`` at one ``w = xi + i eta`` by Horner's rule, the ``channels`` (3 or 4) side by
     side: four values (the fourth 0 of three channels)."""
@@ -160,10 +209,11 @@ def _local_kernel(channels):
 
     @numba.njit(parallel=True, cache=True, fastmath=FAST_MATH, error_model="numpy")
     def local_grid(local, fourth, centres, fourth_centres, order, degrees, across, down, xs, ys, x_start, y_start,
-                   cell_size, skip, skipping, zero_skipped, out):
+                   cell_size, skip, skipping, zero_skipped, out, tables_made):
         """Overwrite ``out``'s samples with their cell's expansion, except in cells where ``skipping and skip`` (with
         ``zero_skipped``, 0 there); cells of degree 0 read ``centres`` unless it is empty.  Of four channels, the
-        fourth is ``fourth``'s first (and ``fourth_centres``')."""
+        fourth is ``fourth``'s first (and ``fourth_centres``').  ``tables_made[cy]``, unless it is empty, counts
+        the powers tables row ``cy`` made."""
         n = local.shape[0]
         centred = centres.shape[0] > 0
         inv = 1.0 / cell_size
@@ -175,7 +225,13 @@ def _local_kernel(channels):
             if rows == 0:
                 continue
             coeffs = np.empty((channels, order + 1), np.complex128)
-            scratch = np.empty((4 + channels, rows * widest if rows * widest >= FLAT else 0))
+            flat = rows * widest if rows * widest >= FLAT else 0
+            scratch = np.empty((4 + channels, flat))
+            # the powers of w at the samples of the last cell that made them: the samples' columns' offsets from the
+            # centre (its rows' are the row's), their count and the degree; a cell whose samples lie where its did
+            # (a raster in step with the lattice: every cell but at the edges) reads them as they are
+            table, table_xi = np.empty((2 * (order + 1), flat)), np.empty(widest)
+            table_width, table_degree = 0, -1
             for cx in range(n):
                 xa, width = x_start[cx], x_start[cx + 1] - x_start[cx]
                 if width == 0:
@@ -216,15 +272,26 @@ def _local_kernel(channels):
                     for c in range(3):
                         for l in range(degree + 1):
                             coeffs[c, l] = local[cy, cx, c, l]
-                xi, eta = scratch[2 + channels], scratch[3 + channels]
-                for a in range(rows):
-                    for b in range(width):
-                        xi[a * width + b] = xs[xa + b] * inv - (cx + 0.5)
-                        eta[a * width + b] = ys[ya + a] * inv - (cy + 0.5)
+                same = width == table_width and degree <= table_degree
+                for b in range(width if same else 0):
+                    if xs[xa + b] * inv - (cx + 0.5) != table_xi[b]:
+                        same = False
+                        break
+                if not same:
+                    xi, eta = scratch[2 + channels], scratch[3 + channels]
+                    for a in range(rows):
+                        for b in range(width):
+                            xi[a * width + b] = xs[xa + b] * inv - (cx + 0.5)
+                            eta[a * width + b] = ys[ya + a] * inv - (cy + 0.5)
+                    powers_table(degree, rows * width, xi, eta, table)
+                    if tables_made.shape[0]:
+                        tables_made[cy] += 1
+                    table_xi[:width] = xi[:width]
+                    table_width, table_degree = width, degree
                 if four:
-                    by_powers4(coeffs, degree, rows * width, xi, eta, INV_TWO_PI, scratch)
+                    from_table4(coeffs, degree, rows * width, table, INV_TWO_PI, scratch)
                 else:
-                    by_powers(coeffs, degree, rows * width, xi, eta, INV_TWO_PI, scratch)
+                    from_table(coeffs, degree, rows * width, table, INV_TWO_PI, scratch)
                 for a in range(rows):
                     for b in range(width):
                         i = a * width + b
@@ -242,7 +309,8 @@ def local_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.ndarr
                      out: np.ndarray | None = None, skip: np.ndarray | None = None,
                      degrees: np.ndarray | None = None, offsets: tuple[np.ndarray, np.ndarray] | None = None,
                      centres: np.ndarray | None = None, zero_skipped: bool = False,
-                     fourth: tuple[np.ndarray, np.ndarray | None] | None = None) -> np.ndarray:
+                     fourth: tuple[np.ndarray, np.ndarray | None] | None = None,
+                     tables_made: np.ndarray | None = None) -> np.ndarray:
     """``(1/2pi) Re sum_{l <= d} L_l w^l`` of each sample's cell on the grid ``ys x xs``, ``(len(ys), len(xs),
     channels)``, ``d`` the cell's degree (``cell_degree``: at most ``order``): 3 channels, or 4 with ``fourth``.
 
@@ -278,6 +346,8 @@ def local_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.ndarr
         ``(local, centres)`` of another field of the lattice (a translucent layer's alpha field): the first
         channel of each is evaluated as a fourth channel (``centres`` wanted when ``centres`` is given).  Its
         expansions are read where they are, not joined to ``local`` (a copy the size of the expansions).
+    tables_made : numpy.ndarray, optional
+        ``(n,)`` int64: each row of cells' count of the powers of ``w`` it made is added to it (the tests').
     """
     if not 0 <= order < local.shape[-1]:
         raise ValueError(f"order must be between 0 and {local.shape[-1] - 1}")
@@ -304,5 +374,5 @@ def local_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.ndarr
                               _NO_CENTRES if fourth_centres is None else np.ascontiguousarray(fourth_centres),
                               int(order), degrees, across, down, xs, ys, grid_cell_runs(xs, cell_size, n),
                               grid_cell_runs(ys, cell_size, n), float(cell_size), flags, skip is not None,
-                              bool(zero_skipped), out)
+                              bool(zero_skipped), out, _NO_COUNTS if tables_made is None else tables_made)
     return out
