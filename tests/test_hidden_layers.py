@@ -14,11 +14,12 @@ import pytest
 from layered import SIZE, three_layers
 
 from fmr_editor.engine import LiveStack, Settings, build, raster, rasterise
-from fmr_editor.engine.composite import NEGLIGIBLE_WEIGHT, Composite, compose_reference, hidden
+from fmr_editor.engine.composite import NEGLIGIBLE_WEIGHT, Composite, compose_reference, hidden, settled
 from fmr_editor.engine.kernels.grid import cells_all, grid_cell_runs, near_field_grid
 from fmr_editor.engine.kernels.subcells import subcell_field_grid
 from fmr_editor.engine.raster import sample_coordinates
 from fmr_editor.model import Document, layer_edits
+from fmr_editor.model.layer import MASK_LUMA
 
 PIXELS = 96
 
@@ -63,8 +64,13 @@ def test_a_layered_raster_leaves_hidden_cells_out_and_equals_the_composition_of_
     bottom, middle, top = (skips[id(layer.image.local)] for layer in picture.shown)
     assert 0.1 < bottom.mean() < 0.5 and 0.3 < top.mean() < 0.8  # cells left out: under the circle, outside it
     assert middle is None or not middle.all()
-    # masks whole (one of points alone has no segment to evaluate: ``Representation.near``)
-    assert all(skips.get(id(layer.mask.local)) is None for layer in picture.shown if layer.masked)
+    # a mask but where its bounds settle its layer's weight (one of points alone has no segment to evaluate:
+    # ``Representation.near``)
+    for layer in picture.shown:
+        if layer.masked and len(layer.mask.near[0].p):
+            settles = settled(layer, *layer.mask.scalar_bounds(MASK_LUMA))
+            np.testing.assert_array_equal(skips[id(layer.mask.local)], settles)
+            assert 0.2 < settles.mean() < 0.9
 
 
 def test_bands_of_any_height_leave_hidden_cells_out_and_give_the_same_picture(stack, monkeypatch):
@@ -101,7 +107,7 @@ def test_a_layer_its_mask_hides_everywhere_evaluates_no_cell(monkeypatch):
     got = rasterise(stack.composite, PIXELS, PIXELS, samples=1)
     np.testing.assert_array_equal(got, np.clip(rasterise(stack.image(nowhere.layers[0]), PIXELS, PIXELS, samples=1),
                                                0, 1))
-    assert sum(skip is not None and skip.all() for skip in skips) == 2  # the two transparent layers
+    assert sum(skip is not None and skip.all() for skip in skips) == 3  # the two transparent layers, a mask of one
 
 
 def test_cells_all_is_the_conjunction_over_each_cells_run_of_samples():

@@ -236,6 +236,27 @@ def hidden(composite: Composite, values: Callable[[Representation], np.ndarray],
     return result
 
 
+#: What the raster's rounding may move a field's value by, beyond its bounds (``value_bounds``): far below
+#: ``NEGLIGIBLE_WEIGHT``.
+ROUNDING = 1e-9
+
+
+def settled(layer: LayerFields, centre: np.ndarray, spread: np.ndarray) -> np.ndarray:
+    """Where the weight of ``layer`` is one value for every mask luminance within ``spread`` (plus ``ROUNDING``) of
+    ``centre`` (arrays alike, its mask's ``Representation.scalar_bounds``): 0 (snapped), the mask's factor 0 or 1
+    exactly, or, without an alpha field, 1 (snapped).  There any luminance in that range, the centre's say, gives
+    ``compose`` and ``hidden`` what the mask's values would."""
+    low = centre - spread - ROUNDING + layer.mask_base
+    high = centre + spread + ROUNDING + layer.mask_base
+    if layer.mask_inverted:
+        low, high = 1.0 - high, 1.0 - low
+    nothing = layer.opacity * np.clip(high, 0.0, 1.0) <= NEGLIGIBLE_WEIGHT
+    exact = (high <= 0.0) | (low >= 1.0)
+    if layer.alpha is not None:
+        return nothing | exact
+    return nothing | exact | (layer.opacity * np.clip(low, 0.0, 1.0) >= 1.0 - NEGLIGIBLE_WEIGHT)
+
+
 _NO_SAMPLES = np.zeros((0, 3))
 #: The weights of the one channel an alpha field is read through: its first.
 FIRST_CHANNEL = np.array([1.0, 0.0, 0.0])

@@ -31,10 +31,11 @@ from collections.abc import Callable
 
 import numpy as np
 
-from .composite import Composite, Role, compose, hidden, scalar_reads
+from ..model.layer import MASK_LUMA
+from .composite import Composite, LayerFields, Role, compose, hidden, scalar_reads, settled
 from .fmm.lattice import Lattice
 from .fmm.orders import sample_degrees
-from .kernels.grid import cells_all, grid_cell_runs
+from .kernels.grid import cells_all, fill_cells, grid_cell_runs
 from .kernels.local_grid import largest_offsets
 from .kernels.segment_sums import direct_sum, near_sum
 from .kernels.subcells import SEPARATION, subcell_field_grid
@@ -209,7 +210,7 @@ def rasterise(
             return out
 
         if isinstance(rep, Composite):
-            target[...] = _composed(rep, field, xs, band_ys, coverage)
+            target[...] = _composed(rep, field, xs, band_ys, coverage, bounded=method == "fmr")
         elif coverage:
             target[..., :3] = field(rep)
             target[..., 3] = 1.0
@@ -222,30 +223,41 @@ def rasterise(
     return image
 
 
-def _composed(composite: Composite, field: Callable, xs: np.ndarray, ys: np.ndarray, coverage: bool) -> np.ndarray:
+def _composed(composite: Composite, field: Callable, xs: np.ndarray, ys: np.ndarray, coverage: bool,
+              bounded: bool = True) -> np.ndarray:
     """``compose`` of the grid ``ys x xs``, each layer's image evaluated only in the cells where it can show
     (``composite.hidden``): a layer under a mask that hides it there, or under a layer that covers it, costs
     nothing there.  ``field(rep, skip=cells, alpha=alpha, scalar=w)`` evaluates a representation but in ``cells``,
     an alpha field of its segments as its fourth channel, and, of diffusion points alone, ``w . colour`` only.
 
-    The masks and alpha fields (``_weighing``) are evaluated once and held until ``compose`` reads them; each
-    other image when ``compose`` reads it.  A translucent layer's alpha field made of its image's segments
+    The masks and alpha fields (``_weighing``) are evaluated once and held to the end; each other image when
+    ``compose`` reads it.  A translucent layer's alpha field made of its image's segments
     (``LayerFields.carries_alpha``) is evaluated with its image, in one pass of four channels (the segments'
     integrals shared), which ``compose`` reads for both; not where another layer shows the same image, which
     would read that image's values too.  A mask or alpha field of diffusion points alone (a soft mask) is
-    evaluated in the one channel it is read through (``composite.scalar_reads``), a third of its work.
+    evaluated in the one channel it is read through (``composite.scalar_reads``), a third of its work.  With
+    ``bounded`` (``field`` the FMR's), a mask is not evaluated in the cells where its bounds settle the weights of
+    the layers it masks (``_mask_values``).
     """
     held: dict[int, np.ndarray] = {}
     shows = Counter(id(layer.image) for layer in composite.shown)
     carried = {id(layer.alpha): layer.image for layer in composite.shown
                if shows[id(layer.image)] == 1 and layer.carries_alpha}
     scalars = scalar_reads(composite)
+    masking: dict[int, list[LayerFields]] = {}  # the layers each mask read as one is the mask of
+    for layer in composite.shown:
+        if bounded and layer.masked and scalars.get(id(layer.mask)) is MASK_LUMA:
+            masking.setdefault(id(layer.mask), []).append(layer)
 
     def weights_of(source: Representation) -> np.ndarray:
         if id(source) not in held:
             image = carried.get(id(source))
-            held[id(source)] = (field(source, scalar=scalars.get(id(source))) if image is None
-                                else field(image, alpha=source))
+            if image is not None:
+                held[id(source)] = field(image, alpha=source)
+            elif id(source) in masking:
+                held[id(source)] = _mask_values(source, masking[id(source)], field, xs, ys)
+            else:
+                held[id(source)] = field(source, scalar=scalars.get(id(source)))
             if image is not None:
                 held[id(image)] = held[id(source)]
         return held[id(source)]
@@ -258,12 +270,27 @@ def _composed(composite: Composite, field: Callable, xs: np.ndarray, ys: np.ndar
     skips = {key: hidden_cells(where.reshape(shape), xs, ys, image.lattice) for key, (image, where) in unseen.items()
              if where.any()}
 
+    weighing = {id(rep) for rep in _weighing(composite)}
+
     def values(source: Representation) -> np.ndarray:
-        if id(source) in held:
-            return held.pop(id(source))
+        if id(source) in held:  # a mask or alpha field two layers read stays for the second
+            return held[id(source)] if id(source) in weighing else held.pop(id(source))
         return field(source, skip=skips.get(id(source)))
 
     return compose(composite, values, shape + (3,), coverage)
+
+
+def _mask_values(mask: Representation, layers: list[LayerFields], field: Callable, xs: np.ndarray,
+                 ys: np.ndarray) -> np.ndarray:
+    """``field(mask, scalar=MASK_LUMA)`` on the grid ``ys x xs``, but in the cells where the mask's bounds settle
+    the weight of each of ``layers`` (``composite.settled``): there its luminance at the cell's centre, which
+    ``compose`` and ``hidden`` weigh as its values.  Away from its edges a mask is 0 or 1 to within 1e-7, so
+    most of a sharp mask is settled by its expansions' sizes alone."""
+    centre, spread = mask.scalar_bounds(MASK_LUMA)
+    cells = np.logical_and.reduce([settled(layer, centre, spread) for layer in layers])
+    values = field(mask, skip=cells, scalar=MASK_LUMA)
+    fill_cells(values, cells, centre, xs, ys, mask.lattice.cell_size)  # every channel: the luminance weights sum to 1
+    return values
 
 
 def _weighing(composite: Composite) -> tuple[Representation, ...]:

@@ -17,7 +17,7 @@ from .blending import blend_layer, layer_weights
 from .composite import NEGLIGIBLE_WEIGHT
 from .fmm.lattice import Lattice, sort_into_cells
 from .geometry.segments import Segments
-from .kernels.grid import cells_all
+from .kernels.grid import cells_all, fill_cells
 from .kernels.segment_sums import near_tables
 from .kernels.subcells import subcell_field_grid
 
@@ -59,13 +59,14 @@ def four_channels() -> None:
 
 
 def blending() -> None:
-    """The composition of a layered picture (``blending``), with the arguments ``composite.compose`` gives, and
-    the cells a layer is hidden in (``grid.cells_all``)."""
+    """The composition of a layered picture (``blending``), with the arguments ``composite.compose`` gives, the
+    cells a layer is hidden in (``grid.cells_all``) and a mask's settled cells' values (``grid.fill_cells``)."""
     samples = np.zeros((1, 3))
     blend_layer(np.zeros((1, 3)), np.zeros(1), samples, IDENTITY.matrix, IDENTITY.offset, False, samples, MASK_LUMA,
                 1.0, True, False, NEGLIGIBLE_WEIGHT, samples, 0, 1.0, False)
     layer_weights(np.zeros(1), samples, MASK_LUMA, 1.0, True, False, NEGLIGIBLE_WEIGHT, samples, 0, 1.0)
     cells_all(np.ones((1, 1), bool), np.arange(2), np.arange(2))
+    fill_cells(np.zeros((1, 1, 3)), np.ones((1, 1), bool), np.zeros((1, 1)), np.full(1, 0.5), np.full(1, 0.5), 1.0)
 
 
 def load_raster_kernels() -> None:

@@ -22,6 +22,7 @@ from .kernels.fastmath import INV_TWO_PI
 from .kernels.segment_sums import near_tables
 from .kernels.single import error_bounds
 from .points.field import PointField
+from .value_bounds import scalar_bounds
 
 
 @dataclass(frozen=True)
@@ -149,6 +150,15 @@ class Representation:
                   error_bounds(lattice.cells_per_side, lattice.cell_size, cell_start, flux, jump))
         self.__dict__["_joined"] = weakref.ref(alpha), joined  # a frozen dataclass's memo, as ``cached_property``'s
         return joined
+
+    def scalar_bounds(self, weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``value_bounds.scalar_bounds`` of ``weights . value``: each fine cell's centre value and how far from it
+        the cell's values may get.  The last weights' are kept (a mask is drawn with its luminance each time)."""
+        key = np.asarray(weights, np.float64).tobytes()
+        kept = self.__dict__.get("_scalar_bounds")
+        if kept is None or kept[0] != key:
+            kept = self.__dict__["_scalar_bounds"] = key, scalar_bounds(self, weights)  # as ``joined_with``'s memo
+        return kept[1]
 
     @cached_property
     def near_tables(self) -> tuple[np.ndarray, np.ndarray]:

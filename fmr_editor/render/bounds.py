@@ -25,6 +25,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..engine import Representation, same_geometry
+from ..engine.value_bounds import block_sums, block_total, single_layer_bound
 from . import packing
 
 
@@ -120,19 +121,10 @@ def near_items(rep: Representation) -> np.ndarray:
     """``(2^L, 2^L)`` bool: the cells whose pixels take more than the far field, segments in their 3x3 block
     or near points of their own (the shader's lists)."""
     n = rep.lattice.cells_per_side
-    near = _block(np.diff(rep.near[1]).reshape(n, n).astype(np.float64)) > 0
+    near = block_total(np.diff(rep.near[1]).reshape(n, n).astype(np.float64)) > 0
     if rep.points is not None and len(rep.points.near):
         near |= (np.diff(rep.points.near.cell_start) > 0).reshape(n, n)
     return near
-
-
-def single_layer_bound(length: np.ndarray, cell_size: float) -> np.ndarray:
-    """Bound on ``|S|`` of segments of ``length`` over the pixels of any cell in whose 3x3 block they lie."""
-    far = 2.0 * np.sqrt(2.0) * cell_size
-    m = np.minimum(np.asarray(length, np.float64) / 2, 1.0)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        singular = np.where(m > 0, 2 * m * (1 - np.log(m)), 0.0)
-    return (length * max(np.log(far), 0.0) + singular) / (2 * np.pi)
 
 
 def segment_changes(before: Representation, after: Representation) -> np.ndarray | None:
@@ -188,20 +180,6 @@ def _matched_runs(before: Representation, after: Representation):
     return old_index[kept], new_index[kept], changed.reshape(n, n)
 
 
-def block_sums(per_segment: np.ndarray, rep: Representation) -> np.ndarray:
-    """``(2^L, 2^L)`` sums of a per-``near``-segment quantity over each cell's 3x3 block (``rep``'s cell lists)."""
-    n = rep.lattice.cells_per_side
-    own = np.repeat(np.arange(n * n), np.diff(rep.near[1]))
-    per_cell = np.bincount(own, per_segment, minlength=n * n).reshape(n, n)
-    return _block(per_cell)
-
-
-def _block(per_cell: np.ndarray) -> np.ndarray:
-    n = len(per_cell)
-    padded = np.pad(per_cell, 1)
-    return sum(padded[1 + dy : 1 + dy + n, 1 + dx : 1 + dx + n] for dy in (-1, 0, 1) for dx in (-1, 0, 1))
-
-
 def near_bound(before: Representation, after: Representation, changes: np.ndarray | None = None) -> np.ndarray | None:
     """Largest change of the segments' near field over each cell's pixels, ``(2^L, 2^L)``.
 
@@ -212,4 +190,4 @@ def near_bound(before: Representation, after: Representation, changes: np.ndarra
     if matched is None:
         return None
     sums = block_sums(segment_changes(before, after) if changes is None else changes, after)
-    return np.where(_block(matched[2].astype(np.float64)) > 0, np.inf, sums)
+    return np.where(block_total(matched[2].astype(np.float64)) > 0, np.inf, sums)

@@ -194,6 +194,27 @@ def cells_all(flags: np.ndarray, x_start: np.ndarray, y_start: np.ndarray) -> np
     return cells
 
 
+@numba.njit(parallel=True, cache=True)
+def _fill_cells(out, cells, values, x_start, y_start):
+    n = cells.shape[0]
+    for cy in numba.prange(n):
+        for cx in range(n):
+            if cells[cy, cx]:
+                for a in range(y_start[cy], y_start[cy + 1]):
+                    for b in range(x_start[cx], x_start[cx + 1]):
+                        for c in range(out.shape[2]):
+                            out[a, b, c] = values[cy, cx]
+
+
+def fill_cells(out: np.ndarray, cells: np.ndarray, values: np.ndarray, xs: np.ndarray, ys: np.ndarray,
+               cell_size: float) -> None:
+    """Set every channel of the samples of the grid ``ys x xs`` (``out (len(ys), len(xs), channels)``) in the
+    ``cells (n, n)`` bool to their cell's ``values (n, n)``."""
+    n = cells.shape[0]
+    _fill_cells(out, np.ascontiguousarray(cells, np.bool_), np.ascontiguousarray(values, np.float64),
+                grid_cell_runs(xs, cell_size, n), grid_cell_runs(ys, cell_size, n))
+
+
 def grid_cell_runs(coords: np.ndarray, cell_size: float, cells_per_side: int) -> np.ndarray:
     """Offsets ``(cells_per_side + 1,)`` of each fine cell's run in sorted coordinates along one axis.
 

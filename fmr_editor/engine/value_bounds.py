@@ -1,0 +1,86 @@
+"""Bounds on a field's value over each fine cell, from the sizes of its terms (numpy only).
+
+Inside a cell, ``|xi|, |eta| <= 1/2`` and ``|w| <= 2^(-1/2)``, so:
+
+- far field, ``(1/2pi) Re sum_l L_l w^l``: within ``(1/2pi) sum_{l >= 1} |L_l| 2^(-l/2)`` of its constant term,
+  at any degree the raster evaluates;
+- diffusion points' polynomials ``sum c_ij xi^i eta^j``: within ``sum_{ij > 0} |c_ij| 2^(-i-j)`` of ``c_00``;
+  a near point adds at most its weight (its Gaussian is at most 1);
+- a segment of length ``h`` in the cell's 3x3 block adds at most ``|E| max|S| + |C| / 2``
+  (``single_layer_bound``; the double layer of a straight segment is at most 1/2).
+
+The renderer bounds the changes of an edit with them (``render.bounds``); the raster leaves out the cells
+where a mask's bounds settle its layer's weight (``composite.settled``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .fmm.lattice import Lattice
+from .kernels.fastmath import INV_TWO_PI
+
+
+def single_layer_bound(length: np.ndarray, cell_size: float) -> np.ndarray:
+    """Bound on ``|S|`` of segments of ``length`` over the pixels of any cell in whose 3x3 block they lie."""
+    far = 2.0 * np.sqrt(2.0) * cell_size
+    m = np.minimum(np.asarray(length, np.float64) / 2, 1.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        singular = np.where(m > 0, 2 * m * (1 - np.log(m)), 0.0)
+    return (length * max(np.log(far), 0.0) + singular) / (2 * np.pi)
+
+
+def block_total(per_cell: np.ndarray) -> np.ndarray:
+    """``(n, n)``: the sums of ``per_cell (n, n)`` over each cell's 3x3 block."""
+    n = len(per_cell)
+    padded = np.pad(per_cell, 1)
+    return sum(padded[1 + dy : 1 + dy + n, 1 + dx : 1 + dx + n] for dy in (-1, 0, 1) for dx in (-1, 0, 1))
+
+
+def block_sums(per_segment: np.ndarray, rep) -> np.ndarray:
+    """``(2^L, 2^L)`` sums of a per-``near``-segment quantity over each cell's 3x3 block (the cell lists of ``rep``,
+    a ``Representation``)."""
+    n = rep.lattice.cells_per_side
+    own = np.repeat(np.arange(n * n), np.diff(rep.near[1]))
+    return block_total(np.bincount(own, per_segment, minlength=n * n).reshape(n, n))
+
+
+def scalar_bounds(rep, weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each fine cell's ``weights . value`` of ``rep`` at its centre's far field, and how far it may get from that
+    at any point of the cell, ``(2^L, 2^L)`` each: the field as the raster evaluates it (expansions to its order,
+    segments and near points exactly), not counting the raster's own rounding.
+
+    Parameters
+    ----------
+    rep : Representation
+        (This module sits below ``representation``, which keeps the bounds: ``Representation.scalar_bounds``.)
+    weights : numpy.ndarray
+        ``(3,)``: a mask's luminance weights, say.
+    """
+    lattice, order = rep.lattice, rep.order
+    local = np.tensordot(rep.local[..., : order + 1], weights, axes=([2], [0]))  # (n, n, terms)
+    centre = rep.centre_values @ weights
+    spread = INV_TWO_PI * (np.abs(local[..., 1:]) @ 0.5 ** (0.5 * np.arange(1, order + 1)))
+    seg = rep.near[0]
+    if len(seg.p):
+        length = np.hypot(*(seg.q - seg.p).T)
+        spread = spread + block_sums(np.abs(seg.flux @ weights) * single_layer_bound(length, lattice.cell_size)
+                                     + np.abs(seg.jump @ weights) / 2, rep)
+    if rep.points is not None:
+        tensor = np.tensordot(rep.points.polynomials(order), weights, axes=([2], [0]))  # (n, n, i, j)
+        centre = centre + tensor[..., 0, 0]
+        sizes = 0.5 ** np.add.outer(np.arange(order + 1), np.arange(order + 1))
+        sizes[0, 0] = 0.0
+        spread = spread + np.einsum("yxij,ij->yx", np.abs(tensor), sizes)
+        spread = spread + _near_point_sizes(rep.points.near, weights, lattice)
+    return centre, spread
+
+
+def _near_point_sizes(near, weights: np.ndarray, lattice: Lattice) -> np.ndarray:
+    """``(2^L, 2^L)``: each cell's sum of ``|weights . weight|`` over the near points it lists."""
+    n = lattice.cells_per_side
+    if len(near) == 0:
+        return np.zeros((n, n))
+    size = np.abs(near.points.weights @ weights)[near.members]
+    cell = np.repeat(np.arange(n * n), np.diff(near.cell_start))
+    return np.bincount(cell, size, minlength=n * n).reshape(n, n)
