@@ -187,7 +187,7 @@ def shown_colour(layer: LayerFields, colour: np.ndarray) -> np.ndarray:
 
 
 def compose(composite: Composite, values: Callable[[Representation], np.ndarray], shape: tuple[int, ...],
-            coverage: bool = False) -> np.ndarray:
+            coverage: bool = False, out: np.ndarray | None = None) -> np.ndarray:
     """The composite's colours, of ``shape`` ``(..., 3)``, given ``values(rep)`` of each representation there.
 
     In [0, 1] (each layer is clamped before it is blended): the picture over black, which is its colour
@@ -196,19 +196,23 @@ def compose(composite: Composite, values: Callable[[Representation], np.ndarray]
     Each layer is blended in one compiled pass (``blending.blend_layer``); ``compose_reference`` is the plain form.
     An image's values may have a fourth channel: its layer's alpha field, carried (``LayerFields.carries_alpha``),
     and then that alpha field's own values are not read.  A mask's or an alpha field's values may be the one
-    channel it is read through (``scalar_reads``).
+    channel it is read through (``scalar_reads``).  ``out``: a C-contiguous float64 array of ``shape`` (without
+    ``coverage``) to write the colours into and return.
     """
-    count = int(np.prod(shape[:-1]))
-    out, alpha = np.zeros((count, 3)), np.zeros(count)
-    for layer in composite.shown:
+    count, shown = int(np.prod(shape[:-1])), composite.shown
+    picture = out.reshape(count, 3) if out is not None and not coverage else np.empty((count, 3))
+    alpha = np.empty(count)
+    if not (shown and shown[0].covers):  # else the bottom layer writes every sample
+        picture[...], alpha[...] = 0.0, 0.0
+    for layer in shown:
         transform = layer.transform
         colour = _samples(values(layer.image), count)
-        blend_layer(out, alpha, colour, transform.matrix, transform.offset,
+        blend_layer(picture, alpha, colour, transform.matrix, transform.offset,
                     not transform.is_identity, _samples(values(layer.mask), count) if layer.masked else _NO_SAMPLES,
                     MASK_LUMA, float(layer.mask_base), layer.mask_enabled, layer.mask_inverted, NEGLIGIBLE_WEIGHT,
                     *_alpha_samples(layer, values, count, colour), float(layer.opacity), layer.covers)
-    out = out.reshape(shape)
-    return np.concatenate([out, alpha.reshape(shape[:-1])[..., None]], axis=-1) if coverage else out
+    picture = picture.reshape(shape)
+    return np.concatenate([picture, alpha.reshape(shape[:-1])[..., None]], axis=-1) if coverage else picture
 
 
 def hidden(composite: Composite, values: Callable[[Representation], np.ndarray], count: int) -> list[np.ndarray]:

@@ -210,7 +210,10 @@ def rasterise(
             return out
 
         if isinstance(rep, Composite):
-            target[...] = _composed(rep, field, xs, band_ys, coverage, bounded=method == "fmr")
+            composed = _composed(rep, field, xs, band_ys, coverage, bounded=method == "fmr",
+                                 out=None if coverage else target)
+            if coverage:
+                target[...] = composed
         elif coverage:
             target[..., :3] = field(rep)
             target[..., 3] = 1.0
@@ -224,7 +227,7 @@ def rasterise(
 
 
 def _composed(composite: Composite, field: Callable, xs: np.ndarray, ys: np.ndarray, coverage: bool,
-              bounded: bool = True) -> np.ndarray:
+              bounded: bool = True, out: np.ndarray | None = None) -> np.ndarray:
     """``compose`` of the grid ``ys x xs``, each layer's image evaluated only in the cells where it can show
     (``composite.hidden``): a layer under a mask that hides it there, or under a layer that covers it, costs
     nothing there.  ``field(rep, skip=cells, alpha=alpha, scalar=w)`` evaluates a representation but in ``cells``,
@@ -237,7 +240,7 @@ def _composed(composite: Composite, field: Callable, xs: np.ndarray, ys: np.ndar
     would read that image's values too.  A mask or alpha field of diffusion points alone (a soft mask) is
     evaluated in the one channel it is read through (``composite.scalar_reads``), a third of its work.  With
     ``bounded`` (``field`` the FMR's), a mask is not evaluated in the cells where its bounds settle the weights of
-    the layers it masks (``_mask_values``).
+    the layers it masks (``_mask_values``).  ``out``: where ``compose`` writes the colours.
     """
     held: dict[int, np.ndarray] = {}
     shows = Counter(id(layer.image) for layer in composite.shown)
@@ -277,7 +280,7 @@ def _composed(composite: Composite, field: Callable, xs: np.ndarray, ys: np.ndar
             return held[id(source)] if id(source) in weighing else held.pop(id(source))
         return field(source, skip=skips.get(id(source)))
 
-    return compose(composite, values, shape + (3,), coverage)
+    return compose(composite, values, shape + (3,), coverage, out)
 
 
 def _mask_values(mask: Representation, layers: list[LayerFields], field: Callable, xs: np.ndarray,
