@@ -52,7 +52,7 @@ def test_value_bounds_hold_the_field_at_every_point_of_their_cells(document, sca
     assert np.median(deviation[varying] / spread[cells][varying]) > 0.05  # and not hopelessly loose
 
 
-def test_near_items_are_the_cells_with_segments_in_their_block_or_points_of_their_own():
+def test_near_bounds_are_zero_but_in_the_cells_with_segments_in_their_block_or_points_of_their_own():
     rep = build(Document(128, 128, scattered_document(128, seed=3).curves[:2], points=soft_points().points))
     n = rep.lattice.cells_per_side
     own = np.diff(rep.cell_start).reshape(n, n)
@@ -62,8 +62,12 @@ def test_near_items_are_the_cells_with_segments_in_their_block_or_points_of_thei
         for column in range(n):
             block = own[max(row - 1, 0):row + 2, max(column - 1, 0):column + 2]
             expected[row, column] = block.sum() > 0 or points[row, column] > 0
-    np.testing.assert_array_equal(bounds.near_items(rep), expected)
+    near = bounds.near_bounds(rep).reshape(n, n, 3)
+    np.testing.assert_array_equal(near.max(axis=-1) > 0, expected)
     assert not expected.all()
+    luminance = bounds.near_bounds(rep, MASK_LUMA).reshape(n, n)  # |w . E| <= w . |E|, not more
+    np.testing.assert_array_equal(luminance > 0, expected)
+    assert (luminance <= (near @ MASK_LUMA) * (1 + 1e-12)).all()
 
 
 def cell_samples(cells: int, cell_size: float, width: int, height: int, per_side: int = 5) -> np.ndarray:

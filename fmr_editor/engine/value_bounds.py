@@ -9,15 +9,15 @@ Inside a cell, ``|xi|, |eta| <= 1/2`` and ``|w| <= 2^(-1/2)``, so:
 - a segment of length ``h`` in the cell's 3x3 block adds at most ``|E| max|S| + |C| / 2``
   (``single_layer_bound``; the double layer of a straight segment is at most 1/2).
 
-The renderer bounds the changes of an edit with them (``render.bounds``); the raster leaves out the cells
-where a mask's bounds settle its layer's weight (``composite.settled``).
+The renderer bounds the changes of an edit with them and culls the layers they settle (``render.bounds``,
+``render.culling``); the raster leaves out the cells where a mask's bounds settle its layer's weight
+(``composite.settled``).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .fmm.lattice import Lattice
 from .kernels.fastmath import INV_TWO_PI
 
 
@@ -57,30 +57,34 @@ def scalar_bounds(rep, weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     weights : numpy.ndarray
         ``(3,)``: a mask's luminance weights, say.
     """
-    lattice, order = rep.lattice, rep.order
+    order = rep.order
     local = np.tensordot(rep.local[..., : order + 1], weights, axes=([2], [0]))  # (n, n, terms)
     centre = rep.centre_values @ weights
     spread = INV_TWO_PI * (np.abs(local[..., 1:]) @ 0.5 ** (0.5 * np.arange(1, order + 1)))
-    seg = rep.near[0]
-    if len(seg.p):
-        length = np.hypot(*(seg.q - seg.p).T)
-        spread = spread + block_sums(np.abs(seg.flux @ weights) * single_layer_bound(length, lattice.cell_size)
-                                     + np.abs(seg.jump @ weights) / 2, rep)
     if rep.points is not None:
         tensor = np.tensordot(rep.points.polynomials(order), weights, axes=([2], [0]))  # (n, n, i, j)
         centre = centre + tensor[..., 0, 0]
         sizes = 0.5 ** np.add.outer(np.arange(order + 1), np.arange(order + 1))
         sizes[0, 0] = 0.0
         spread = spread + np.einsum("yxij,ij->yx", np.abs(tensor), sizes)
-        spread = spread + _near_point_sizes(rep.points.near, weights, lattice)
-    return centre, spread
+    return centre, spread + near_spread(rep, weights[:, None])[..., 0]
 
 
-def _near_point_sizes(near, weights: np.ndarray, lattice: Lattice) -> np.ndarray:
-    """``(2^L, 2^L)``: each cell's sum of ``|weights . weight|`` over the near points it lists."""
-    n = lattice.cells_per_side
-    if len(near) == 0:
-        return np.zeros((n, n))
-    size = np.abs(near.points.weights @ weights)[near.members]
-    cell = np.repeat(np.arange(n * n), np.diff(near.cell_start))
-    return np.bincount(cell, size, minlength=n * n).reshape(n, n)
+def near_spread(rep, weights: np.ndarray) -> np.ndarray:
+    """``(2^L, 2^L, k)``: how far the segments of each fine cell's 3x3 block and the near points it lists may move
+    ``weights.T @ value`` (``weights (3, k)``; the identity: each channel) at any point of the cell."""
+    n, k = rep.lattice.cells_per_side, weights.shape[1]
+    spread = np.zeros((n, n, k))
+    seg = rep.near[0]
+    if len(seg.p):
+        single = single_layer_bound(np.hypot(*(seg.q - seg.p).T), rep.lattice.cell_size)
+        for channel in range(k):
+            spread[..., channel] = block_sums(np.abs(seg.flux @ weights[:, channel]) * single
+                                              + np.abs(seg.jump @ weights[:, channel]) / 2, rep)
+    near = rep.points.near if rep.points is not None else None
+    if near is not None and len(near):
+        cell = np.repeat(np.arange(n * n), np.diff(near.cell_start))
+        sizes = np.abs(near.points.weights @ weights)[near.members]
+        for channel in range(k):
+            spread[..., channel] += np.bincount(cell, sizes[:, channel], minlength=n * n).reshape(n, n)
+    return spread

@@ -15,9 +15,9 @@ For a cell, with ``|xi|, |eta| <= 1/2`` inside it:
   with ``R = 2 sqrt(2)`` cells the farthest a pixel of the cell gets from its
   block and ``m = min(h / 2, 1)`` (the logarithm's integrable singularity).
 
-The same sums bound a cell's value about its centre (``value_bounds``) where no
-segment or near point adds to it (``near_items``): where a mask surely hides a
-layer, or surely shows it whole (``culling``).
+The same sums bound a cell's value about its centre (``value_bounds``, with what
+its segments and near points may add, ``near_bounds``): where a mask surely hides
+a layer, or surely shows it whole (``culling``).
 """
 
 from __future__ import annotations
@@ -25,8 +25,12 @@ from __future__ import annotations
 import numpy as np
 
 from ..engine import Representation, same_geometry
-from ..engine.value_bounds import block_sums, block_total, single_layer_bound
+from ..engine.value_bounds import block_sums, block_total, near_spread, single_layer_bound
 from . import packing
+
+#: The near bounds' room for the shader's float32 sums of the segments' and points' terms (each within a few
+#: float32 roundings, 6e-8, of its size).
+NEAR_ROUNDING = 1.0 + 1e-5
 
 
 def far_bound(delta: np.ndarray, order: int, harmonic: bool, scalar: bool = False, channels: int = 3) -> np.ndarray:
@@ -103,28 +107,24 @@ def _term_sizes(rows: np.ndarray, order: int, harmonic: bool, scalar: bool = Fal
 
 def cell_value_bounds(rep: Representation, weights: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """``value_bounds`` of every cell of ``rep`` (or of its scalar field ``weights . colour``) as the canvas packs
-    it, flat cells, and an infinite spread where segments or near points add to the far field (``near_items``):
-    what ``CanvasData.value_bounds`` keeps."""
+    it, flat cells, and ``near_bounds`` added to the spread: what ``CanvasData.value_bounds`` keeps."""
     n = rep.lattice.cells_per_side
     harmonic = packing.uses_harmonic(rep)
     rows = packing.cell_coefficients(rep, harmonic=harmonic, weights=weights).reshape(n * n, -1)
     centre, spread = value_bounds(rows, rep.order, harmonic, weights is not None)
-    return unbounded_near(centre, spread, near_items(rep).ravel())
+    return centre, spread + near_bounds(rep, weights)
 
 
-def unbounded_near(centre: np.ndarray, spread: np.ndarray, near: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(centre, spread)`` with an infinite spread in the ``near`` cells (bool, flat)."""
-    return centre, np.where(near[:, None], np.inf, spread)
-
-
-def near_items(rep: Representation) -> np.ndarray:
-    """``(2^L, 2^L)`` bool: the cells whose pixels take more than the far field, segments in their 3x3 block
-    or near points of their own (the shader's lists)."""
-    n = rep.lattice.cells_per_side
-    near = block_total(np.diff(rep.near[1]).reshape(n, n).astype(np.float64)) > 0
-    if rep.points is not None and len(rep.points.near):
-        near |= (np.diff(rep.points.near.cell_start) > 0).reshape(n, n)
-    return near
+def near_bounds(rep: Representation, weights: np.ndarray | None = None,
+                alpha: Representation | None = None) -> np.ndarray:
+    """How far the segments and near points of each cell may move the shader's values at its pixels, ``(cells^2,
+    channels)``, flat cells: ``engine.value_bounds.near_spread`` of the field as the canvas packs it (its scalar
+    field ``weights . colour``, its colour, or its colour and ``alpha``'s first channel), with room for the
+    shader's float32 sums of them."""
+    spread = near_spread(rep, np.eye(3) if weights is None else np.reshape(weights, (3, 1)))
+    if alpha is not None:
+        spread = np.concatenate([spread, near_spread(alpha, np.eye(3)[:, :1])], axis=-1)
+    return spread.reshape(-1, spread.shape[-1]) * NEAR_ROUNDING
 
 
 def segment_changes(before: Representation, after: Representation) -> np.ndarray | None:

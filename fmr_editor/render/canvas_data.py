@@ -85,7 +85,7 @@ class CanvasData:
         self._mirror = np.zeros((0, 0), np.float32)  # the coefficients as uploaded, a row per cell
         self._delta = np.zeros((0, 0), np.float32)  # each cell's latest change of them (as the delta pass reads)
         self._far: tuple[np.ndarray, np.ndarray] | None = None  # bounds.value_bounds of the rows, once asked for
-        self._near: np.ndarray | None = None  # bounds.near_items, flat, once asked for
+        self._near: np.ndarray | None = None  # bounds.near_bounds, once asked for
 
     def upload(self, rep: Representation, alpha: Representation | None = None) -> None:
         """Upload all of ``rep`` (and the ``alpha`` field of the same segments in a fourth channel)."""
@@ -149,14 +149,14 @@ class CanvasData:
     def value_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Each cell's value at its centre and how far the shader's value at any of its pixels may get from it,
         ``(cells^2, channels)`` each (``(cells^2, 1)`` for a scalar field), flat cells: ``bounds.value_bounds`` of
-        the far field, an infinite spread where segments or near points add to it (``bounds.near_items``).  Kept
+        the far field, what segments and near points may add to it (``bounds.near_bounds``) in the spread.  Kept
         up to date by ``update`` once asked for."""
         layout = self.layout
         if self._far is None:
             self._far = bounds.value_bounds(self._mirror, layout.order, layout.harmonic, layout.scalar, layout.channels)
         if self._near is None:
-            self._near = bounds.near_items(self.rep).ravel()
-        return bounds.unbounded_near(*self._far, self._near)
+            self._near = bounds.near_bounds(self.rep, self.weights, self.alpha)
+        return self._far[0], self._far[1] + self._near
 
     def upload_change(self, cells: np.ndarray, table: packing.SegmentTable) -> None:
         """The change tables of a delta pass over ``cells``: their coefficients' latest change (rows by cell, as
