@@ -51,6 +51,7 @@ def test_hidden_samples_are_those_of_negligible_weight_or_under_a_layer_of_full_
 
 def test_a_layered_raster_leaves_hidden_cells_out_and_equals_the_composition_of_whole_fields(stack, fields,
                                                                                              monkeypatch):
+    monkeypatch.setattr(raster, "BOUNDED_SAMPLES", 0)  # the masks' bounds at any density (``test_mask_bounds``)
     skips, evaluate = {}, raster.subcell_field_grid
     def recorded(local, *args, skip=None, **kwargs):
         skips[id(local)] = skip
@@ -98,6 +99,7 @@ def test_an_image_two_layers_show_is_evaluated_wherever_either_shows_it(stack, f
 
 
 def test_a_layer_its_mask_hides_everywhere_evaluates_no_cell(monkeypatch):
+    monkeypatch.setattr(raster, "BOUNDED_SAMPLES", 0)
     nowhere = layer_edits.set_opacity(layer_edits.set_opacity(three_layers(), 1, 0.0), 2, 0.0)
     stack = LiveStack(nowhere)
     skips, evaluate = [], raster.subcell_field_grid

@@ -15,7 +15,7 @@ from layered import SIZE, sharp_mask, soft_mask, three_layers
 from shapes import scattered_document
 from test_points_render import random_points
 
-from fmr_editor.engine import LiveStack, build, evaluate_points, raster, rasterise
+from fmr_editor.engine import LiveStack, Representation, build, evaluate_points, raster, rasterise
 from fmr_editor.engine.composite import FIRST_CHANNEL, NEGLIGIBLE_WEIGHT, LayerFields, settled
 from fmr_editor.model import Document
 from fmr_editor.model.layer import MASK_LUMA
@@ -110,3 +110,17 @@ def test_a_mask_left_out_where_its_bounds_settle_the_weight_gives_the_same_pictu
     original = raster._composed
     monkeypatch.setattr(raster, "_composed", lambda *args, **kwargs: original(*args, **dict(kwargs, bounded=False)))
     np.testing.assert_array_equal(bounded, rasterise(picture, 120, samples=2, coverage=True))
+
+
+def test_a_sparse_raster_makes_no_bounds(masked, monkeypatch):
+    """Below ``BOUNDED_SAMPLES`` samples a cell of a mask, its bounds would cost about what they save: not made."""
+    picture = masked["three layers"]
+    made, scalar_bounds = [], Representation.scalar_bounds
+    monkeypatch.setattr(Representation, "scalar_bounds", lambda rep, weights: made.append(rep) or scalar_bounds(
+        rep, weights))
+    cell = picture.shown[2].mask.lattice.cell_size
+    sparse = int(picture.width * np.sqrt(raster.BOUNDED_SAMPLES - 1) / cell)  # pixels a side: just below
+    rasterise(picture, sparse, samples=1)
+    assert made == []
+    rasterise(picture, sparse + 2, samples=1)
+    assert picture.shown[2].mask in made
