@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from fmr_editor.engine import blending, compile_kernels
+from fmr_editor.engine import blending, compile_kernels, value_bounds
 from fmr_editor.engine.fmm import level_kernels
 from fmr_editor.engine.kernels import grid, local_grid, near_rows, subcells
 from fmr_editor.engine.points import tensor_kernels
@@ -19,7 +19,7 @@ KERNELS = {
                       subcells._SUBCELL_GRID[4]),
     "solver": (skeleton._forward, skeleton._backward, entries._entries_parallel, level_kernels.level_local),
     "points": (tensor_kernels.accumulate,),
-    "blending": (blending.blend_layer,),
+    "blending": (blending.blend_layer, value_bounds._far_spread, value_bounds._tensor_spread),
 }
 
 

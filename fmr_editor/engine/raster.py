@@ -51,10 +51,10 @@ SUB_CELL_SAMPLES = 8
 #: allows (``kernels.single``), 1.6-2x faster at 1024^2 on the Hilbert benchmark at levels 7 and 8.
 NEAR_PRECISION = "single"
 #: A mask is left out where its bounds settle its layers' weights (``_mask_values``) in a raster of at least this
-#: many samples a cell of its lattice; in sparser ones making the bounds costs about what they save (lady_bug's
-#: layered masks at 512^2, 64 samples a cell: a first raster 0.4-1.4 ms slower, later ones, the bounds kept,
-#: 0.5-0.9 ms faster; at 1024^2, 256 a cell, 3.5 ms faster).
-BOUNDED_SAMPLES = 128
+#: many samples a cell of its lattice; in sparser ones making the bounds costs more than they save (lady_bug's
+#: layered masks at 512^2, 64 samples a cell: a first raster as fast as without, later ones, the bounds kept,
+#: 0.4 ms faster; at 1024^2, 256 a cell, 3.5 ms faster).
+BOUNDED_SAMPLES = 64
 
 
 def split_for(samples_per_cell: float) -> tuple[int, float]:

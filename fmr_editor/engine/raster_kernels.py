@@ -13,6 +13,7 @@ import numpy as np
 
 from ..model.color_transform import IDENTITY
 from ..model.layer import MASK_LUMA
+from . import value_bounds
 from .blending import blend_layer, layer_weights
 from .composite import NEGLIGIBLE_WEIGHT
 from .fmm.lattice import Lattice, sort_into_cells
@@ -60,13 +61,15 @@ def four_channels() -> None:
 
 def blending() -> None:
     """The composition of a layered picture (``blending``), with the arguments ``composite.compose`` gives, the
-    cells a layer is hidden in (``grid.cells_all``) and a mask's settled cells' values (``grid.fill_cells``)."""
+    cells a layer is hidden in (``grid.cells_all``), a mask's bounds (``value_bounds``) and its settled cells'
+    values (``grid.fill_cells``)."""
     samples = np.zeros((1, 3))
     blend_layer(np.zeros((1, 3)), np.zeros(1), samples, IDENTITY.matrix, IDENTITY.offset, False, samples, MASK_LUMA,
                 1.0, True, False, NEGLIGIBLE_WEIGHT, samples, 0, 1.0, False)
     layer_weights(np.zeros(1), samples, MASK_LUMA, 1.0, True, False, NEGLIGIBLE_WEIGHT, samples, 0, 1.0)
     cells_all(np.ones((1, 1), bool), np.arange(2), np.arange(2))
     fill_cells(np.zeros((1, 1, 3)), np.ones((1, 1), bool), np.zeros((1, 1)), np.full(1, 0.5), np.full(1, 0.5), 1.0)
+    value_bounds.load_kernels()
 
 
 def load_raster_kernels() -> None:
