@@ -48,7 +48,7 @@ def layer_weights(weights, mask, luma, mask_base, mask_enabled, mask_inverted, n
 
 @numba.njit(parallel=True, cache=True)
 def blend_layer(out, coverage, colour, matrix, offset, transformed, mask, luma, mask_base, mask_enabled,
-                mask_inverted, negligible, alpha, alpha_column, opacity, covers):
+                mask_inverted, negligible, alpha, alpha_column, opacity, covers, first):
     """``out``, ``coverage`` with one layer over them, in place (``composite.compose_reference``'s loop body).
 
     Parameters
@@ -74,11 +74,15 @@ def blend_layer(out, coverage, colour, matrix, offset, transformed, mask, luma, 
         four channels that carry it.
     covers : bool
         The layer hides everything below: ``out`` becomes what it shows, ``coverage`` 1.
+    first : bool
+        Nothing lies below: ``out`` and ``coverage`` are written, not read (as if they were 0).
     """
     for i in numba.prange(out.shape[0]):
         weight = 1.0 if covers else _weight(i, mask, luma, mask_base, mask_enabled, mask_inverted, negligible, alpha,
                                             alpha_column, opacity)
         if weight == 0.0:
+            if first:
+                out[i, 0], out[i, 1], out[i, 2], coverage[i] = 0.0, 0.0, 0.0, 0.0
             continue
         r, g, b = _clamped(colour[i, 0]), _clamped(colour[i, 1]), _clamped(colour[i, 2])
         if transformed:
@@ -87,6 +91,9 @@ def blend_layer(out, coverage, colour, matrix, offset, transformed, mask, luma, 
                        _clamped(matrix[2, 0] * r + matrix[2, 1] * g + matrix[2, 2] * b + offset[2]))
         if weight == 1.0:
             out[i, 0], out[i, 1], out[i, 2], coverage[i] = r, g, b, 1.0
+            continue
+        if first:  # over 0: the same values as below
+            out[i, 0], out[i, 1], out[i, 2], coverage[i] = weight * r, weight * g, weight * b, weight
             continue
         out[i, 0] += weight * (r - out[i, 0])
         out[i, 1] += weight * (g - out[i, 1])

@@ -202,15 +202,15 @@ def compose(composite: Composite, values: Callable[[Representation], np.ndarray]
     count, shown = int(np.prod(shape[:-1])), composite.shown
     picture = out.reshape(count, 3) if out is not None and not coverage else np.empty((count, 3))
     alpha = np.empty(count)
-    if not (shown and shown[0].covers):  # else the bottom layer writes every sample
+    if not shown:
         picture[...], alpha[...] = 0.0, 0.0
-    for layer in shown:
+    for index, layer in enumerate(shown):  # the bottom one writes every sample
         transform = layer.transform
         colour = _samples(values(layer.image), count)
         blend_layer(picture, alpha, colour, transform.matrix, transform.offset,
                     not transform.is_identity, _samples(values(layer.mask), count) if layer.masked else _NO_SAMPLES,
                     MASK_LUMA, float(layer.mask_base), layer.mask_enabled, layer.mask_inverted, NEGLIGIBLE_WEIGHT,
-                    *_alpha_samples(layer, values, count, colour), float(layer.opacity), layer.covers)
+                    *_alpha_samples(layer, values, count, colour), float(layer.opacity), layer.covers, index == 0)
     picture = picture.reshape(shape)
     return np.concatenate([picture, alpha.reshape(shape[:-1])[..., None]], axis=-1) if coverage else picture
 
