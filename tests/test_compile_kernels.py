@@ -19,7 +19,8 @@ KERNELS = {
                       subcells._SUBCELL_GRID[4]),
     "solver": (skeleton._forward, skeleton._backward, entries._entries_parallel, level_kernels.level_local),
     "points": (tensor_kernels.accumulate,),
-    "blending": (blending.blend_layer, value_bounds._far_spread, value_bounds._tensor_spread),
+    "blending": (blending.blend_layer, grid._fill_cells, value_bounds._far_spread, value_bounds._tensor_spread,
+                 value_bounds._segment_spread),
 }
 
 

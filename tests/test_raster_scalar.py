@@ -53,6 +53,22 @@ def test_the_scalar_near_points_are_the_weighted_sum_of_their_colours():
     assert np.abs(colour).max() > 0.1
 
 
+def test_the_points_kernels_leave_skipped_cells_as_they_are():
+    points = build(Document(128, 128, points=random_points(200, 128, seed=8, radii=(0.5, 30.0)))).points
+    n, size = points.near.lattice.cells_per_side, points.near.lattice.cell_size
+    skip = np.random.default_rng(3).random((n, n)) < 0.5
+    xs = sample_coordinates(96, 128, 2)
+    inside = np.minimum((xs // size).astype(int), n - 1)
+    skipped = skip[inside][:, inside]
+    whole = np.zeros((len(xs), len(xs), 1))
+    points.add_grid(8, xs, xs, whole, MASK_LUMA)
+    out = np.full_like(whole, np.nan)
+    out[~skipped] = 0.0
+    points.add_grid(8, xs, xs, out, MASK_LUMA, skip)
+    assert np.isnan(out[skipped]).all() and skipped.any()
+    np.testing.assert_array_equal(out[~skipped], whole[~skipped])
+
+
 def test_masks_and_alpha_fields_are_read_through_one_channel_unless_read_otherwise_too():
     image, mask, alpha, both = "image", "mask", "alpha", "both"
     layers = (LayerFields(image, mask=mask), LayerFields(both, alpha=alpha), LayerFields(image, mask=both))
@@ -91,9 +107,9 @@ def test_a_soft_mask_is_rasterised_in_one_channel_as_its_colour_would_give(soft,
     picture = soft[with_alpha]
     channels, add_grid = [], PointField.add_grid
 
-    def counted(field, order, xs, ys, out, scalar=None):
+    def counted(field, order, xs, ys, out, *args):
         channels.append(out.shape[-1])
-        return add_grid(field, order, xs, ys, out, scalar)
+        return add_grid(field, order, xs, ys, out, *args)
 
     monkeypatch.setattr(PointField, "add_grid", counted)
     one = rasterise(picture, 100, samples=2, coverage=True)

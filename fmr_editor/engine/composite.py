@@ -131,6 +131,13 @@ class LayerFields:
                 and alpha.lattice.cell_size == image.lattice.cell_size and len(alpha.near[0].p) > 0
                 and same_geometry(image, alpha))
 
+    @cached_property
+    def settled(self) -> np.ndarray:
+        """``(2^L, 2^L)`` bool on its mask's lattice: the cells where its mask's bounds settle its weight
+        (``settled``; its mask's ``Representation.scalar_bounds`` of the luminance).  Kept: every band of a raster
+        asks."""
+        return settled(self, *self.mask.scalar_bounds(MASK_LUMA))
+
     @property
     def read(self) -> tuple[tuple[Role, Representation], ...]:
         """What drawing the layer reads: ``(Role.IMAGE, image)``, ``(Role.MASK, mask)`` when ``masked`` and
@@ -200,7 +207,9 @@ def compose(composite: Composite, values: Callable[[Representation], np.ndarray]
     ``coverage``) to write the colours into and return.
     """
     count, shown = int(np.prod(shape[:-1])), composite.shown
-    picture = out.reshape(count, 3) if out is not None and not coverage else np.empty((count, 3))
+    if out is not None and (coverage or out.shape != shape or out.dtype != np.float64 or not out.flags.c_contiguous):
+        raise ValueError(f"out must be a C-contiguous float64 array of shape {shape}, without coverage")
+    picture = out.reshape(count, 3) if out is not None else np.empty((count, 3))
     alpha = np.empty(count)
     if not shown:
         picture[...], alpha[...] = 0.0, 0.0
@@ -240,8 +249,8 @@ def hidden(composite: Composite, values: Callable[[Representation], np.ndarray],
     return result
 
 
-#: What the raster's rounding may move a field's value by, beyond its bounds (``value_bounds``): far below
-#: ``NEGLIGIBLE_WEIGHT``.
+#: What the raster's float64 rounding may move a field's value by beyond its bounds (``value_bounds``, which count
+#: its float32 near field's and its sub-cells' errors): far below ``NEGLIGIBLE_WEIGHT``.
 ROUNDING = 1e-9
 
 

@@ -32,7 +32,7 @@ from collections.abc import Callable
 import numpy as np
 
 from ..model.layer import MASK_LUMA
-from .composite import Composite, LayerFields, Role, compose, hidden, scalar_reads, settled
+from .composite import Composite, LayerFields, Role, compose, hidden, scalar_reads
 from .fmm.lattice import Lattice
 from .fmm.orders import sample_degrees
 from .kernels.grid import cells_all, fill_cells, grid_cell_runs
@@ -204,7 +204,7 @@ def rasterise(
         def field(source: Representation, out: np.ndarray | None = None, skip: np.ndarray | None = None,
                   alpha: Representation | None = None, scalar: np.ndarray | None = None) -> np.ndarray:
             if scalar is not None and method == "fmr" and not len(source.near[0].p):
-                return _scalar_points(source, order, xs, band_ys, scalar)
+                return _scalar_points(source, order, xs, band_ys, scalar, skip)
             out = np.empty((len(band_ys), len(xs), 3 if alpha is None else 4)) if out is None else out
             if method == "direct":
                 out[..., :3] = _direct_samples(source, xs, band_ys)
@@ -215,7 +215,7 @@ def rasterise(
             return out
 
         if isinstance(rep, Composite):
-            composed = _composed(rep, field, xs, band_ys, coverage, bounded=method == "fmr",
+            composed = _composed(rep, field, xs, band_ys, coverage, bounded=method == "fmr" and order is None,
                                  out=None if coverage else target)
             if coverage:
                 target[...] = composed
@@ -294,12 +294,12 @@ def _composed(composite: Composite, field: Callable, xs: np.ndarray, ys: np.ndar
 def _mask_values(mask: Representation, layers: list[LayerFields], field: Callable, xs: np.ndarray,
                  ys: np.ndarray) -> np.ndarray:
     """``field(mask, scalar=MASK_LUMA)`` on the grid ``ys x xs``, but in the cells where the mask's bounds settle
-    the weight of each of ``layers`` (``composite.settled``): there its luminance at the cell's centre, which
+    the weight of each of ``layers`` (``LayerFields.settled``): there its luminance at the cell's centre, which
     ``compose`` and ``hidden`` weigh as its values.  Away from its edges a mask is 0 or 1 to within 1e-7, so
     most of a sharp mask is settled by its expansions' sizes alone."""
-    centre, spread = mask.scalar_bounds(MASK_LUMA)
-    cells = np.logical_and.reduce([settled(layer, centre, spread) for layer in layers])
+    cells = np.logical_and.reduce([layer.settled for layer in layers])
     values = field(mask, skip=cells, scalar=MASK_LUMA)
+    centre = mask.scalar_bounds(MASK_LUMA)[0]
     fill_cells(values, cells, centre, xs, ys, mask.lattice.cell_size)  # every channel: the luminance weights sum to 1
     return values
 
@@ -355,12 +355,12 @@ def _fmr_samples(rep: Representation, order: int | None, xs: np.ndarray, ys: np.
 
 
 def _scalar_points(rep: Representation, order: int | None, xs: np.ndarray, ys: np.ndarray,
-                   scalar: np.ndarray) -> np.ndarray:
+                   scalar: np.ndarray, skip: np.ndarray | None = None) -> np.ndarray:
     """``(len(ys), len(xs), 1)``: ``scalar . colour`` of a field of diffusion points alone (no ``near`` segments) on
-    the grid ``ys x xs``, a third of the work of its colour."""
+    the grid ``ys x xs``, a third of the work of its colour; 0 in the cells where ``skip``."""
     out = np.zeros((len(ys), len(xs), 1))
     if rep.points is not None:
-        rep.points.add_grid(rep.order if order is None else order, xs, ys, out, scalar)
+        rep.points.add_grid(rep.order if order is None else order, xs, ys, out, scalar, skip)
     return out
 
 

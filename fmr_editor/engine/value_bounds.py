@@ -1,4 +1,4 @@
-"""Bounds on a field's value over each fine cell, from the sizes of its terms (numpy only).
+"""Bounds on a field's value over each fine cell, from the sizes of its terms (compiled loops).
 
 Inside a cell, ``|xi|, |eta| <= 1/2`` and ``|w| <= 2^(-1/2)``, so:
 
@@ -8,6 +8,10 @@ Inside a cell, ``|xi|, |eta| <= 1/2`` and ``|w| <= 2^(-1/2)``, so:
   a near point adds at most its weight (its Gaussian is at most 1);
 - a segment of length ``h`` in the cell's 3x3 block adds at most ``|E| max|S| + |C| / 2``
   (``single_layer_bound``; the double layer of a straight segment is at most 1/2).
+
+The raster computes the segments' part in float32 where its bound allows (``kernels.single``), and, in
+sub-cells, the part of the segments far from a sub-cell by their series (``kernels.subcells``): the raster's
+bounds (``scalar_bounds``) count both errors too.
 
 The renderer bounds the changes of an edit with them and culls the layers they settle (``render.bounds``,
 ``render.culling``); the raster leaves out the cells where a mask's bounds settle its layer's weight
@@ -20,6 +24,7 @@ import numba
 import numpy as np
 
 from .kernels.fastmath import INV_TWO_PI
+from .kernels.subcells import SEPARATION
 
 SQRT_HALF = np.sqrt(0.5)
 
@@ -49,27 +54,50 @@ def block_sums(per_segment: np.ndarray, rep) -> np.ndarray:
 
 
 def scalar_bounds(rep, weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Each fine cell's ``weights . value`` of ``rep`` at its centre's far field, and how far it may get from that
-    at any point of the cell, ``(2^L, 2^L)`` each: the field as the raster evaluates it (expansions to its order,
-    segments and near points exactly), not counting the raster's own rounding.
+    """Each fine cell's ``weights . value`` of ``rep`` at its centre's far field, and how far the raster's value
+    (``engine.raster``, to ``rep.order``) may get from that at any point of the cell, ``(2^L, 2^L)`` each: its
+    terms' sizes (``near_spread``), the float32 near field's error bound (``Representation.near_bounds``)
+    and the sub-cells' series' tails (``subcell_tails``), not its final rounding.
 
     Parameters
     ----------
     rep : Representation
         (This module sits below ``representation``, which keeps the bounds: ``Representation.scalar_bounds``.)
     weights : numpy.ndarray
-        ``(3,)``: a mask's luminance weights, say.
+        ``(3,)``, at least 0, summing to at most 1 (a mask's luminance weights, say): the float32 bound is per
+        channel.
     """
     n, order = rep.lattice.cells_per_side, rep.order
+    if rep.points is not None and rep.points.tensor.shape[:2] != (n, n):
+        raise ValueError("the points' lattice must be the representation's")
     weights = np.ascontiguousarray(weights, np.float64)
-    centre, spread = rep.centre_values @ weights, np.ascontiguousarray(near_spread(rep, weights[:, None])[..., 0])
+    centre = rep.centre_values @ weights
+    spread = near_spread(rep, weights[:, None])[..., 0] + subcell_tails(rep, weights)
+    if len(rep.near[0].p):
+        spread += rep.near_bounds
     _far_spread(np.ascontiguousarray(rep.local), weights, min(order, rep.local.shape[-1] - 1), spread)
     if rep.points is not None:
         tensor = rep.points.tensor
-        if tensor.shape[:2] != (n, n):
-            raise ValueError("the points' lattice must be the representation's")
         _tensor_spread(np.ascontiguousarray(tensor), weights, min(order, tensor.shape[-1] - 1), centre, spread)
     return centre, spread
+
+
+def subcell_tails(rep, weights: np.ndarray) -> np.ndarray:
+    """``(2^L, 2^L)``: what the series of the raster's sub-cells (``kernels.subcells``, cells cut in two or more a
+    side) may leave out of ``weights . value`` of the segments of each cell's 3x3 block.  A segment at least
+    ``SEPARATION`` sub-cells ``s`` from a sub-cell's centre has ``|J_m| <= 2 SEPARATION^(1 - m) / (m - 1)`` (its
+    ``v`` at least that far), so its terms past the raster's order ``P`` sum to at most ``(|E| s SEPARATION /
+    (P (P + 1)) + |C| / (P + 1)) 2 rho^(P + 1) / ((1 - rho) 2 pi)``, ``rho = 1 / (sqrt 2 SEPARATION)``,
+    ``s`` at most half a cell."""
+    seg, order = rep.near[0], rep.order
+    if not len(seg.p):
+        return np.zeros((rep.lattice.cells_per_side,) * 2)
+    rho = 1.0 / (np.sqrt(2.0) * SEPARATION)
+    tail = 2.0 * rho ** (order + 1) / (1.0 - rho) * INV_TWO_PI
+    size = rep.lattice.cell_size / 2
+    per_segment = tail * (np.abs(seg.flux @ weights) * size * SEPARATION / (order * (order + 1))
+                          + np.abs(seg.jump @ weights) / (order + 1))
+    return block_sums(per_segment, rep)
 
 
 @numba.njit(parallel=True, cache=True)
@@ -105,9 +133,29 @@ def _tensor_spread(tensor, weights, order, centre, spread):
                     term = (weights[0] * tensor[cy, cx, 0, i, j] + weights[1] * tensor[cy, cx, 1, i, j]
                             + weights[2] * tensor[cy, cx, 2, i, j])
                     total += abs(term) * sizes[i + j]
-            centre[cy, cx] += weights[0] * tensor[cy, cx, 0, 0, 0] + weights[1] * tensor[cy, cx, 1, 0, 0] + \
-                weights[2] * tensor[cy, cx, 2, 0, 0]
+            centre[cy, cx] += (weights[0] * tensor[cy, cx, 0, 0, 0] + weights[1] * tensor[cy, cx, 1, 0, 0]
+                               + weights[2] * tensor[cy, cx, 2, 0, 0])
             spread[cy, cx] += total
+
+
+@numba.njit(parallel=True, cache=True)
+def _segment_spread(cell_start, flux, jump, single, weights, spread):
+    """Add ``|weights[:, k] . E| single + |weights[:, k] . C| / 2`` of each segment (sorted by cell) to the 3x3
+    block of its cell in ``spread (n, n, k)``; rows of cells in three strides, so that no two threads add to one
+    cell."""
+    n, channels = spread.shape[0], spread.shape[2]
+    for stride in range(3):
+        for cy in numba.prange((n - stride + 2) // 3):
+            row = 3 * cy + stride
+            for cx in range(n):
+                for j in range(cell_start[row * n + cx], cell_start[row * n + cx + 1]):
+                    for k in range(channels):
+                        e = flux[j, 0] * weights[0, k] + flux[j, 1] * weights[1, k] + flux[j, 2] * weights[2, k]
+                        c = jump[j, 0] * weights[0, k] + jump[j, 1] * weights[1, k] + jump[j, 2] * weights[2, k]
+                        size = abs(e) * single[j] + abs(c) / 2
+                        for y in range(max(row - 1, 0), min(row + 2, n)):
+                            for x in range(max(cx - 1, 0), min(cx + 2, n)):
+                                spread[y, x, k] += size
 
 
 def load_kernels() -> None:
@@ -115,6 +163,8 @@ def load_kernels() -> None:
     weights, cell = np.ones(3), np.zeros((1, 1))
     _far_spread(np.zeros((1, 1, 3, 2), complex), weights, 1, cell)
     _tensor_spread(np.zeros((1, 1, 3, 2, 2)), weights, 1, cell, cell.copy())
+    _segment_spread(np.zeros(2, np.int64), np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0), np.ones((3, 1)),
+                    np.zeros((1, 1, 1)))
 
 
 def near_spread(rep, weights: np.ndarray) -> np.ndarray:
@@ -122,12 +172,12 @@ def near_spread(rep, weights: np.ndarray) -> np.ndarray:
     ``weights.T @ value`` (``weights (3, k)``; the identity: each channel) at any point of the cell."""
     n, k = rep.lattice.cells_per_side, weights.shape[1]
     spread = np.zeros((n, n, k))
-    seg = rep.near[0]
+    seg, cell_start = rep.near
     if len(seg.p):
         single = single_layer_bound(np.hypot(*(seg.q - seg.p).T), rep.lattice.cell_size)
-        for channel in range(k):
-            spread[..., channel] = block_sums(np.abs(seg.flux @ weights[:, channel]) * single
-                                              + np.abs(seg.jump @ weights[:, channel]) / 2, rep)
+        _segment_spread(np.ascontiguousarray(cell_start, np.int64), np.ascontiguousarray(seg.flux, np.float64),
+                        np.ascontiguousarray(seg.jump, np.float64), single,
+                        np.ascontiguousarray(weights, np.float64), spread)
     near = rep.points.near if rep.points is not None else None
     if near is not None and len(near):
         cell = np.repeat(np.arange(n * n), np.diff(near.cell_start))

@@ -115,15 +115,17 @@ def cell_value_bounds(rep: Representation, weights: np.ndarray | None = None) ->
     return centre, spread + near_bounds(rep, weights)
 
 
-def near_bounds(rep: Representation, weights: np.ndarray | None = None,
-                alpha: Representation | None = None) -> np.ndarray:
+def near_bounds(rep: Representation, weights: np.ndarray | None = None, alpha: Representation | None = None,
+                first: int = 0) -> np.ndarray:
     """How far the segments and near points of each cell may move the shader's values at its pixels, ``(cells^2,
     channels)``, flat cells: ``engine.value_bounds.near_spread`` of the field as the canvas packs it (its scalar
-    field ``weights . colour``, its colour, or its colour and ``alpha``'s first channel), with room for the
-    shader's float32 sums of them."""
-    spread = near_spread(rep, np.eye(3) if weights is None else np.reshape(weights, (3, 1)))
+    field ``weights . colour``, its colour, or its colour and ``alpha``'s first channel), of its channels from
+    ``first`` on (a translucent layer's alpha alone: 3), with room for the shader's float32 sums of them."""
+    matrix = np.eye(3) if weights is None else np.reshape(weights, (3, 1))
+    columns = [near_spread(rep, matrix[:, first:])] if first < matrix.shape[1] else []
     if alpha is not None:
-        spread = np.concatenate([spread, near_spread(alpha, np.eye(3)[:, :1])], axis=-1)
+        columns.append(near_spread(alpha, np.eye(3)[:, :1]))
+    spread = np.concatenate(columns, axis=-1)
     return spread.reshape(-1, spread.shape[-1]) * NEAR_ROUNDING
 
 

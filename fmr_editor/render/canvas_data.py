@@ -85,7 +85,7 @@ class CanvasData:
         self._mirror = np.zeros((0, 0), np.float32)  # the coefficients as uploaded, a row per cell
         self._delta = np.zeros((0, 0), np.float32)  # each cell's latest change of them (as the delta pass reads)
         self._far: tuple[np.ndarray, np.ndarray] | None = None  # bounds.value_bounds of the rows, once asked for
-        self._near: np.ndarray | None = None  # bounds.near_bounds, once asked for
+        self._near: tuple[int, np.ndarray] | None = None  # bounds.near_bounds of the channels asked for
 
     def upload(self, rep: Representation, alpha: Representation | None = None) -> None:
         """Upload all of ``rep`` (and the ``alpha`` field of the same segments in a fourth channel)."""
@@ -146,17 +146,18 @@ class CanvasData:
         self.rep = rep
         return moved, near_points_changed
 
-    def value_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+    def value_bounds(self, first: int = 0) -> tuple[np.ndarray, np.ndarray]:
         """Each cell's value at its centre and how far the shader's value at any of its pixels may get from it,
-        ``(cells^2, channels)`` each (``(cells^2, 1)`` for a scalar field), flat cells: ``bounds.value_bounds`` of
-        the far field, what segments and near points may add to it (``bounds.near_bounds``) in the spread.  Kept
-        up to date by ``update`` once asked for."""
+        ``(cells^2, channels)`` each (``(cells^2, 1)`` for a scalar field), flat cells, of the channels from
+        ``first`` on (an alpha in the fourth: 3): ``bounds.value_bounds`` of the far field, what segments and
+        near points may add to it (``bounds.near_bounds``) in the spread.  The far field's kept up to date by
+        ``update`` once asked for; the near part made again after a change of the segments or near points."""
         layout = self.layout
         if self._far is None:
             self._far = bounds.value_bounds(self._mirror, layout.order, layout.harmonic, layout.scalar, layout.channels)
-        if self._near is None:
-            self._near = bounds.near_bounds(self.rep, self.weights, self.alpha)
-        return self._far[0], self._far[1] + self._near
+        if self._near is None or self._near[0] != first:
+            self._near = first, bounds.near_bounds(self.rep, self.weights, self.alpha, first)
+        return self._far[0][:, first:], self._far[1][:, first:] + self._near[1]
 
     def upload_change(self, cells: np.ndarray, table: packing.SegmentTable) -> None:
         """The change tables of a delta pass over ``cells``: their coefficients' latest change (rows by cell, as

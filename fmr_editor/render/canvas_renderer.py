@@ -143,9 +143,9 @@ class CanvasRenderer:
         they were to be evaluated)."""
         return self._stale.copy()
 
-    def value_bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        """``CanvasData.value_bounds`` of the uploaded representation."""
-        return self._data.value_bounds()
+    def value_bounds(self, first: int = 0) -> tuple[np.ndarray, np.ndarray]:
+        """``CanvasData.value_bounds`` of the uploaded representation, of its channels from ``first`` on."""
+        return self._data.value_bounds(first)
 
     def take_changed(self) -> tuple[int, int, int, int] | None:
         """GL pixels ``(x0, y0, x1, y1)`` of the cached image changed since the last call; None: none."""

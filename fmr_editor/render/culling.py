@@ -1,9 +1,9 @@
 """Where each layer of a layered picture shows, cell by cell, so that the canvas evaluates and composes only there.
 
 A layer's weight ``m = clamp(a, 0, 1) opacity clamp(M, 0, 1)`` (``engine.composite``) is snapped to 0 or 1
-within ``NEGLIGIBLE_WEIGHT``.  Over a cell whose mask and alpha take only their far field (no segment or near
-point adds to them), their values lie within ``bounds.value_bounds`` of the cell's centre value, and so does
-the weight, interval by interval.  Where that interval is surely 0 the layer leaves the picture as it was;
+within ``NEGLIGIBLE_WEIGHT``.  Over a cell, a mask's and an alpha's values lie within their far field's
+``bounds.value_bounds`` and what their segments and near points may add (``bounds.near_bounds``) of the cell's
+centre value, and so does the weight, interval by interval.  Where that interval is surely 0 the layer leaves the picture as it was;
 where a layer above surely weighs 1 it replaces what lies below.  There the layer is hidden: its image, mask
 and alpha need not be evaluated and its compose pass leaves the cell out; where its own weight is surely 1, its
 mask and alpha need not be evaluated either (the pass replaces what lies below).  The composed pixels are the

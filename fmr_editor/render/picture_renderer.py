@@ -326,8 +326,7 @@ class PictureRenderer:
     def _value_bounds(self, key: FieldKey) -> culling.ValueBounds:
         """``CanvasRenderer.value_bounds`` of field ``key`` (an alpha in its image's fourth channel: that one)."""
         if key[1] is Role.ALPHA and (key[0], Role.IMAGE) in self._alphas:
-            centre, spread = self.renderers[key[0], Role.IMAGE].value_bounds()
-            return centre[:, 3:], spread[:, 3:]
+            return self.renderers[key[0], Role.IMAGE].value_bounds(3)
         return self.renderers[key].value_bounds()
 
     def _blur(self, layer: LayerFields, view: View) -> tuple[int, int, int, int] | None:

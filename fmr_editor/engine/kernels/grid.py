@@ -323,9 +323,10 @@ def _column_sizes(n: int, cell_start: np.ndarray, x_start: np.ndarray, y_start: 
 
 
 @numba.njit(parallel=True, cache=True, fastmath=GRID_MATH, error_model="numpy")
-def _far_grid(poly, scalar, degree, xs, ys, x_start, y_start, cell_size, out, add):
+def _far_grid(poly, scalar, degree, xs, ys, x_start, y_start, cell_size, skip, out, add):
     """Horner in eta, then in xi, up to ``degree`` per axis; the inner loops run over a cell's samples (they
-    vectorise).  With ``scalar (3,)`` (not empty), one channel: each cell's polynomial of ``scalar . colour``."""
+    vectorise).  With ``scalar (3,)`` (not empty), one channel: each cell's polynomial of ``scalar . colour``.
+    Cells where ``skip`` (``(n, n)``, or ``(0, 0)``: none) are left as they are."""
     n = poly.shape[0]
     for cy in numba.prange(n):
         ya, yb = y_start[cy], y_start[cy + 1]
@@ -342,7 +343,7 @@ def _far_grid(poly, scalar, degree, xs, ys, x_start, y_start, cell_size, out, ad
         for cx in range(n):
             xa, xb = x_start[cx], x_start[cx + 1]
             cols = xb - xa
-            if cols == 0:
+            if cols == 0 or (skip.shape[0] > 0 and skip[cy, cx]):
                 continue
             for b in range(cols):
                 xi[b] = xs[xa + b] / cell_size - (cx + 0.5)
@@ -378,7 +379,7 @@ def _far_grid(poly, scalar, degree, xs, ys, x_start, y_start, cell_size, out, ad
 
 def far_field_grid(poly: np.ndarray, xs: np.ndarray, ys: np.ndarray, cell_size: float,
                    order: int | None = None, out: np.ndarray | None = None,
-                   scalar: np.ndarray | None = None) -> np.ndarray:
+                   scalar: np.ndarray | None = None, skip: np.ndarray | None = None) -> np.ndarray:
     """Cell polynomials on the tensor grid ``ys x xs``, ``(len(ys), len(xs), 3)``; with ``scalar (3,)``, those of
     the one channel ``scalar . colour`` (a mask's luminance: a third of the work), ``(len(ys), len(xs), 1)``.
 
@@ -397,6 +398,9 @@ def far_field_grid(poly: np.ndarray, xs: np.ndarray, ys: np.ndarray, cell_size: 
     out : numpy.ndarray, optional
         C-contiguous float64 of that shape: the polynomials are *added* to it.
     scalar : numpy.ndarray, optional
+        ``(3,)``: the weights of the one channel.
+    skip : numpy.ndarray, optional
+        ``(n, n)`` bool: cells whose samples are left as they are (not needed).
     """
     fresh = out is None
     xs, ys, out = grid_arrays(xs, ys, out, 3 if scalar is None else 1)
@@ -405,5 +409,6 @@ def far_field_grid(poly: np.ndarray, xs: np.ndarray, ys: np.ndarray, cell_size: 
     if out.size:
         _far_grid(np.ascontiguousarray(poly, dtype=np.float64),
                   _NO_SCALAR if scalar is None else np.ascontiguousarray(scalar, np.float64), degree, xs, ys,
-                  grid_cell_runs(xs, cell_size, n), grid_cell_runs(ys, cell_size, n), float(cell_size), out, not fresh)
+                  grid_cell_runs(xs, cell_size, n), grid_cell_runs(ys, cell_size, n), float(cell_size),
+                  _NO_SKIP if skip is None else np.ascontiguousarray(skip, np.bool_), out, not fresh)
     return out

@@ -92,13 +92,14 @@ class PointField:
         return np.pad(self.tensor, [(0, 0)] * 3 + [(0, pad), (0, pad)])
 
     def add_grid(self, order: int, xs: np.ndarray, ys: np.ndarray, out: np.ndarray,
-                 scalar: np.ndarray | None = None) -> None:
+                 scalar: np.ndarray | None = None, skip: np.ndarray | None = None) -> None:
         """Add the points' field on the grid ``ys x xs`` to ``out (len(ys), len(xs), 3)``: the polynomials at
         degree ``order`` (as ``polynomials(order)``) and the near points' exact sum.  With ``scalar (3,)``, the
         one channel ``scalar . colour`` to ``out (len(ys), len(xs), 1)``, a third of the work (a soft mask's
-        luminance, which is all a mask's colour is read for)."""
-        far_field_grid(self.tensor, xs, ys, self.near.lattice.cell_size, order=order, out=out, scalar=scalar)
-        near_grid(self.near, xs, ys, out=out, scalar=scalar)
+        luminance, which is all a mask's colour is read for).  ``skip (n, n)``: cells left as they are."""
+        far_field_grid(self.tensor, xs, ys, self.near.lattice.cell_size, order=order, out=out, scalar=scalar,
+                       skip=skip)
+        near_grid(self.near, xs, ys, out=out, scalar=scalar, skip=skip)
 
     def at(self, targets: np.ndarray, order: int) -> np.ndarray:
         """The points' field at ``targets (m, 2)``, ``(m, 3)``."""

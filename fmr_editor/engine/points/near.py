@@ -100,8 +100,11 @@ def near_points(points: GaussPoints, lattice: Lattice, settings: PointSettings =
     return NearPoints.build(points.take(chosen), reach, lattice)
 
 
+_NO_SKIP = np.zeros((0, 0), np.bool_)
+
+
 @numba.njit(parallel=True, cache=True, error_model="numpy")
-def _near_grid(xs, ys, x_start, y_start, n, cell_start, members, px, py, inv_r2, w, out):
+def _near_grid(xs, ys, x_start, y_start, n, cell_start, members, px, py, inv_r2, w, skip, out):
     for cy in numba.prange(n):
         ya, yb = y_start[cy], y_start[cy + 1]
         if ya == yb:
@@ -110,7 +113,7 @@ def _near_grid(xs, ys, x_start, y_start, n, cell_start, members, px, py, inv_r2,
         ex = np.empty(xs.shape[0])
         for cx in range(n):
             xa, xb = x_start[cx], x_start[cx + 1]
-            if xa == xb:
+            if xa == xb or (skip.shape[0] > 0 and skip[cy, cx]):
                 continue
             for e in range(cell_start[cy * n + cx], cell_start[cy * n + cx + 1]):
                 p = members[e]
@@ -128,7 +131,7 @@ def _near_grid(xs, ys, x_start, y_start, n, cell_start, members, px, py, inv_r2,
 
 
 def near_grid(near: NearPoints, xs: np.ndarray, ys: np.ndarray, out: np.ndarray | None = None,
-              scalar: np.ndarray | None = None) -> np.ndarray:
+              scalar: np.ndarray | None = None, skip: np.ndarray | None = None) -> np.ndarray:
     """The near points' exact sum on the tensor grid ``ys x xs``, ``(len(ys), len(xs), 3)``; with ``scalar``
     ``(3,)``, the one channel ``scalar . colour`` (a mask's luminance), ``(len(ys), len(xs), 1)``.
 
@@ -140,6 +143,9 @@ def near_grid(near: NearPoints, xs: np.ndarray, ys: np.ndarray, out: np.ndarray 
     out : numpy.ndarray, optional
         C-contiguous float64 of that shape; the sum is *added* to it.
     scalar : numpy.ndarray, optional
+        ``(3,)``: the weights of the one channel.
+    skip : numpy.ndarray, optional
+        ``(n, n)`` bool: cells whose samples are left as they are (not needed).
     """
     xs, ys, out = grid_arrays(xs, ys, out, 3 if scalar is None else 1)
     if len(near) == 0 or out.size == 0:
@@ -148,7 +154,8 @@ def near_grid(near: NearPoints, xs: np.ndarray, ys: np.ndarray, out: np.ndarray 
     p = near.points
     weights = p.weights if scalar is None else p.weights @ np.reshape(scalar, (3, 1))
     _near_grid(xs, ys, grid_cell_runs(xs, size, n), grid_cell_runs(ys, size, n), n, near.cell_start,
-               near.members, p.positions[:, 0].copy(), p.positions[:, 1].copy(), 1.0 / p.radii**2, weights, out)
+               near.members, p.positions[:, 0].copy(), p.positions[:, 1].copy(), 1.0 / p.radii**2, weights,
+               _NO_SKIP if skip is None else np.ascontiguousarray(skip, np.bool_), out)
     return out
 
 
