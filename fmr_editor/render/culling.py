@@ -3,12 +3,12 @@
 A layer's weight ``m = clamp(a, 0, 1) opacity clamp(M, 0, 1)`` (``engine.composite``) is snapped to 0 or 1
 within ``NEGLIGIBLE_WEIGHT``.  Over a cell, a mask's and an alpha's values lie within their far field's
 ``bounds.value_bounds`` and what their segments and near points may add (``bounds.near_bounds``) of the cell's
-centre value, and so does the weight, interval by interval.  Where that interval is surely 0 the layer leaves the picture as it was;
-where a layer above surely weighs 1 it replaces what lies below.  There the layer is hidden: its image, mask
-and alpha need not be evaluated and its compose pass leaves the cell out; where its own weight is surely 1, its
-mask and alpha need not be evaluated either (the pass replaces what lies below).  The composed pixels are the
-same as when everything is evaluated.  ``MARGIN`` keeps the decision clear of the snapping thresholds by more than
-the shader's float32 rounding of a weight.
+centre value, and so does the weight, interval by interval.  Where that interval is surely 0 the layer leaves
+the picture as it was; where a layer above surely weighs 1 it replaces what lies below.  There the layer is
+hidden: its image, mask and alpha need not be evaluated and its compose pass leaves the cell out; where its own
+weight is surely 1, its mask and alpha need not be evaluated either (the pass replaces what lies below).  The
+composed pixels are the same as when everything is evaluated.  ``MARGIN`` keeps the decision clear of the
+snapping thresholds by more than the shader's float32 rounding of a weight.
 
 Cells are those of the finest lattice among the picture's fields: every lattice of one picture has the
 canvas's side, so a coarser cell is a block of fine ones.
