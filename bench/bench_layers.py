@@ -13,7 +13,7 @@ is shared and noisy):
   the composed image), and the **full evaluation** (every window pixel of every
   layer and mask evaluated and composed: a zoom or a resize), S x S window;
 - **CPU raster**: ``engine.rasterise`` of the composite and of the flat
-  document at the canvas size, one sample a pixel;
+  document at the canvas size and at S x S, one sample a pixel;
 - **mask dab**: one diffusion point into the top layer's mask, from the edit
   to the finished frame (engine update, renderer update, draw, ``glFinish``);
 - **hue change**: the middle layer's hue turned, edit to frame (no solve: the
@@ -205,19 +205,21 @@ def main() -> None:
     print(f"# Layers benchmark\n\n{Path(args.file).name} ({flat.width}x{flat.height}, {len(flat_document.curves)} "
           f"curves): flat = one layer; layers = its curves in 3 layers with a curve mask, a points mask, a hue "
           f"rotation and an opacity ({fields} fields). {os.cpu_count()} cores; best of {args.repeat} runs.\n")
-    rows = []
-    for name, picture in (("flat", flat), ("layers", stack.composite)):
-        runs = []
-        for _ in range(args.repeat):
-            start = time.perf_counter()
-            rasterise(picture, samples=1)
-            runs.append(time.perf_counter() - start)
-        rows.append((name, best(runs)))
-    raster = ("CPU raster, canvas size, 1 sample (ms)", rows[0][1], rows[1][1])
+    rasters = []
+    for label, side in (("canvas size", None), (f"{args.size}x{args.size}", args.size)):
+        rows = []
+        for picture in (flat, stack.composite):
+            runs = []
+            for _ in range(args.repeat):
+                start = time.perf_counter()
+                rasterise(picture, side, side, samples=1)
+                runs.append(time.perf_counter() - start)
+            rows.append(best(runs))
+        rasters.append((f"CPU raster, {label}, 1 sample (ms)", *rows))
     alpha = alpha_rows(args, flat_document)
     layer_rows, evaluations = gl_rows(args, flat, stack, fields, {name: alpha[name][3]
                                                                   for name in ("opaque", "translucent")})
-    table = [raster, *layer_rows]
+    table = [*rasters, *layer_rows]
     print("| measure | flat | layers | ratio |\n|---|---:|---:|---:|")
     for name, one, many in table:
         ratio = f"{many / one:.2f}x" if one else ""
