@@ -92,6 +92,8 @@ def subcell_tails(rep, weights: np.ndarray) -> np.ndarray:
     seg, order = rep.near[0], rep.order
     if not len(seg.p):
         return np.zeros((rep.lattice.cells_per_side,) * 2)
+    if order < 1:  # the series' logarithmic first term is not bounded so: no cell is settled
+        return np.full((rep.lattice.cells_per_side,) * 2, np.inf)
     rho = 1.0 / (np.sqrt(2.0) * SEPARATION)
     tail = 2.0 * rho ** (order + 1) / (1.0 - rho) * INV_TWO_PI
     size = rep.lattice.cell_size / 2
