@@ -13,7 +13,7 @@ engine's thread and memory policy, once, before work.
 """
 
 from .cloning import clone_points
-from .composite import NEGLIGIBLE_WEIGHT, Composite, FieldKey, LayerFields, Role
+from .composite import NEGLIGIBLE_WEIGHT, SCALAR_WEIGHTS, Composite, FieldKey, LayerFields, Role
 from .fmm.expansions import local_polynomials
 from .fmm.lattice import Lattice
 from .geometry.segments import Segments
@@ -30,8 +30,8 @@ from .solve.clone import SeamlessClone, Similarity
 from .stack import LiveStack, StackUpdate, build, composite_of
 
 __all__ = [
-    "DEFAULT_MEMORY", "MAX_LEVELS", "NEGLIGIBLE_WEIGHT", "Composite", "FieldKey", "GaussPoints", "LayerFields",
-    "Lattice", "LiveRepresentation", "LiveStack",
+    "DEFAULT_MEMORY", "MAX_LEVELS", "NEGLIGIBLE_WEIGHT", "SCALAR_WEIGHTS", "Composite", "FieldKey", "GaussPoints",
+    "LayerFields", "Lattice", "LiveRepresentation", "LiveStack",
     "PointField", "Progress", "Representation", "Role", "SeamlessClone", "Segments", "Settings", "Similarity",
     "StackUpdate", "Update", "build",
     "available_memory", "check_image_memory", "clone_points", "composite_of", "evaluate_points", "load_raster_kernels",

@@ -271,8 +271,11 @@ def settled(layer: LayerFields, centre: np.ndarray, spread: np.ndarray) -> np.nd
 
 
 _NO_SAMPLES = np.zeros((0, 3))
-#: The weights of the one channel an alpha field is read through: its first.
+#: The weights of the one channel an alpha field (and a blur field) is read through: its first.
 FIRST_CHANNEL = np.array([1.0, 0.0, 0.0])
+#: The fields read through one value a sample, by role, and its weights: a mask through its luminance, an alpha
+#: and a blur field through their first channel (the raster's ``scalar_reads``, the canvas's scalar renderers).
+SCALAR_WEIGHTS = {Role.MASK: MASK_LUMA, Role.ALPHA: FIRST_CHANNEL, Role.BLUR: FIRST_CHANNEL}
 
 
 def scalar_reads(composite: Composite) -> dict[int, np.ndarray]:
@@ -280,12 +283,12 @@ def scalar_reads(composite: Composite) -> dict[int, np.ndarray]:
     their channels, and that ``w (3,)``: a mask's luminance (``MASK_LUMA``), an alpha field's first channel
     (``FIRST_CHANNEL``).  ``compose`` and ``hidden`` take such a field's values as that one channel ``(..., 1)`` or
     as its colour; a field read in two ways (a mask that is also an image, say) is not listed."""
-    weights = {Role.MASK: MASK_LUMA, Role.ALPHA: FIRST_CHANNEL}
     roles: dict[int, set[Role]] = {}
     for layer in composite.shown:
         for role, rep in layer.read:
             roles.setdefault(id(rep), set()).add(role)
-    return {key: weights[role] for key, (role, *others) in roles.items() if not others and role in weights}
+    return {key: SCALAR_WEIGHTS[role] for key, (role, *others) in roles.items()
+            if not others and role in SCALAR_WEIGHTS}
 
 
 def _samples(values: np.ndarray, count: int) -> np.ndarray:

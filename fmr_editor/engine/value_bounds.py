@@ -38,21 +38,6 @@ def single_layer_bound(length: np.ndarray, cell_size: float) -> np.ndarray:
     return (length * max(np.log(far), 0.0) + singular) / (2 * np.pi)
 
 
-def block_total(per_cell: np.ndarray) -> np.ndarray:
-    """``(n, n)``: the sums of ``per_cell (n, n)`` over each cell's 3x3 block."""
-    n = len(per_cell)
-    padded = np.pad(per_cell, 1)
-    return sum(padded[1 + dy : 1 + dy + n, 1 + dx : 1 + dx + n] for dy in (-1, 0, 1) for dx in (-1, 0, 1))
-
-
-def block_sums(per_segment: np.ndarray, rep) -> np.ndarray:
-    """``(2^L, 2^L)`` sums of a per-``near``-segment quantity over each cell's 3x3 block (the cell lists of ``rep``,
-    a ``Representation``)."""
-    n = rep.lattice.cells_per_side
-    own = np.repeat(np.arange(n * n), np.diff(rep.near[1]))
-    return block_total(np.bincount(own, per_segment, minlength=n * n).reshape(n, n))
-
-
 def scalar_bounds(rep, weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Each fine cell's ``weights . value`` of ``rep`` at its centre's far field, and how far the raster's value
     (``engine.raster``, to ``rep.order``) may get from that at any point of the cell, ``(2^L, 2^L)`` each: its
@@ -72,34 +57,30 @@ def scalar_bounds(rep, weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         raise ValueError("the points' lattice must be the representation's")
     weights = np.ascontiguousarray(weights, np.float64)
     centre = rep.centre_values @ weights
-    spread = near_spread(rep, weights[:, None])[..., 0] + subcell_tails(rep, weights)
-    if len(rep.near[0].p):
+    segments = len(rep.near[0].p) > 0
+    tails = subcell_tails(order, rep.lattice.cell_size) if order >= 1 else (0.0, 0.0)
+    spread = np.ascontiguousarray(near_spread(rep, weights[:, None], tails)[..., 0])
+    if segments:
         spread += rep.near_bounds
     _far_spread(np.ascontiguousarray(rep.local), weights, min(order, rep.local.shape[-1] - 1), spread)
     if rep.points is not None:
         tensor = rep.points.tensor
         _tensor_spread(np.ascontiguousarray(tensor), weights, min(order, tensor.shape[-1] - 1), centre, spread)
+    if segments and order < 1:  # the sub-cells' series' logarithmic first term is not bounded so: nothing settles
+        spread[...] = np.inf
     return centre, spread
 
 
-def subcell_tails(rep, weights: np.ndarray) -> np.ndarray:
-    """``(2^L, 2^L)``: what the series of the raster's sub-cells (``kernels.subcells``, cells cut in two or more a
-    side) may leave out of ``weights . value`` of the segments of each cell's 3x3 block.  A segment at least
-    ``SEPARATION`` sub-cells ``s`` from a sub-cell's centre has ``|J_m| <= 2 SEPARATION^(1 - m) / (m - 1)`` (its
-    ``v`` at least that far), so its terms past the raster's order ``P`` sum to at most ``(|E| s SEPARATION /
-    (P (P + 1)) + |C| / (P + 1)) 2 rho^(P + 1) / ((1 - rho) 2 pi)``, ``rho = 1 / (sqrt 2 SEPARATION)``,
-    ``s`` at most half a cell."""
-    seg, order = rep.near[0], rep.order
-    if not len(seg.p):
-        return np.zeros((rep.lattice.cells_per_side,) * 2)
-    if order < 1:  # the series' logarithmic first term is not bounded so: no cell is settled
-        return np.full((rep.lattice.cells_per_side,) * 2, np.inf)
+def subcell_tails(order: int, cell_size: float) -> tuple[float, float]:
+    """What the series of the raster's sub-cells (``kernels.subcells``, cells cut in two or more a side) of degree
+    ``order`` (at least 1) may leave out of a segment's field, per unit of its ``|E|`` and of its ``|C|``.  A
+    segment at least ``SEPARATION`` sub-cells ``s`` from a sub-cell's centre has ``|J_m| <= 2 SEPARATION^(1 - m) /
+    (m - 1)`` (its ``v`` at least that far), so its terms past the order ``P`` sum to at most ``(|E| s SEPARATION
+    / (P (P + 1)) + |C| / (P + 1)) 2 rho^(P + 1) / ((1 - rho) 2 pi)``, ``rho = 1 / (sqrt 2 SEPARATION)``, ``s``
+    at most half a cell."""
     rho = 1.0 / (np.sqrt(2.0) * SEPARATION)
     tail = 2.0 * rho ** (order + 1) / (1.0 - rho) * INV_TWO_PI
-    size = rep.lattice.cell_size / 2
-    per_segment = tail * (np.abs(seg.flux @ weights) * size * SEPARATION / (order * (order + 1))
-                          + np.abs(seg.jump @ weights) / (order + 1))
-    return block_sums(per_segment, rep)
+    return tail * cell_size / 2 * SEPARATION / (order * (order + 1)), tail / (order + 1)
 
 
 @numba.njit(parallel=True, cache=True)
@@ -141,10 +122,10 @@ def _tensor_spread(tensor, weights, order, centre, spread):
 
 
 @numba.njit(parallel=True, cache=True)
-def _segment_spread(cell_start, flux, jump, single, weights, spread):
-    """Add ``|weights[:, k] . E| single + |weights[:, k] . C| / 2`` of each segment (sorted by cell) to the 3x3
-    block of its cell in ``spread (n, n, k)``; rows of cells in three strides, so that no two threads add to one
-    cell."""
+def _segment_spread(cell_start, flux, jump, flux_sizes, jump_size, weights, spread):
+    """Add ``|weights[:, k] . E| flux_sizes + |weights[:, k] . C| jump_size`` of each segment (sorted by cell) to the
+    3x3 block of its cell in ``spread (n, n, k)``; rows of cells in three strides, so that no two threads add to
+    one cell."""
     n, channels = spread.shape[0], spread.shape[2]
     for stride in range(3):
         for cy in numba.prange((n - stride + 2) // 3):
@@ -154,7 +135,7 @@ def _segment_spread(cell_start, flux, jump, single, weights, spread):
                     for k in range(channels):
                         e = flux[j, 0] * weights[0, k] + flux[j, 1] * weights[1, k] + flux[j, 2] * weights[2, k]
                         c = jump[j, 0] * weights[0, k] + jump[j, 1] * weights[1, k] + jump[j, 2] * weights[2, k]
-                        size = abs(e) * single[j] + abs(c) / 2
+                        size = abs(e) * flux_sizes[j] + abs(c) * jump_size
                         for y in range(max(row - 1, 0), min(row + 2, n)):
                             for x in range(max(cx - 1, 0), min(cx + 2, n)):
                                 spread[y, x, k] += size
@@ -165,20 +146,21 @@ def load_kernels() -> None:
     weights, cell = np.ones(3), np.zeros((1, 1))
     _far_spread(np.zeros((1, 1, 3, 2), complex), weights, 1, cell)
     _tensor_spread(np.zeros((1, 1, 3, 2, 2)), weights, 1, cell, cell.copy())
-    _segment_spread(np.zeros(2, np.int64), np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0), np.ones((3, 1)),
+    _segment_spread(np.zeros(2, np.int64), np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0), 0.5, np.ones((3, 1)),
                     np.zeros((1, 1, 1)))
 
 
-def near_spread(rep, weights: np.ndarray) -> np.ndarray:
+def near_spread(rep, weights: np.ndarray, tails: tuple[float, float] = (0.0, 0.0)) -> np.ndarray:
     """``(2^L, 2^L, k)``: how far the segments of each fine cell's 3x3 block and the near points it lists may move
-    ``weights.T @ value`` (``weights (3, k)``; the identity: each channel) at any point of the cell."""
+    ``weights.T @ value`` (``weights (3, k)``; the identity: each channel) at any point of the cell; ``tails``: more
+    a segment, per unit of its ``|E|`` and of its ``|C|`` (``subcell_tails``)."""
     n, k = rep.lattice.cells_per_side, weights.shape[1]
     spread = np.zeros((n, n, k))
     seg, cell_start = rep.near
     if len(seg.p):
-        single = single_layer_bound(np.hypot(*(seg.q - seg.p).T), rep.lattice.cell_size)
+        single = single_layer_bound(np.hypot(*(seg.q - seg.p).T), rep.lattice.cell_size) + tails[0]
         _segment_spread(np.ascontiguousarray(cell_start, np.int64), np.ascontiguousarray(seg.flux, np.float64),
-                        np.ascontiguousarray(seg.jump, np.float64), single,
+                        np.ascontiguousarray(seg.jump, np.float64), single, 0.5 + tails[1],
                         np.ascontiguousarray(weights, np.float64), spread)
     near = rep.points.near if rep.points is not None else None
     if near is not None and len(near):

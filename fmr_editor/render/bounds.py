@@ -25,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..engine import Representation, same_geometry
-from ..engine.value_bounds import block_sums, block_total, near_spread, single_layer_bound
+from ..engine.value_bounds import near_spread, single_layer_bound
 from . import packing
 
 #: The near bounds' room for the shader's float32 sums of the segments' and points' terms (each within a few
@@ -182,6 +182,20 @@ def _matched_runs(before: Representation, after: Representation):
     return old_index[kept], new_index[kept], changed.reshape(n, n)
 
 
+def block_sums(per_segment: np.ndarray, rep: Representation) -> np.ndarray:
+    """``(2^L, 2^L)`` sums of a per-``near``-segment quantity over each cell's 3x3 block (``rep``'s cell lists)."""
+    n = rep.lattice.cells_per_side
+    own = np.repeat(np.arange(n * n), np.diff(rep.near[1]))
+    per_cell = np.bincount(own, per_segment, minlength=n * n).reshape(n, n)
+    return _block(per_cell)
+
+
+def _block(per_cell: np.ndarray) -> np.ndarray:
+    n = len(per_cell)
+    padded = np.pad(per_cell, 1)
+    return sum(padded[1 + dy : 1 + dy + n, 1 + dx : 1 + dx + n] for dy in (-1, 0, 1) for dx in (-1, 0, 1))
+
+
 def near_bound(before: Representation, after: Representation, changes: np.ndarray | None = None) -> np.ndarray | None:
     """Largest change of the segments' near field over each cell's pixels, ``(2^L, 2^L)``.
 
@@ -192,4 +206,4 @@ def near_bound(before: Representation, after: Representation, changes: np.ndarra
     if matched is None:
         return None
     sums = block_sums(segment_changes(before, after) if changes is None else changes, after)
-    return np.where(block_total(matched[2].astype(np.float64)) > 0, np.inf, sums)
+    return np.where(_block(matched[2].astype(np.float64)) > 0, np.inf, sums)

@@ -29,9 +29,8 @@ from dataclasses import replace
 import numpy as np
 from OpenGL import GL
 
-from ..engine import NEGLIGIBLE_WEIGHT, Composite, FieldKey, LayerFields, Representation, Role
+from ..engine import NEGLIGIBLE_WEIGHT, SCALAR_WEIGHTS, Composite, FieldKey, LayerFields, Representation, Role
 from ..engine.blur import largest_blur
-from ..model.layer import MASK_LUMA
 from . import culling
 from .blur_filter import BlurFilter, BlurPlan, FramebufferPool, read_first_channel
 from .cached_image import CachedImage, show_scaled, union
@@ -44,9 +43,6 @@ REFLECTED = (Role.IMAGE, Role.ALPHA, Role.BLUR)
 
 #: ``changed`` of a field to upload whole (a new lattice, or changes merged across lattices).
 WHOLE = None
-#: The fields read through one value a pixel, by role: a mask through its luminance, an alpha and a blur field
-#: through their first channel.  Their renderers evaluate that value alone (``CanvasRenderer``'s ``weights``).
-SCALAR_FIELDS = {Role.MASK: MASK_LUMA, Role.ALPHA: np.array([1.0, 0.0, 0.0]), Role.BLUR: np.array([1.0, 0.0, 0.0])}
 #: The texture unit of the cell list of the checkerboard's and the tint's passes (``shaders/compose.frag``), after
 #: their mask; the layers' passes (``shaders/layers.frag``) read theirs from unit 0, their images after it.
 CELL_LIST_UNIT = 2
@@ -166,7 +162,7 @@ class PictureRenderer:
             if alpha is not None and alpha_key in changed:  # its alpha's change as well
                 change = merge_changes({} if change is False else {key: change}, {key: changed[alpha_key]})[key]
             if renderer is None:
-                renderer = self.renderers[key] = CanvasRenderer(*self._options, weights=SCALAR_FIELDS.get(key[1]))
+                renderer = self.renderers[key] = CanvasRenderer(*self._options, weights=SCALAR_WEIGHTS.get(key[1]))
                 renderer.upload(rep, alpha)
             elif change is WHOLE or (renderer.alpha is None) != (alpha is None):
                 renderer.upload(rep, alpha)
