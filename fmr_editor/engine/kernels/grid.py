@@ -12,6 +12,7 @@ import numpy as np
 from .blocks import GEOMETRY, by_samples, by_samples4, gather_block
 from .fastmath import POLY_MATH
 from .near_rows import near_rows
+from .rows import spread_rows
 from .segment_sums import near_tables
 from .single import SINGLE_BUDGET, by_samples_single, by_samples_single4, error_bounds, gather_single
 
@@ -124,15 +125,17 @@ _near_row3, _near_row4 = _near_row_of(3), _near_row_of(4)
 
 
 def _near_grid_of(channels):
-    """``near_grid`` of ``channels``: threads take rows of cells (dynamically: ``numba.parallel_chunksize(1)``);
-    each writes its own samples."""
+    """``near_grid`` of ``channels``: threads take rows of cells (``rows.spread_rows``); each writes its own
+    samples."""
     four = channels == 4
     rows = GEOMETRY + 2 * channels
 
     @numba.njit(parallel=True, cache=True, error_model="numpy")
     def near_grid(xs, ys, x_start, y_start, n, cell_start, cell_size, table, weights, capacity, most, single,
                   any_single, skip, out):
-        for cy in numba.prange(n):
+        spread = spread_rows(y_start)
+        for t in numba.prange(len(spread)):
+            cy = spread[t]
             lo, hi = max(cy - 1, 0), min(cy + 2, n)
             if y_start[cy] == y_start[cy + 1] or cell_start[lo * n] == cell_start[hi * n]:
                 continue
@@ -167,7 +170,7 @@ def grid_arrays(xs: np.ndarray, ys: np.ndarray, out: np.ndarray | None,
     """
     xs = np.ascontiguousarray(xs, dtype=np.float64)
     ys = np.ascontiguousarray(ys, dtype=np.float64)
-    if (np.diff(xs) < 0).any() or (np.diff(ys) < 0).any():
+    if not (_non_decreasing(xs) and _non_decreasing(ys)):
         raise ValueError("grid coordinates must be sorted")
     shape = (len(ys), len(xs), channels)
     if out is None:
@@ -177,13 +180,15 @@ def grid_arrays(xs: np.ndarray, ys: np.ndarray, out: np.ndarray | None,
     return xs, ys, out
 
 
-@numba.njit(cache=True)
+@numba.njit(parallel=True, cache=True)
 def cells_all(flags: np.ndarray, x_start: np.ndarray, y_start: np.ndarray) -> np.ndarray:
     """``(n, n)`` bool: cells all of whose samples are ``flags (len(ys), len(xs))`` (those with none too), the cells'
     runs of samples ``x_start``, ``y_start`` (``grid_cell_runs``)."""
     n = len(x_start) - 1
     cells = np.ones((n, n), np.bool_)
-    for cy in range(n):
+    spread = spread_rows(y_start)
+    for t in numba.prange(len(spread)):
+        cy = spread[t]
         for i in range(y_start[cy], y_start[cy + 1]):
             for cx in range(n):
                 if cells[cy, cx]:
@@ -197,7 +202,9 @@ def cells_all(flags: np.ndarray, x_start: np.ndarray, y_start: np.ndarray) -> np
 @numba.njit(parallel=True, cache=True)
 def _fill_cells(out, cells, values, x_start, y_start):
     n = cells.shape[0]
-    for cy in numba.prange(n):
+    spread = spread_rows(y_start)
+    for t in numba.prange(len(spread)):
+        cy = spread[t]
         for cx in range(n):
             if cells[cy, cx]:
                 for a in range(y_start[cy], y_start[cy + 1]):
@@ -220,10 +227,36 @@ def grid_cell_runs(coords: np.ndarray, cell_size: float, cells_per_side: int) ->
 
     A coordinate's cell is ``floor(coord / cell_size)`` clamped to the lattice,
     as in ``raster.far_field_reference``: a sample on an edge between two cells belongs
-    to the one with the larger index.
+    to the one with the larger index.  Compiled (a raster asks some forty times; numpy's five passes cost
+    20 us a call); ``grid_cell_runs_reference`` is the plain form.
     """
+    return _cell_runs(np.ascontiguousarray(coords, np.float64), float(cell_size), int(cells_per_side))
+
+
+def grid_cell_runs_reference(coords: np.ndarray, cell_size: float, cells_per_side: int) -> np.ndarray:
+    """``grid_cell_runs`` in numpy."""
     cells = np.clip(np.floor(coords / cell_size).astype(np.int64), 0, cells_per_side - 1)
     return np.searchsorted(cells, np.arange(cells_per_side + 1)).astype(np.int64)
+
+
+@numba.njit(cache=True)
+def _cell_runs(coords, cell_size, n):
+    runs = np.full(n + 1, len(coords), np.int64)
+    cell = 0  # the next cell whose run has not started
+    for i in range(len(coords)):
+        last = min(max(np.floor(coords[i] / cell_size), 0.0), n - 1.0)
+        while cell <= last:
+            runs[cell] = i
+            cell += 1
+    return runs
+
+
+@numba.njit(cache=True)
+def _non_decreasing(values):
+    for i in range(1, len(values)):
+        if not values[i] >= values[i - 1]:
+            return False
+    return True
 
 
 def near_field_grid(
@@ -251,7 +284,7 @@ def near_field_grid(
     with a loop over the window's samples that vectorises.  Cells of at most
     ``ROW_SAMPLES`` samples a side would give that loop a few iterations: their
     lattices go to ``near_rows`` (float64 whatever ``precision``).  Threads take
-    rows dynamically.
+    rows spread over the lattice (``rows.spread_rows``).
 
     Parameters
     ----------
@@ -297,10 +330,9 @@ def near_field_grid(
         single = bounded[:, :-2] & bounded[:, 1:-1] & bounded[:, 2:]  # every cell of the visit's window
     if skip is not None and skip.shape != (n, n):
         raise ValueError(f"skip must have the shape {(n, n)}")
-    with numba.parallel_chunksize(1):
-        _NEAR_GRID[out.shape[2]](xs, ys, x_start, y_start, n, cell_start, float(cell_size), table, weights,
-                                 capacity, most, single, bool(single.any()),
-                                 _NO_SKIP if skip is None else np.ascontiguousarray(skip, np.bool_), out)
+    _NEAR_GRID[out.shape[2]](xs, ys, x_start, y_start, n, cell_start, float(cell_size), table, weights, capacity,
+                             most, single, bool(single.any()),
+                             _NO_SKIP if skip is None else np.ascontiguousarray(skip, np.bool_), out)
     return out
 
 
@@ -328,7 +360,9 @@ def _far_grid(poly, scalar, degree, xs, ys, x_start, y_start, cell_size, skip, o
     vectorise).  With ``scalar (3,)`` (not empty), one channel: each cell's polynomial of ``scalar . colour``.
     Cells where ``skip`` (``(n, n)``, or ``(0, 0)``: none) are left as they are."""
     n = poly.shape[0]
-    for cy in numba.prange(n):
+    spread = spread_rows(y_start)
+    for t in numba.prange(len(spread)):
+        cy = spread[t]
         ya, yb = y_start[cy], y_start[cy + 1]
         rows = yb - ya
         if rows == 0:

@@ -25,6 +25,7 @@ import numpy as np
 
 from .fastmath import FAST_MATH, INV_TWO_PI
 from .grid import grid_arrays, grid_cell_runs
+from .rows import spread_rows
 
 _NO_CENTRES = np.zeros((0, 0, 3))
 _NO_COUNTS = np.zeros(0, np.int64)
@@ -220,7 +221,9 @@ def _local_kernel(channels):
         widest = 0
         for cx in range(n):
             widest = max(widest, x_start[cx + 1] - x_start[cx])
-        for cy in numba.prange(n):
+        spread = spread_rows(y_start)
+        for t in numba.prange(len(spread)):
+            cy = spread[t]
             ya, rows = y_start[cy], y_start[cy + 1] - y_start[cy]
             if rows == 0:
                 continue
@@ -368,11 +371,10 @@ def local_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.ndarr
         return out
     flags = np.zeros((1, 1), np.bool_) if skip is None else np.ascontiguousarray(skip, np.bool_)
     across, down = offsets or (largest_offsets(xs, cell_size, n), largest_offsets(ys, cell_size, n))
-    with numba.parallel_chunksize(1):
-        _LOCAL_GRID[channels](np.asarray(local, np.complex128), np.asarray(fourth_local, np.complex128),
-                              _NO_CENTRES if centres is None else np.ascontiguousarray(centres),
-                              _NO_CENTRES if fourth_centres is None else np.ascontiguousarray(fourth_centres),
-                              int(order), degrees, across, down, xs, ys, grid_cell_runs(xs, cell_size, n),
-                              grid_cell_runs(ys, cell_size, n), float(cell_size), flags, skip is not None,
-                              bool(zero_skipped), out, _NO_COUNTS if tables_made is None else tables_made)
+    _LOCAL_GRID[channels](np.asarray(local, np.complex128), np.asarray(fourth_local, np.complex128),
+                          _NO_CENTRES if centres is None else np.ascontiguousarray(centres),
+                          _NO_CENTRES if fourth_centres is None else np.ascontiguousarray(fourth_centres),
+                          int(order), degrees, across, down, xs, ys, grid_cell_runs(xs, cell_size, n),
+                          grid_cell_runs(ys, cell_size, n), float(cell_size), flags, skip is not None,
+                          bool(zero_skipped), out, _NO_COUNTS if tables_made is None else tables_made)
     return out

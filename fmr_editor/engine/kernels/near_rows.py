@@ -23,6 +23,7 @@ import numba
 import numpy as np
 
 from .fastmath import POLY_MATH
+from .rows import spread_rows
 from .segment_sums import segment_potentials
 
 
@@ -71,13 +72,15 @@ _row3, _row4 = _row_of(3), _row_of(4)
 
 
 def _near_rows_of(channels):
-    """``near_rows_of`` of ``channels``: threads take rows of cells (dynamically: ``numba.parallel_chunksize(1)``);
-    each writes its own samples."""
+    """``near_rows_of`` of ``channels``: threads take rows of cells (``rows.spread_rows``); each writes its own
+    samples."""
     four = channels == 4
 
     @numba.njit(parallel=True, cache=True, error_model="numpy")
     def near_rows_of(xs, ys, x_start, y_start, n, cell_start, table, weights, column, out):
-        for cy in numba.prange(n):
+        spread = spread_rows(y_start)
+        for t in numba.prange(len(spread)):
+            cy = spread[t]
             if y_start[cy] < y_start[cy + 1] and cell_start[max(cy - 1, 0) * n] < cell_start[min(cy + 2, n) * n]:
                 if four:
                     _row4(cy, xs, ys, x_start, y_start, n, cell_start, table, weights, column, out)
@@ -96,5 +99,4 @@ def near_rows(xs: np.ndarray, ys: np.ndarray, x_start: np.ndarray, y_start: np.n
     """Add the near field of segments sorted by cell to ``out`` on the grid ``ys x xs`` (``grid.near_field_grid``'s
     arguments, checked, with the cells' runs of samples ``x_start, y_start``)."""
     column = (np.repeat(np.arange(n * n, dtype=np.int64), np.diff(cell_start)) % n).astype(np.int64)
-    with numba.parallel_chunksize(1):
-        _NEAR_ROWS[out.shape[2]](xs, ys, x_start, y_start, n, cell_start, table, weights, column, out)
+    _NEAR_ROWS[out.shape[2]](xs, ys, x_start, y_start, n, cell_start, table, weights, column, out)

@@ -47,6 +47,7 @@ from .blocks import GEOMETRY, by_samples, by_samples4, gather_block
 from .fastmath import FAST_MATH, INV_TWO_PI, POLY_MATH, TWO_PI, log_r2, potentials_from
 from .grid import grid_arrays, grid_cell_runs, near_field_grid
 from .local_grid import NO_FOURTH, by_powers, by_powers4, local_field_grid
+from .rows import spread_rows
 from .segment_sums import near_tables
 
 #: Default separation, in sub-cell sizes, from a sub-cell's centre beyond which a segment is expanded:
@@ -313,7 +314,9 @@ def _subcell_grid_of(channels):
     @numba.njit(parallel=True, cache=True, error_model="numpy")
     def subcell_grid(local, fourth, order, xs, ys, x_start, y_start, n, cell_size, split, reach, cell_start, table,
                      weights, cells, group_start, capacity, most, out):
-        for g in numba.prange(group_start.shape[0] - 1):
+        spread = spread_rows(group_start)  # each thread's groups from all over the picture
+        for t in numba.prange(len(spread)):
+            g = spread[t]
             seg, sub = np.empty((rows, capacity)), np.empty((rows, capacity))
             shares_p, flux_free = np.empty(capacity, np.bool_), np.empty(capacity, np.bool_)
             sub_shares, sub_ff = np.empty(capacity, np.bool_), np.empty(capacity, np.bool_)
@@ -373,7 +376,7 @@ def _plan(n, cell_start, x_start, y_start, groups, skip):
     return cells, group_start, capacity, most
 
 
-#: Groups of cells per thread (taken dynamically).
+#: Groups of cells per thread (each thread's spread over the picture: ``rows.spread_rows``).
 GROUPS_PER_THREAD = 8
 _NO_SKIP = np.zeros((0, 0), np.bool_)
 
@@ -452,9 +455,8 @@ def subcell_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.nda
     if len(cells) == 0:
         return out
     table, weights = tables or near_tables(p, q, flux, jump)
-    with numba.parallel_chunksize(1):
-        _SUBCELL_GRID[channels](np.asarray(local, np.complex128),
-                                np.asarray(NO_FOURTH if fourth is None else fourth[0], np.complex128), int(order), xs,
-                                ys, x_start, y_start, n, float(cell_size), int(split), float(separation), cell_start,
-                                table, weights, cells, group_start, capacity, most, out)
+    _SUBCELL_GRID[channels](np.asarray(local, np.complex128),
+                            np.asarray(NO_FOURTH if fourth is None else fourth[0], np.complex128), int(order), xs, ys,
+                            x_start, y_start, n, float(cell_size), int(split), float(separation), cell_start, table,
+                            weights, cells, group_start, capacity, most, out)
     return out

@@ -22,6 +22,7 @@ import numpy as np
 
 from ..fmm.lattice import Lattice
 from ..kernels.grid import far_field_grid, grid_arrays, grid_cell_runs
+from ..kernels.rows import spread_rows
 from .gauss import GaussPoints, PointSettings, cell_range, cutoff_radii, expansion_ratios
 
 
@@ -105,7 +106,9 @@ _NO_SKIP = np.zeros((0, 0), np.bool_)
 
 @numba.njit(parallel=True, cache=True, error_model="numpy")
 def _near_grid(xs, ys, x_start, y_start, n, cell_start, members, px, py, inv_r2, w, skip, out):
-    for cy in numba.prange(n):
+    spread = spread_rows(y_start)
+    for t in numba.prange(len(spread)):
+        cy = spread[t]
         ya, yb = y_start[cy], y_start[cy + 1]
         if ya == yb:
             continue
