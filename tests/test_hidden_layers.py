@@ -146,3 +146,46 @@ def test_the_kernels_give_every_sample_outside_skipped_cells_what_they_give_with
     near = near_field_grid(xs, xs, n, lattice.cell_size, rep.cell_start, seg.p, seg.q, seg.flux, seg.jump, skip=skip)
     np.testing.assert_array_equal(near[shown], near_field_grid(xs, xs, n, lattice.cell_size, rep.cell_start, seg.p,
                                                                seg.q, seg.flux, seg.jump)[shown])
+
+
+def spy_outs(monkeypatch) -> list[np.ndarray]:
+    """The arrays the raster's FMR evaluates fields into, in order."""
+    outs, evaluate = [], raster._fmr_samples
+
+    def recorded(rep, order, xs, ys, whole_ys, density, out, *args, **kwargs):
+        outs.append(out)
+        return evaluate(rep, order, xs, ys, whole_ys, density, out, *args, **kwargs)
+
+    monkeypatch.setattr(raster, "_fmr_samples", recorded)
+    return outs
+
+
+@pytest.mark.parametrize("samples", [1, 2])
+def test_a_flat_pictures_image_is_evaluated_into_the_raster_itself_and_clamped_there(stack, monkeypatch, samples):
+    image = stack.composite.layers[0].image
+    expected = rasterise(image, PIXELS, PIXELS, samples=samples) if samples == 1 else None
+    outs = spy_outs(monkeypatch)
+    got = rasterise(Composite(SIZE, SIZE, (replace(stack.composite.layers[0], mask=None),)), PIXELS, PIXELS,
+                    samples=samples)
+    assert len(outs) == 1
+    if samples == 1:  # the picture's own pixels, no image of its own
+        assert np.shares_memory(outs[0], got)
+        np.testing.assert_array_equal(got, np.clip(expected, 0.0, 1.0))
+    else:  # its band of samples, clamped before they are averaged
+        assert not np.shares_memory(outs[0], got)
+        samples_image = rasterise(image, PIXELS * samples, PIXELS * samples, samples=1)
+        clamped = np.clip(samples_image, 0.0, 1.0).reshape(PIXELS, samples, PIXELS, samples, 3).mean(axis=(1, 3))
+        np.testing.assert_allclose(got, clamped, rtol=0, atol=1e-12)
+
+
+def test_an_image_two_layers_show_is_not_evaluated_into_the_picture(stack, fields, monkeypatch):
+    """The bottom layer's image shown again above it (under a mask) is evaluated apart for each: the picture's
+    pixels hold the composition, not the image, when the second reads it."""
+    bottom, middle, _ = stack.composite.shown
+    picture = Composite(SIZE, SIZE, (bottom, replace(bottom, mask=middle.mask, mask_base=0.0, opacity=0.6)))
+    outs = spy_outs(monkeypatch)
+    got = rasterise(picture, PIXELS, PIXELS, samples=1)
+    assert not any(np.shares_memory(out, got) for out in outs)
+    fields = dict(fields) | {id(bottom.image): rasterise(bottom.image, PIXELS, PIXELS, samples=1)}
+    expected = compose_reference(picture, lambda rep: fields[id(rep)], (PIXELS, PIXELS, 3))
+    assert np.abs(got - expected).max() <= NEGLIGIBLE_WEIGHT

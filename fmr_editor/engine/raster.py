@@ -246,7 +246,8 @@ def _composed(composite: Composite, field: Callable, xs: np.ndarray, ys: np.ndar
     evaluated in the one channel it is read through (``composite.scalar_reads``), a third of its work.  With
     ``bounded`` (``field`` the FMR's), a mask is not evaluated in the cells where its bounds settle the weights of
     the layers it masks (``_mask_values``), in rasters of ``BOUNDED_SAMPLES`` a cell of it.  ``out``: where
-    ``compose`` writes the colours.
+    ``compose`` writes the colours, and where the bottom layer's image (unless another layer shows it too) is
+    evaluated, to be blended in place (a flat picture at 1024^2: no second 24 MB image and its pages).
     """
     held: dict[int, np.ndarray] = {}
     shows = Counter(id(layer.image) for layer in composite.shown)
@@ -282,10 +283,13 @@ def _composed(composite: Composite, field: Callable, xs: np.ndarray, ys: np.ndar
              if where.any()}
 
     weighing = {id(rep) for rep in _weighing(composite)}
+    bottom = composite.shown[0].image if out is not None and composite.shown else None
 
     def values(source: Representation) -> np.ndarray:
         if id(source) in held:  # a mask or alpha field two layers read stays for the second
             return held[id(source)] if id(source) in weighing else held.pop(id(source))
+        if source is bottom and shows[id(source)] == 1:
+            return field(source, out=out, skip=skips.get(id(source)))
         return field(source, skip=skips.get(id(source)))
 
     return compose(composite, values, shape + (3,), coverage, out)
