@@ -1,11 +1,18 @@
-"""The raster kernels' walk over rows of cells (``kernels.rows``) and the runs of samples each row holds."""
+"""The raster kernels' bookkeeping: their walk over rows of cells (``kernels.rows``), the runs of samples each row
+holds and the sizes of their scratch, against plain numpy forms."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from fmr_editor.engine.kernels.grid import grid_arrays, grid_cell_runs, grid_cell_runs_reference
+from fmr_editor.engine.kernels.grid import (
+    _column_sizes,
+    _single_windows,
+    grid_arrays,
+    grid_cell_runs,
+    grid_cell_runs_reference,
+)
 from fmr_editor.engine.kernels.rows import spread_rows
 
 
@@ -57,3 +64,34 @@ def test_unsorted_or_nan_coordinates_are_refused():
         with pytest.raises(ValueError, match="sorted"):
             grid_arrays(sorted_xs, bad, None)
     grid_arrays(np.array([1.0, 1.0, 2.0]), sorted_xs, None)  # equal neighbours are sorted
+
+
+def runs(rng: np.random.Generator, n: int, most: int) -> np.ndarray:
+    return np.concatenate([[0], np.cumsum(rng.integers(0, most + 1, n))]).astype(np.int64)
+
+
+def test_scratch_sizes_against_numpy():
+    """The most segments in a column of three cells, and the most samples in a window of three cells of a row."""
+    rng = np.random.default_rng(2)
+    for _ in range(300):
+        n = int(rng.integers(1, 20))
+        cell_start = runs(rng, n * n, 4) * (rng.uniform(size=1) < 0.9)  # and lattices without a segment
+        x_start, y_start = runs(rng, n, 3), runs(rng, n, 3)
+        counts = np.diff(cell_start).reshape(n, n)
+        column = counts.copy()
+        column[1:] += counts[:-1]
+        column[:-1] += counts[1:]
+        cells = np.arange(n)
+        windows = x_start[np.minimum(cells + 2, n)] - x_start[np.maximum(cells - 1, 0)]
+        expected = max(1, int(column.max())), max(1, int(np.diff(y_start).max() * windows.max()))
+        assert _column_sizes(n, cell_start, x_start, y_start) == expected
+
+
+def test_float32_windows_against_numpy():
+    """A row's window of three cells runs in float32 where each of its cells' bounds is within the budget."""
+    rng = np.random.default_rng(3)
+    for n in (1, 2, 5, 16):
+        bounds = rng.uniform(0.0, 2.0, (n, n))
+        within = np.pad(bounds <= 1.0, ((0, 0), (1, 1)), constant_values=True)
+        expected = within[:, :-2] & within[:, 1:-1] & within[:, 2:]
+        np.testing.assert_array_equal(_single_windows(bounds, 1.0), expected)

@@ -326,8 +326,7 @@ def near_field_grid(
     if precision == "single":
         if bounds is None:
             bounds = error_bounds(n, cell_size, cell_start, flux, jump)
-        bounded = np.pad(bounds <= SINGLE_BUDGET, ((0, 0), (1, 1)), constant_values=True)
-        single = bounded[:, :-2] & bounded[:, 1:-1] & bounded[:, 2:]  # every cell of the visit's window
+        single = _single_windows(np.ascontiguousarray(bounds, np.float64), SINGLE_BUDGET)
     if skip is not None and skip.shape != (n, n):
         raise ValueError(f"skip must have the shape {(n, n)}")
     _NEAR_GRID[out.shape[2]](xs, ys, x_start, y_start, n, cell_start, float(cell_size), table, weights, capacity,
@@ -340,15 +339,32 @@ _NO_SKIP = np.zeros((0, 0), np.bool_)
 _NO_SCALAR = np.zeros(0)
 
 
-def _column_sizes(n: int, cell_start: np.ndarray, x_start: np.ndarray, y_start: np.ndarray) -> tuple[int, int]:
+@numba.njit(cache=True)
+def _column_sizes(n, cell_start, x_start, y_start):
     """The most segments in a column of three cells and the most samples in a window of three (``near_row``)."""
-    counts = np.diff(cell_start).reshape(n, n)
-    column = counts.copy()
-    column[1:] += counts[:-1]
-    column[:-1] += counts[1:]
-    cells = np.arange(n)
-    windows = x_start[np.minimum(cells + 2, n)] - x_start[np.maximum(cells - 1, 0)]
-    return max(1, int(column.max())), max(1, int(np.diff(y_start).max() * windows.max()))
+    column, rows, window = 1, 0, 0
+    for c in range(n):
+        rows = max(rows, y_start[c + 1] - y_start[c])
+        window = max(window, x_start[min(c + 2, n)] - x_start[max(c - 1, 0)])
+        for cx in range(n):
+            count = 0
+            for cy in range(max(c - 1, 0), min(c + 2, n)):
+                count += cell_start[cy * n + cx + 1] - cell_start[cy * n + cx]
+            column = max(column, count)
+    return column, max(1, rows * window)
+
+
+@numba.njit(cache=True)
+def _single_windows(bounds, budget):
+    """``(n, n)`` bool: the cells whose row's window of three (``near_row``) has every ``bounds`` within ``budget``
+    (beyond the lattice's edges counting as within)."""
+    n = bounds.shape[0]
+    single = np.zeros((n, n), np.bool_)
+    for cy in range(n):
+        for cx in range(n):
+            single[cy, cx] = ((cx == 0 or bounds[cy, cx - 1] <= budget) and bounds[cy, cx] <= budget
+                              and (cx == n - 1 or bounds[cy, cx + 1] <= budget))
+    return single
 
 
 # --- Far field (cell polynomials) on a tensor grid ----------------------------------------
