@@ -8,5 +8,6 @@ field, collocation) and ``grid`` the same on tensor grids of samples
 grid kernel, in float64 or, through ``single``, float32; ``near_rows``: for
 lattices of a sample or two a cell); ``local_grid`` evaluates the cells'
 local expansions on a grid and ``subcells`` rasterises an FMR's segments,
-cells of many samples in sub-cells.
+cells of many samples in sub-cells; ``rows`` spreads the rows of cells the
+grid kernels walk over their threads.
 """
