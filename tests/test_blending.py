@@ -48,3 +48,21 @@ def test_compose_of_scattered_samples_equals_the_plain_composition():
     picture = Composite(10, 10, (LayerFields("bottom", opacity=0.3), LayerFields("image", mask="mask", opacity=0.8)))
     np.testing.assert_allclose(compose(picture, values.__getitem__, (40, 3), True),
                                compose_reference(picture, values.__getitem__, (40, 3), True), rtol=0, atol=1e-14)
+
+
+@pytest.mark.parametrize("bottom", sorted(LAYERS))
+def test_a_bottom_image_in_the_picture_itself_is_blended_in_place(bottom):
+    """``compose``'s ``out`` holding the bottom layer's image values (``raster._composed``): the same picture as
+    from values of their own, under any mask, alpha, opacity and transform, the layer above read as usual."""
+    values = values_of(len(bottom) + 1)
+    picture = Composite(11, 7, (LayerFields("bottom", **LAYERS[bottom]), LayerFields("image", **LAYERS["mask"])))
+    out = values["bottom"].copy()
+    reads = []
+
+    def in_out(name: str) -> np.ndarray:
+        reads.append(name)
+        return out if name == "bottom" else values[name]
+
+    got = compose(picture, in_out, SHAPE, out=out)
+    assert np.shares_memory(got, out) and reads[0] == "bottom"
+    np.testing.assert_allclose(got, compose_reference(picture, values.__getitem__, SHAPE), rtol=0, atol=1e-14)

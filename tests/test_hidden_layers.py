@@ -19,6 +19,7 @@ from fmr_editor.engine.kernels.grid import cells_all, grid_cell_runs, near_field
 from fmr_editor.engine.kernels.subcells import subcell_field_grid
 from fmr_editor.engine.raster import sample_coordinates
 from fmr_editor.model import Document, layer_edits
+from fmr_editor.model.color_transform import hue_rotation
 from fmr_editor.model.layer import MASK_LUMA
 
 PIXELS = 96
@@ -164,15 +165,20 @@ def spy_outs(monkeypatch) -> list[np.ndarray]:
 def test_a_flat_pictures_image_is_evaluated_into_the_raster_itself_and_clamped_there(stack, monkeypatch, samples):
     image = stack.composite.layers[0].image
     expected = rasterise(image, PIXELS, PIXELS, samples=samples) if samples == 1 else None
-    outs = spy_outs(monkeypatch)
+    outs, composed, compose = spy_outs(monkeypatch), [], raster.compose
+
+    def recorded(*args, **kwargs):
+        composed.append(args[4])
+        return compose(*args, **kwargs)
+
+    monkeypatch.setattr(raster, "compose", recorded)
     got = rasterise(Composite(SIZE, SIZE, (replace(stack.composite.layers[0], mask=None),)), PIXELS, PIXELS,
                     samples=samples)
-    assert len(outs) == 1
+    assert len(outs) == 1 and np.shares_memory(outs[0], composed[0])  # where the picture is composed
     if samples == 1:  # the picture's own pixels, no image of its own
         assert np.shares_memory(outs[0], got)
         np.testing.assert_array_equal(got, np.clip(expected, 0.0, 1.0))
     else:  # its band of samples, clamped before they are averaged
-        assert not np.shares_memory(outs[0], got)
         samples_image = rasterise(image, PIXELS * samples, PIXELS * samples, samples=1)
         clamped = np.clip(samples_image, 0.0, 1.0).reshape(PIXELS, samples, PIXELS, samples, 3).mean(axis=(1, 3))
         np.testing.assert_allclose(got, clamped, rtol=0, atol=1e-12)
@@ -187,5 +193,16 @@ def test_an_image_two_layers_show_is_not_evaluated_into_the_picture(stack, field
     got = rasterise(picture, PIXELS, PIXELS, samples=1)
     assert not any(np.shares_memory(out, got) for out in outs)
     fields = dict(fields) | {id(bottom.image): rasterise(bottom.image, PIXELS, PIXELS, samples=1)}
+    expected = compose_reference(picture, lambda rep: fields[id(rep)], (PIXELS, PIXELS, 3))
+    assert np.abs(got - expected).max() <= NEGLIGIBLE_WEIGHT
+
+
+def test_a_translucent_turned_bottom_layer_in_the_picture_itself(stack, fields, monkeypatch):
+    """Blended in place under an opacity and a colour transform as its own values would be."""
+    bottom = replace(stack.composite.shown[0], opacity=0.6, transform=hue_rotation(90))
+    picture = Composite(SIZE, SIZE, (bottom, stack.composite.shown[2]))
+    outs = spy_outs(monkeypatch)
+    got = rasterise(picture, PIXELS, PIXELS, samples=1)
+    assert sum(np.shares_memory(out, got) for out in outs) == 1  # the bottom image's (the top's mask comes first)
     expected = compose_reference(picture, lambda rep: fields[id(rep)], (PIXELS, PIXELS, 3))
     assert np.abs(got - expected).max() <= NEGLIGIBLE_WEIGHT

@@ -32,7 +32,7 @@ def test_bits_reversed():
 def test_only_the_rows_between_the_first_and_last_with_samples():
     # rows 0 and 5-6 hold no samples, row 3 none between rows that do
     assert sorted(walk([0, 0, 3, 5, 5, 9, 9, 9])) == [1, 2, 3, 4]
-    assert walk([4, 4, 4]) == []
+    assert walk([4, 4, 4]) == [] and walk([]) == []
 
 
 @pytest.mark.parametrize("rows", [16, 32, 63, 64, 200])
@@ -53,12 +53,14 @@ def test_cell_runs_against_numpy():
         coords = np.sort(rng.uniform(-10.0, n * size + 10.0, int(rng.integers(0, 300))))
         if trial % 3 == 0:  # on the cells' edges: the one with the larger index
             coords = np.round(coords / size) * size
+        if trial % 5 == 0:  # far beyond the lattice: its first and last cells
+            coords = np.concatenate([[-np.inf, -1e300], coords, [1e300, np.inf]])
         assert np.array_equal(grid_cell_runs(coords, size, n), grid_cell_runs_reference(coords, size, n))
 
 
 def test_unsorted_or_nan_coordinates_are_refused():
     sorted_xs = np.linspace(0.0, 10.0, 11)
-    for bad in (sorted_xs[::-1], np.array([0.0, np.nan, 2.0])):
+    for bad in (sorted_xs[::-1], np.array([0.0, np.nan, 2.0]), np.array([np.nan])):
         with pytest.raises(ValueError, match="sorted"):
             grid_arrays(bad, sorted_xs, None)
         with pytest.raises(ValueError, match="sorted"):

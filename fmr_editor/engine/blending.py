@@ -46,9 +46,32 @@ def layer_weights(weights, mask, luma, mask_base, mask_enabled, mask_inverted, n
                              opacity)
 
 
+@numba.njit(inline="always")
+def _blend_sample(i, out, coverage, colour, matrix, offset, transformed, weight, first):
+    """Sample ``i`` of ``blend_layer`` at its ``weight``; ``colour`` may be ``out`` itself (read, then written)."""
+    if weight == 0.0:
+        if first:
+            out[i, 0], out[i, 1], out[i, 2], coverage[i] = 0.0, 0.0, 0.0, 0.0
+        return
+    r, g, b = _clamped(colour[i, 0]), _clamped(colour[i, 1]), _clamped(colour[i, 2])
+    if transformed:
+        r, g, b = (_clamped(matrix[0, 0] * r + matrix[0, 1] * g + matrix[0, 2] * b + offset[0]),
+                   _clamped(matrix[1, 0] * r + matrix[1, 1] * g + matrix[1, 2] * b + offset[1]),
+                   _clamped(matrix[2, 0] * r + matrix[2, 1] * g + matrix[2, 2] * b + offset[2]))
+    if weight == 1.0:
+        out[i, 0], out[i, 1], out[i, 2], coverage[i] = r, g, b, 1.0
+    elif first:  # over 0: the same values as below
+        out[i, 0], out[i, 1], out[i, 2], coverage[i] = weight * r, weight * g, weight * b, weight
+    else:
+        out[i, 0] += weight * (r - out[i, 0])
+        out[i, 1] += weight * (g - out[i, 1])
+        out[i, 2] += weight * (b - out[i, 2])
+        coverage[i] += weight * (1.0 - coverage[i])
+
+
 @numba.njit(parallel=True, cache=True)
 def blend_layer(out, coverage, colour, matrix, offset, transformed, mask, luma, mask_base, mask_enabled,
-                mask_inverted, negligible, alpha, alpha_column, opacity, covers, first):
+                mask_inverted, negligible, alpha, alpha_column, opacity, covers, first, in_place):
     """``out``, ``coverage`` with one layer over them, in place (``composite.compose_reference``'s loop body).
 
     Parameters
@@ -76,26 +99,18 @@ def blend_layer(out, coverage, colour, matrix, offset, transformed, mask, luma, 
         The layer hides everything below: ``out`` becomes what it shows, ``coverage`` 1.
     first : bool
         Nothing lies below: ``out`` and ``coverage`` are written, not read (as if they were 0).
+    in_place : bool
+        The layer's image values are ``out``'s own (``raster._composed`` evaluates the bottom layer's image into
+        the picture): ``colour`` is not read.  One array read and written, not ``colour`` the same memory as
+        ``out``: numba compiles its arrays as never overlapping.
     """
-    for i in numba.prange(out.shape[0]):
-        weight = 1.0 if covers else _weight(i, mask, luma, mask_base, mask_enabled, mask_inverted, negligible, alpha,
-                                            alpha_column, opacity)
-        if weight == 0.0:
-            if first:
-                out[i, 0], out[i, 1], out[i, 2], coverage[i] = 0.0, 0.0, 0.0, 0.0
-            continue
-        r, g, b = _clamped(colour[i, 0]), _clamped(colour[i, 1]), _clamped(colour[i, 2])
-        if transformed:
-            r, g, b = (_clamped(matrix[0, 0] * r + matrix[0, 1] * g + matrix[0, 2] * b + offset[0]),
-                       _clamped(matrix[1, 0] * r + matrix[1, 1] * g + matrix[1, 2] * b + offset[1]),
-                       _clamped(matrix[2, 0] * r + matrix[2, 1] * g + matrix[2, 2] * b + offset[2]))
-        if weight == 1.0:
-            out[i, 0], out[i, 1], out[i, 2], coverage[i] = r, g, b, 1.0
-            continue
-        if first:  # over 0: the same values as below
-            out[i, 0], out[i, 1], out[i, 2], coverage[i] = weight * r, weight * g, weight * b, weight
-            continue
-        out[i, 0] += weight * (r - out[i, 0])
-        out[i, 1] += weight * (g - out[i, 1])
-        out[i, 2] += weight * (b - out[i, 2])
-        coverage[i] += weight * (1.0 - coverage[i])
+    if in_place:
+        for i in numba.prange(out.shape[0]):
+            weight = 1.0 if covers else _weight(i, mask, luma, mask_base, mask_enabled, mask_inverted, negligible,
+                                                alpha, alpha_column, opacity)
+            _blend_sample(i, out, coverage, out, matrix, offset, transformed, weight, first)
+    else:
+        for i in numba.prange(out.shape[0]):
+            weight = 1.0 if covers else _weight(i, mask, luma, mask_base, mask_enabled, mask_inverted, negligible,
+                                                alpha, alpha_column, opacity)
+            _blend_sample(i, out, coverage, colour, matrix, offset, transformed, weight, first)

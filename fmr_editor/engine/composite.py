@@ -204,7 +204,8 @@ def compose(composite: Composite, values: Callable[[Representation], np.ndarray]
     An image's values may have a fourth channel: its layer's alpha field, carried (``LayerFields.carries_alpha``),
     and then that alpha field's own values are not read.  A mask's or an alpha field's values may be the one
     channel it is read through (``scalar_reads``).  ``out``: a C-contiguous float64 array of ``shape`` (without
-    ``coverage``) to write the colours into and return.
+    ``coverage``) to write the colours into and return; the bottom layer's image values may be ``out`` itself
+    (read before anything is written there), blended in place.
     """
     count, shown = int(np.prod(shape[:-1])), composite.shown
     if out is not None and (coverage or out.shape != shape or out.dtype != np.float64 or not out.flags.c_contiguous):
@@ -216,10 +217,12 @@ def compose(composite: Composite, values: Callable[[Representation], np.ndarray]
     for index, layer in enumerate(shown):  # the bottom one writes every sample
         transform = layer.transform
         colour = _samples(values(layer.image), count)
-        blend_layer(picture, alpha, colour, transform.matrix, transform.offset,
+        in_place = colour.shape == picture.shape and colour.ctypes.data == picture.ctypes.data
+        blend_layer(picture, alpha, _NO_SAMPLES if in_place else colour, transform.matrix, transform.offset,
                     not transform.is_identity, _samples(values(layer.mask), count) if layer.masked else _NO_SAMPLES,
                     MASK_LUMA, float(layer.mask_base), layer.mask_enabled, layer.mask_inverted, NEGLIGIBLE_WEIGHT,
-                    *_alpha_samples(layer, values, count, colour), float(layer.opacity), layer.covers, index == 0)
+                    *_alpha_samples(layer, values, count, colour), float(layer.opacity), layer.covers, index == 0,
+                    in_place)
     picture = picture.reshape(shape)
     return np.concatenate([picture, alpha.reshape(shape[:-1])[..., None]], axis=-1) if coverage else picture
 

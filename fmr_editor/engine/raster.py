@@ -246,8 +246,9 @@ def _composed(composite: Composite, field: Callable, xs: np.ndarray, ys: np.ndar
     evaluated in the one channel it is read through (``composite.scalar_reads``), a third of its work.  With
     ``bounded`` (``field`` the FMR's), a mask is not evaluated in the cells where its bounds settle the weights of
     the layers it masks (``_mask_values``), in rasters of ``BOUNDED_SAMPLES`` a cell of it.  ``out``: where
-    ``compose`` writes the colours, and where the bottom layer's image (unless another layer shows it too) is
-    evaluated, to be blended in place (a flat picture at 1024^2: no second 24 MB image and its pages).
+    ``compose`` writes the colours, and where the bottom layer's image is evaluated, to be blended in place (a
+    flat picture at 1024^2: no second 24 MB image and its pages); not where another layer shows the same image,
+    nor where it is held (a mask or alpha field of another layer, or evaluated with its alpha as a fourth channel).
     """
     held: dict[int, np.ndarray] = {}
     shows = Counter(id(layer.image) for layer in composite.shown)

@@ -65,7 +65,7 @@ def blending() -> None:
     values (``grid.fill_cells``)."""
     samples = np.zeros((1, 3))
     blend_layer(np.zeros((1, 3)), np.zeros(1), samples, IDENTITY.matrix, IDENTITY.offset, False, samples, MASK_LUMA,
-                1.0, True, False, NEGLIGIBLE_WEIGHT, samples, 0, 1.0, False, True)
+                1.0, True, False, NEGLIGIBLE_WEIGHT, samples, 0, 1.0, False, True, False)
     layer_weights(np.zeros(1), samples, MASK_LUMA, 1.0, True, False, NEGLIGIBLE_WEIGHT, samples, 0, 1.0)
     cells_all(np.ones((1, 1), bool), np.arange(2), np.arange(2))
     fill_cells(np.zeros((1, 1, 3)), np.ones((1, 1), bool), np.zeros((1, 1)), np.full(1, 0.5), np.full(1, 0.5), 1.0)

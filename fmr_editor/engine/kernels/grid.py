@@ -235,7 +235,7 @@ def grid_cell_runs(coords: np.ndarray, cell_size: float, cells_per_side: int) ->
 
 def grid_cell_runs_reference(coords: np.ndarray, cell_size: float, cells_per_side: int) -> np.ndarray:
     """``grid_cell_runs`` in numpy."""
-    cells = np.clip(np.floor(coords / cell_size).astype(np.int64), 0, cells_per_side - 1)
+    cells = np.clip(np.floor(coords / cell_size), 0, cells_per_side - 1).astype(np.int64)
     return np.searchsorted(cells, np.arange(cells_per_side + 1)).astype(np.int64)
 
 
@@ -253,8 +253,9 @@ def _cell_runs(coords, cell_size, n):
 
 @numba.njit(cache=True)
 def _non_decreasing(values):
-    for i in range(1, len(values)):
-        if not values[i] >= values[i - 1]:
+    """Whether ``values`` are numbers (no NaN) in non-decreasing order."""
+    for i in range(len(values)):
+        if values[i] != values[i] or (i > 0 and values[i] < values[i - 1]):
             return False
     return True
 

@@ -21,14 +21,14 @@ def spread_rows(start):
     """``(count,)`` int64: the rows ``first .. first + count - 1`` from the first to the last that hold samples, of
     the runs ``start (n + 1,)`` of samples of ``n`` rows (``grid.grid_cell_runs``), in the order of their offsets
     from ``first`` with their bits reversed (``0, 4, 2, 6, 1, 5, 3, 7`` of 8): the half of them a thread takes holds
-    every other row, its quarter every fourth."""
+    every other row, its quarter every fourth (nearly so when their count is not a power of two)."""
     n = len(start) - 1
     first, last = 0, n
     while first < n and start[first] == start[first + 1]:
         first += 1
     while last > first and start[last - 1] == start[last]:
         last -= 1
-    count = last - first
+    count = max(last - first, 0)
     bits = 0
     while (1 << bits) < count:
         bits += 1
