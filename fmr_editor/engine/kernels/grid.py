@@ -331,12 +331,16 @@ def near_field_grid(
     if skip is not None and skip.shape != (n, n):
         raise ValueError(f"skip must have the shape {(n, n)}")
     _NEAR_GRID[out.shape[2]](xs, ys, x_start, y_start, n, cell_start, float(cell_size), table, weights, capacity,
-                             most, single, bool(single.any()),
-                             _NO_SKIP if skip is None else np.ascontiguousarray(skip, np.bool_), out)
+                             most, single, bool(single.any()), skip_flags(skip), out)
     return out
 
 
 _NO_SKIP = np.zeros((0, 0), np.bool_)
+
+
+def skip_flags(skip: np.ndarray | None) -> np.ndarray:
+    """A kernel's ``skip``: ``(n, n)`` bool, C-contiguous, or ``(0, 0)`` for none."""
+    return _NO_SKIP if skip is None else np.ascontiguousarray(skip, np.bool_)
 _NO_SCALAR = np.zeros(0)
 
 
@@ -461,5 +465,5 @@ def far_field_grid(poly: np.ndarray, xs: np.ndarray, ys: np.ndarray, cell_size: 
         _far_grid(np.ascontiguousarray(poly, dtype=np.float64),
                   _NO_SCALAR if scalar is None else np.ascontiguousarray(scalar, np.float64), degree, xs, ys,
                   grid_cell_runs(xs, cell_size, n), grid_cell_runs(ys, cell_size, n), float(cell_size),
-                  _NO_SKIP if skip is None else np.ascontiguousarray(skip, np.bool_), out, not fresh)
+                  skip_flags(skip), out, not fresh)
     return out

@@ -45,7 +45,7 @@ import numpy as np
 
 from .blocks import GEOMETRY, by_samples, by_samples4, gather_block
 from .fastmath import FAST_MATH, INV_TWO_PI, POLY_MATH, TWO_PI, log_r2, potentials_from
-from .grid import grid_arrays, grid_cell_runs, near_field_grid
+from .grid import grid_arrays, grid_cell_runs, near_field_grid, skip_flags
 from .local_grid import NO_FOURTH, by_powers, by_powers4, local_field_grid
 from .rows import spread_rows
 from .segment_sums import near_tables
@@ -378,7 +378,6 @@ def _plan(n, cell_start, x_start, y_start, groups, skip):
 
 #: Groups of cells per thread (each thread's spread over the picture: ``rows.spread_rows``).
 GROUPS_PER_THREAD = 8
-_NO_SKIP = np.zeros((0, 0), np.bool_)
 
 
 def subcell_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.ndarray, cell_size: float,
@@ -450,8 +449,7 @@ def subcell_field_grid(local: np.ndarray, order: int, xs: np.ndarray, ys: np.nda
                      degrees=degrees, offsets=offsets, centres=centres, zero_skipped=skip is not None, fourth=fourth)
     x_start, y_start = grid_cell_runs(xs, cell_size, n), grid_cell_runs(ys, cell_size, n)
     cells, group_start, capacity, most = _plan(n, cell_start, x_start, y_start,
-                                               GROUPS_PER_THREAD * numba.get_num_threads(),
-                                               _NO_SKIP if skip is None else np.ascontiguousarray(skip, np.bool_))
+                                               GROUPS_PER_THREAD * numba.get_num_threads(), skip_flags(skip))
     if len(cells) == 0:
         return out
     table, weights = tables or near_tables(p, q, flux, jump)

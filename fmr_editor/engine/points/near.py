@@ -21,7 +21,7 @@ import numba
 import numpy as np
 
 from ..fmm.lattice import Lattice
-from ..kernels.grid import far_field_grid, grid_arrays, grid_cell_runs
+from ..kernels.grid import far_field_grid, grid_arrays, grid_cell_runs, skip_flags
 from ..kernels.rows import spread_rows
 from .gauss import GaussPoints, PointSettings, cell_range, cutoff_radii, expansion_ratios
 
@@ -101,9 +101,6 @@ def near_points(points: GaussPoints, lattice: Lattice, settings: PointSettings =
     return NearPoints.build(points.take(chosen), reach, lattice)
 
 
-_NO_SKIP = np.zeros((0, 0), np.bool_)
-
-
 @numba.njit(parallel=True, cache=True, error_model="numpy")
 def _near_grid(xs, ys, x_start, y_start, n, cell_start, members, px, py, inv_r2, w, skip, out):
     spread = spread_rows(y_start)
@@ -158,7 +155,7 @@ def near_grid(near: NearPoints, xs: np.ndarray, ys: np.ndarray, out: np.ndarray 
     weights = p.weights if scalar is None else p.weights @ np.reshape(scalar, (3, 1))
     _near_grid(xs, ys, grid_cell_runs(xs, size, n), grid_cell_runs(ys, size, n), n, near.cell_start,
                near.members, p.positions[:, 0].copy(), p.positions[:, 1].copy(), 1.0 / p.radii**2, weights,
-               _NO_SKIP if skip is None else np.ascontiguousarray(skip, np.bool_), out)
+               skip_flags(skip), out)
     return out
 
 
