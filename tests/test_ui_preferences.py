@@ -78,3 +78,19 @@ def test_restore_defaults_and_cancel(editor):
     assert dialog.chosen == Preferences()
     dialog.reject()
     assert window.preferences == Preferences(brush_spacing=3.0) and window.options.brush_spacing == 3.0
+
+
+@pytest.mark.gui
+def test_the_dialog_sets_its_settings_under_headings(editor):
+    from PySide6.QtWidgets import QGroupBox
+
+    window = editor.window
+    window.edit_preferences()
+    dialog = window.preferences_dialog
+    groups = {group.title(): group for group in dialog.findChildren(QGroupBox)}
+    assert set(groups) == {"Point Brush when the editor starts", "Every document"}
+    brush, documents = groups["Point Brush when the editor starts"], groups["Every document"]
+    assert all(brush.isAncestorOf(dialog.spins[name]) for name in ("brush_radius", "brush_amplitude", "brush_spacing"))
+    assert brush.isAncestorOf(dialog.mode)
+    assert all(documents.isAncestorOf(dialog.spins[name]) for name in ("autosave_seconds", "undo_memory_mib"))
+    dialog.reject()

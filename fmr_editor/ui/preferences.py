@@ -10,7 +10,17 @@ from __future__ import annotations
 from dataclasses import dataclass, fields
 
 from PySide6.QtCore import QSettings
-from PySide6.QtWidgets import QComboBox, QDialog, QDialogButtonBox, QDoubleSpinBox, QFormLayout, QSpinBox
+from PySide6.QtWidgets import (
+    QComboBox,
+    QDialog,
+    QDialogButtonBox,
+    QDoubleSpinBox,
+    QFormLayout,
+    QGroupBox,
+    QSpinBox,
+    QVBoxLayout,
+    QWidget,
+)
 
 from ..engine import DEFAULT_MEMORY
 from ..tools import ToolOptions
@@ -83,22 +93,33 @@ class Preferences:
         return self.undo_memory_mib * MIB
 
 
+def _group(title: str, form: QFormLayout, parent: QWidget) -> QGroupBox:
+    """``form`` under the heading ``title``."""
+    group = QGroupBox(title, parent)
+    group.setLayout(form)
+    return group
+
+
 class PreferencesDialog(QDialog):
     """Edits a ``Preferences``; ``chosen`` is the result once accepted."""
 
     def __init__(self, preferences: Preferences, parent=None) -> None:
         super().__init__(parent)
         self.setWindowTitle("Preferences")
-        form = QFormLayout(self)
+        layout = QVBoxLayout(self)
+        brush = QFormLayout()
+        layout.addWidget(_group("Point Brush when the editor starts", brush, self))
         self.spins: dict[str, QDoubleSpinBox | QSpinBox] = {}
         for name, label, spin in brush_spins(self):
             self.spins[name] = spin
-            form.addRow(f"Brush {label.lower()}", spin)
+            brush.addRow(label, spin)
         self.mode = QComboBox(self)
         for value, label in BRUSH_MODES.items():
             self.mode.addItem(label, value)
         self.mode.setToolTip("The Point Brush's mode when the editor starts")
-        form.addRow("Brush mode", self.mode)
+        brush.addRow("Mode", self.mode)
+        documents = QFormLayout()
+        layout.addWidget(_group("Every document", documents, self))
         for name, label, (low, high), suffix, tip in (
                 ("autosave_seconds", "Autosave after", AUTOSAVE_RANGE, " s",
                  "Seconds of unsaved changes before a document is saved to the recovery folder"),
@@ -109,14 +130,14 @@ class PreferencesDialog(QDialog):
             spin.setSuffix(suffix)
             spin.setToolTip(tip)
             self.spins[name] = spin
-            form.addRow(label, spin)
+            documents.addRow(label, spin)
         buttons = QDialogButtonBox(QDialogButtonBox.StandardButton.Ok | QDialogButtonBox.StandardButton.Cancel
                                    | QDialogButtonBox.StandardButton.RestoreDefaults, parent=self)
         buttons.accepted.connect(self.accept)
         buttons.rejected.connect(self.reject)
         buttons.button(QDialogButtonBox.StandardButton.RestoreDefaults).clicked.connect(
             lambda: self.show_values(Preferences()))
-        form.addRow(buttons)
+        layout.addWidget(buttons)
         self.show_values(preferences)
 
     def show_values(self, preferences: Preferences) -> None:
