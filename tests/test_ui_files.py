@@ -318,3 +318,18 @@ def test_recent_files_menu_reopens_a_file(ribbon, tmp_path, qtbot):
     assert editor.workspace is not first and editor.history.labels == ("",)
     assert window.tabs.count() == 1  # the new canvas nobody drew on gave way to the file
     editor.wait_idle()
+
+
+def test_a_file_opened_by_another_spelling_of_its_path_is_its_open_tab(ribbon, tmp_path):
+    """``..`` in a path, or a link to the file, names the file already open: its tab, listed once in Recent."""
+    window = ribbon.window
+    through_parent = RIBBON.parent / ".." / RIBBON.parent.name / RIBBON.name
+    link = tmp_path / "link.xml"
+    link.symlink_to(RIBBON)
+    for other in (through_parent, link):
+        window.open_path(other)
+        assert window.tabs.count() == 1 and ribbon.workspace.path == RIBBON
+        window.recent.add(other)
+    assert window.recent.paths() == [RIBBON]
+    window.settings.setValue(window.recent.KEY, [str(through_parent), str(link), str(RIBBON)])  # as kept before
+    assert window.recent.paths() == [RIBBON]

@@ -88,8 +88,8 @@ def test_the_dialog_sets_its_settings_under_headings(editor):
     window.edit_preferences()
     dialog = window.preferences_dialog
     groups = {group.title(): group for group in dialog.findChildren(QGroupBox)}
-    assert set(groups) == {"Point Brush when the editor starts", "Every document"}
-    brush, documents = groups["Point Brush when the editor starts"], groups["Every document"]
+    assert set(groups) == {"Point Brush", "Every document"}
+    brush, documents = groups["Point Brush"], groups["Every document"]
     assert all(brush.isAncestorOf(dialog.spins[name]) for name in ("brush_radius", "brush_amplitude", "brush_spacing"))
     assert brush.isAncestorOf(dialog.mode)
     assert all(documents.isAncestorOf(dialog.spins[name]) for name in ("autosave_seconds", "undo_memory_mib"))

@@ -64,7 +64,7 @@ class FileCommands:
         """Open ``path`` in a tab of its own (its tab, if it is open or opening already), then ``then()``; a
         failure changes nothing (with nothing open and nothing to follow, a new canvas opens instead)."""
         path = Path(path)
-        tab = self.documents.find(path.absolute())
+        tab = self.documents.find(path.resolve())
         if tab is not None:
             self._activate(tab)
             if then is not None:
@@ -79,7 +79,7 @@ class FileCommands:
             if then is None and not self.open_tabs:  # nothing open (started on this file): a blank canvas instead
                 self.new_document(DEFAULT_SIZE)
 
-        self._open_tab(path.name, path.absolute(), f"Opening {path.name}", lambda progress: open_file(path, progress),
+        self._open_tab(path.name, path.resolve(), f"Opening {path.name}", lambda progress: open_file(path, progress),
                        then, failed)
 
     def offer_recovery(self) -> bool:
@@ -144,7 +144,7 @@ class FileCommands:
         workspace = self.workspace
         if workspace is None or self.busy:
             return
-        path = Path(path).absolute()
+        path = Path(path).resolve()
         if self.tool is not None:
             self.tool.finish()
         document, step = workspace.history.document, workspace.history.index

@@ -93,16 +93,17 @@ class RecentFiles:
         value = self.settings.value(self.KEY, [])
         if isinstance(value, str):  # QSettings gives a lone string for a list of one
             value = [value]
-        return [Path(p) for p in (value or []) if p]
+        # resolved: a file listed before under two spellings of its path (``..``, a link) is listed once
+        return list(dict.fromkeys(Path(text).resolve() for text in value or [] if text))
 
     def add(self, path: str | os.PathLike) -> None:
         """Put ``path`` first."""
-        path = Path(path).absolute()
+        path = Path(path).resolve()
         paths = [path] + [p for p in self.paths() if p != path]
         self._store(paths[: self.limit])
 
     def remove(self, path: str | os.PathLike) -> None:
-        path = Path(path).absolute()
+        path = Path(path).resolve()
         self._store([p for p in self.paths() if p != path])
 
     def clear(self) -> None:

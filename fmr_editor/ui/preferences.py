@@ -108,7 +108,7 @@ class PreferencesDialog(QDialog):
         self.setWindowTitle("Preferences")
         layout = QVBoxLayout(self)
         brush = QFormLayout()
-        layout.addWidget(_group("Point Brush when the editor starts", brush, self))
+        layout.addWidget(_group("Point Brush", brush, self))
         self.spins: dict[str, QDoubleSpinBox | QSpinBox] = {}
         for name, label, spin in brush_spins(self):
             self.spins[name] = spin
@@ -116,7 +116,7 @@ class PreferencesDialog(QDialog):
         self.mode = QComboBox(self)
         for value, label in BRUSH_MODES.items():
             self.mode.addItem(label, value)
-        self.mode.setToolTip("The Point Brush's mode when the editor starts")
+        self.mode.setToolTip("The Point Brush's mode, kept from one start of the editor to the next")
         brush.addRow("Mode", self.mode)
         documents = QFormLayout()
         layout.addWidget(_group("Every document", documents, self))

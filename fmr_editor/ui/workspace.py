@@ -81,7 +81,7 @@ def open_file(path: str | os.PathLike, progress: Progress | None = None) -> Open
     DocumentLoadError
         When the file cannot be read.
     """
-    path = Path(path).absolute()
+    path = Path(path).resolve()
     notes: list[str] = []
     return _opened(open_live(path, progress=progress, notes=notes), path, notes)
 
