@@ -301,6 +301,20 @@ def test_delete_removes_the_selected_stops_as_one_step(line_doc):
     curve = context.document.curves[0]
     assert curve.left == () and curve.right == ()
     assert np.array_equal(curve.control_points, line_doc.curves[0].control_points)
+    assert context.selection.empty  # no stop left to take their place
+
+
+@pytest.mark.parametrize(("removed", "then"), [((0,), 0), ((1,), 1), ((3,), 2), ((1, 2), 1), ((2, 3), 1)])
+def test_removing_stops_selects_the_one_that_took_their_place(removed, then):
+    """The curve stays in the stops panel: the stop now at the first removed index, or the last."""
+    left = tuple(ColorStop(s, (s / 2, 0.0, 0.0)) for s in (0.0, 0.5, 1.0, 2.0))
+    document = Document(100, 100, (line_curve(left=left, right=(ColorStop(1.0, BLUE),)),))
+    context = make_context(document)
+    context.selection = by_index(document, stops=[(0, "left", i) for i in removed])
+    assert StopsTool(context).key("Delete")
+    kept = tuple(stop for i, stop in enumerate(left) if i not in removed)
+    assert context.document.curves[0].left == kept
+    assert context.selection == by_index(context.document, stops=[(0, "left", then)])
 
 
 def test_recolouring_the_selected_stops_merges_a_slider_drag(line_doc):

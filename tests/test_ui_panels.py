@@ -120,6 +120,12 @@ def test_adding_and_removing_stops_on_the_bar(two_stops, qtbot):
     assert editor.history.labels[-1] == "Delete Stop" and editor.history.index == start + 2
     assert editor.document.curves[0].left == (ColorStop(0.0, RED), ColorStop(2.0, GREEN))
     assert len(editor.document.curves) == 1
+    panel = editor.window.stops_panel
+    assert panel.curve == editor.document.curves[0].id  # still the panel's curve, the next stop selected
+    assert editor.context.selection.stops == by_index(editor.document, stops=[(0, "left", 1)]).stops
+    panel.remove_buttons["left"].click()
+    assert editor.document.curves[0].left == (ColorStop(0.0, RED),) and panel.curve == editor.document.curves[0].id
+    assert editor.context.selection.stops == by_index(editor.document, stops=[(0, "left", 0)]).stops
     editor.wait_idle()
 
 

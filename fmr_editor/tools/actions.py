@@ -9,7 +9,7 @@ from __future__ import annotations
 from collections import defaultdict
 from collections.abc import Hashable
 
-from ..model import edits
+from ..model import Document, edits
 from ..model.curve import Color
 from .context import Selection, ToolContext
 from .moving import move_label, translate_selection
@@ -31,7 +31,10 @@ def delete_selection(context: ToolContext) -> bool:
     """Remove the selected curves, stops, anchors and points as one step.
 
     Removing inner anchors joins their pieces; a curve left with fewer than
-    two anchors goes.  Selected handles alone are not deleted.
+    two anchors goes.  Selected handles alone are not deleted.  Afterwards a
+    stop next to the removed ones of each side that keeps some is selected (the
+    one that took the first removed one's place, or the last), so that the
+    curve stays in the stops panel and the next removal is one key away.
     """
     document, selection = context.document, context.selection
     doomed = set(selection.curves)
@@ -58,8 +61,19 @@ def delete_selection(context: ToolContext) -> bool:
     if edited == document:
         return False
     context.history.apply(edited, delete_label(selection))
-    context.selection = Selection()
+    context.selection = Selection.of(stops=_neighbours(edited, stops))
     return True
+
+
+def _neighbours(document: Document, removed: dict[tuple[int, str], list[int]]) -> list[tuple[int, str, int]]:
+    """``(curve, side, index)``: of each side ``removed`` names (indices of stops removed from it), the stop now at
+    the first removed index, or the last stop; none of a side left without stops."""
+    chosen = []
+    for (curve, side), indices in removed.items():
+        count = len(getattr(document.curve(curve), side))
+        if count:
+            chosen.append((curve, side, min(min(indices), count - 1)))
+    return chosen
 
 
 def nudge(context: ToolContext, delta: tuple[float, float]) -> bool:
