@@ -312,8 +312,23 @@ def test_empty_colour_sides_and_missing_blur_load_empty() -> None:
 
 
 def test_empty_curve_set_gives_an_empty_document() -> None:
-    document = parse_orzan(_orzan(), NAME)
+    notes = []
+    document = parse_orzan(_orzan(), NAME, notes)
     assert document.curves == () and (document.width, document.height) == (300, 200)
+    assert notes == ["the file holds no diffusion curve"]
+
+
+def test_a_scenes_meshes_and_poisson_curves_are_named_as_not_imported() -> None:
+    mesh = '<mesh><position_set><position x="0" y="0"/></position_set></mesh>'
+    one_each, notes = _scene(_curve()), []
+    assert len(parse_orzan(one_each.replace(b"</mesh_set>", f"{mesh}</mesh_set>".encode()), NAME, notes).curves) == 1
+    assert notes == ["not imported: 1 gradient mesh, 1 Poisson curve (the editor draws diffusion curves alone)"]
+    meshes_alone = one_each.replace(b"</mesh_set>", f"{mesh}{mesh}</mesh_set>".encode())
+    meshes_alone = meshes_alone.replace(b'<poisson_curve nb', b'<other nb').replace(b"</poisson_curve>", b"</other>")
+    parse_orzan(meshes_alone, NAME, notes := [])
+    assert notes == ["not imported: 2 gradient meshes (the editor draws diffusion curves alone)"]
+    parse_orzan(_orzan(_curve()), NAME, notes := [])
+    assert notes == []  # everything read
 
 
 # ---------------------------------------------------------------------------------------------

@@ -98,7 +98,7 @@ def test_shapes_without_paint_and_text_are_left_out_and_said(tmp_path):
     document = load_svg(svg_file(tmp_path, body), notes)
     assert len(document.curves) == 1 and document.curves[0].piece_count == 4  # the rectangle, closed, 4 sides
     assert [layer.name for layer in document.layers] == ["Lines"]  # stroked, not filled: line art
-    assert notes == ["not imported (only paths and shapes are): 1 paths without stroke or fill, 1 text elements"]
+    assert notes == ["not imported (only paths and shapes are): 1 path without stroke or fill, 1 text element"]
     assert fmr_editor.load(svg_file(tmp_path, body)) == document  # the Python API reads SVG by its suffix
 
 

@@ -235,7 +235,7 @@ def test_import_svg_opens_its_shapes_as_curves_and_says_what_it_left_out(editor,
                              f"{QApplication.activeWindow()}") from timeout
     editor.wait_idle()
     assert editor.document == load_svg(drawing) and [len(layer.curves) for layer in editor.document.layers] == [1, 1]
-    assert "not imported (only paths and shapes are): 1 text elements" in editor.window.status_label.text()
+    assert "not imported (only paths and shapes are): 1 text element" in editor.window.status_label.text()
     off = mismatches(editor.canvas.grab_image(), editor.fresh_picture(), editor.canvas.device_view(),
                      1.0)
     assert off["inside"] == 0 and off["outside"] == 0, off

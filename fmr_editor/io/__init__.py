@@ -31,7 +31,8 @@ def load_document(path: str | os.PathLike, notes: list[str] | None = None) -> Do
         CurveSetXML or usvg SceneXML; ``.svg`` as SVG (:func:`load_svg`: its
         paths and shapes become curves).
     notes : list, optional
-        Gets a line for what an SVG file held that was not imported.
+        Gets a line for what the file held that was not imported (an SVG file's text and images, a usvg
+        scene's gradient meshes and Poisson curves).
 
     Returns
     -------
@@ -47,7 +48,7 @@ def load_document(path: str | os.PathLike, notes: list[str] | None = None) -> Do
     if suffix == ".fmr":
         return load_fmr(path, representation=False).document
     if suffix == ".xml":
-        return load_orzan(path)
+        return load_orzan(path, notes)
     if suffix == ".svg":
         return load_svg(path, notes)
     name = Path(path).name or os.fspath(path)

@@ -6,7 +6,7 @@ Two kinds of file are read:
   ``CurveSetXML``), as written by Orzan et al.'s diffusion-curve tools;
 * a usvg ``<scene image_width=.. image_height=..>`` root (DOCTYPE
   ``SceneXML``) holding ``<curve_set>`` children.  Everything else in a scene
-  (``poisson_curve_set``, ``mesh_set``) is ignored.
+  (``poisson_curve_set``, ``mesh_set``) is left out, and ``notes`` says so.
 
 Conventions of an Orzan ``<curve_set>`` root
 --------------------------------------------
@@ -76,6 +76,7 @@ from xml.etree.ElementTree import Element
 from ..model import BlurStop, ColorStop, DiffusionCurve, Document, limits
 from ..model.limits import shortened
 from .errors import DocumentLoadError
+from .notes import listed
 from .safe_xml import XmlRefused, parse_xml, read_bounded
 
 MAX_CANVAS_SIZE = limits.MAX_CANVAS_SIDE
@@ -112,13 +113,16 @@ class _FormatError(Exception):
     """Internal: what is wrong with the content (the file name is added later)."""
 
 
-def load_orzan(path: str | os.PathLike) -> Document:
+def load_orzan(path: str | os.PathLike, notes: list[str] | None = None) -> Document:
     """Load an Orzan CurveSetXML file or a usvg SceneXML scene.
 
     Parameters
     ----------
     path : str or os.PathLike
         The file to read.
+    notes : list, optional
+        Gets a line for what the file held that was not read (a scene's gradient meshes and Poisson curves),
+        and one when it holds no curve.
 
     Returns
     -------
@@ -133,10 +137,10 @@ def load_orzan(path: str | os.PathLike) -> Document:
         malformed; the message names the file.
     """
     name = Path(path).name or os.fspath(path)
-    return parse_orzan(read_bounded(path, name), name)
+    return parse_orzan(read_bounded(path, name), name, notes)
 
 
-def parse_orzan(data: bytes, name: str) -> Document:
+def parse_orzan(data: bytes, name: str, notes: list[str] | None = None) -> Document:
     """Parse the bytes of an Orzan CurveSetXML file or a usvg SceneXML scene.
 
     Parameters
@@ -145,6 +149,8 @@ def parse_orzan(data: bytes, name: str) -> Document:
         The whole file.
     name : str
         The file name, used in error messages.
+    notes : list, optional
+        As for :func:`load_orzan`.
 
     Returns
     -------
@@ -157,9 +163,27 @@ def parse_orzan(data: bytes, name: str) -> Document:
         If ``data`` is malformed; see the module docstring.
     """
     try:
-        return _document_from_root(parse_xml(data))
+        root = parse_xml(data)
+        document = _document_from_root(root)
     except (_FormatError, XmlRefused) as error:
         raise DocumentLoadError(name, str(error)) from None
+    if notes is not None:
+        notes.extend(_notes_of(root, document))
+    return document
+
+
+def _notes_of(root: Element, document: Document) -> list[str]:
+    """Lines for ``notes``: what a scene holds that the model has no equivalent of, and a file without curves."""
+    lines = []
+    if root.tag == "scene":
+        meshes = len(root.findall("mesh_set/mesh"))
+        poisson = len(root.findall("poisson_curve_set/poisson_curve"))
+        left = listed(((meshes, "gradient mesh", "gradient meshes"), (poisson, "Poisson curve", None)))
+        if left:
+            lines.append(f"not imported: {left} (the editor draws diffusion curves alone)")
+    if not document.curves:
+        lines.append("the file holds no diffusion curve")
+    return lines
 
 
 def _document_from_root(root: Element) -> Document:

@@ -41,6 +41,7 @@ import svgelements
 from ..model import ColorStop, DiffusionCurve, Document, Layer, limits
 from ..model.color_transform import ColorTransform
 from .errors import DocumentLoadError
+from .notes import listed
 from .safe_xml import XmlRefused, parse_xml, read_bounded
 
 #: Pieces shorter than this (pixels) are dropped: they are a point.
@@ -78,7 +79,7 @@ def parse_svg(data: bytes, name: str, notes: list[str] | None = None) -> Documen
             if isinstance(element, svgelements.Shape):
                 stroke, fill = _colour(element.stroke), _colour(element.fill)
                 if stroke is None and fill is None:
-                    left_out["paths without stroke or fill"] += 1
+                    left_out["path without stroke or fill"] += 1
                 elif fill is None:
                     lines += _lines(element, stroke)
                 else:
@@ -86,10 +87,10 @@ def parse_svg(data: bytes, name: str, notes: list[str] | None = None) -> Documen
                 if len(lines) + shapes.curves > limits.MAX_CURVES:  # before the work grows further
                     raise DocumentLoadError(name, f"more than {limits.MAX_CURVES:,} curves to import")
             elif isinstance(element, (svgelements.Text, svgelements.Image)):
-                left_out[f"{type(element).__name__.lower()} elements"] += 1
+                left_out[f"{type(element).__name__.lower()} element"] += 1
         layers = ((Layer(tuple(lines), name="Lines"),) if lines else ()) + shapes.layers()
         if shapes.merged:
-            left_out[f"separate layers past {MAX_SHAPE_LAYERS} (the rest share the last)"] = shapes.merged
+            left_out[f"separate layer past {MAX_SHAPE_LAYERS} (the rest share the last)"] = shapes.merged
         if not layers:
             raise DocumentLoadError(name, "no path or shape with a stroke or a fill to import")
         document = Document(width, height, layers=layers, active=len(layers) - 1)
@@ -104,7 +105,7 @@ def parse_svg(data: bytes, name: str, notes: list[str] | None = None) -> Documen
         raise DocumentLoadError(name, f"cannot import the SVG ({type(error).__name__}: {error})") from None
     if notes is not None and left_out:
         notes.append("not imported (only paths and shapes are): "
-                     + ", ".join(f"{count} {kind}" for kind, count in left_out.items()))
+                     + listed((count, kind, None) for kind, count in left_out.items()))
     return document
 
 
