@@ -264,3 +264,22 @@ def test_a_stop_made_clear_on_an_open_picture_shows_as_the_cpu_composes_it(edito
     clear = edits.set_stop_alpha(editor.document, curve.id, "left", 0, 0.0)
     editor.history.apply(edits.set_stop_alpha(clear, curve.id, "left", 1, 0.3), "Change Stop Alpha")
     shows_the_composite(editor)
+
+
+def test_the_mask_button_is_enabled_with_its_menu_and_the_opacity_slider_keeps_its_length(editor, tmp_path):
+    from shapes import line_document
+
+    from fmr_editor.io import save_fmr
+
+    panel = editor.window.layers_panel
+    assert not panel.buttons["mask"].isEnabled()  # no document: every item of its menu is disabled
+    save_fmr(tmp_path / "line.fmr", line_document())
+    editor.open(tmp_path / "line.fmr")
+    assert panel.buttons["mask"].isEnabled() and editor.window.actions["add_mask"].isEnabled()
+    lengths = []
+    for percent in (100, 36, 7):
+        panel.opacity.setValue(percent)
+        panel.layout().activate()
+        lengths.append(panel.opacity.width())
+    assert panel.opacity_label.text() == "7%" and len(set(lengths)) == 1, lengths
+    editor.wait_idle()

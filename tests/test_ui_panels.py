@@ -276,3 +276,27 @@ def test_a_gradient_bar_shows_the_checkerboard_through_stops_that_are_not_opaque
     bar.set_stops((ColorStop(0.0, RED), ColorStop(1.0, RED)), 1.0)
     image = bar.grab().toImage()
     assert {image.pixelColor(MARGIN + 2 + dx, 4).getRgb()[:3] for dx in range(12)} == {(255, 0, 0)}
+
+
+def test_return_in_a_panels_number_box_hands_the_keys_back_to_the_canvas(line, qtbot):
+    """Typed, then Return: the value taken and the canvas focused, so that B chooses the brush instead of going
+    into the box unseen."""
+    from PySide6.QtWidgets import QApplication
+
+    editor = line
+    window = editor.window
+    radius = window.options_panel.spins["brush_radius"]
+    radius.setFocus()
+    radius.selectAll()
+    qtbot.keyClicks(radius, "35")
+    qtbot.keyClick(radius, Qt.Key.Key_Return)
+    assert window.options.brush_radius == 35.0 and QApplication.focusWidget() is window.canvas
+    qtbot.keyClick(QApplication.focusWidget(), Qt.Key.Key_B)  # where a key press goes: the focused widget
+    assert window.tool_name == "brush" and radius.value() == 35.0
+    blur = window.stops_panel.blur_value  # the stops panel's box as well (enabled while a blur stop is chosen)
+    blur.setEnabled(True)
+    blur.setFocus()
+    assert QApplication.focusWidget() is blur
+    qtbot.keyClick(blur, Qt.Key.Key_Return)
+    assert QApplication.focusWidget() is window.canvas
+    editor.wait_idle()

@@ -7,6 +7,7 @@ from shapes import scattered_document
 
 from fmr_editor.engine import LiveStack, Settings, rasterise
 from fmr_editor.model import DiffusionPoint
+from fmr_editor.ui.main_window import PROGRESS_MARGIN
 from fmr_editor.ui.progress import STAGE_WORDS, progress_text
 
 
@@ -23,10 +24,15 @@ def test_every_stage_of_a_build_and_a_render_has_words():
 def test_the_words_fit_the_progress_bar(editor):
     from PySide6.QtGui import QFontMetrics
 
-    bar = editor.window.progress_bar
+    window = editor.window
+    bar = window.progress_bar
     metrics = QFontMetrics(bar.font())
     widest = max(metrics.horizontalAdvance(progress_text(stage).replace("%p", "100")) for stage in STAGE_WORDS)
-    assert widest <= bar.maximumWidth() - 40  # room for the bar's frame and chunk margins
+    window._show_progress("solve", 0.18)  # noqa: SLF001 - what a job's progress shows
+    window.resize(1, window.height())  # as narrow as the window goes: the tool's hint gives way, not the bar
+    editor.qtbot.waitUntil(lambda: window.width() < 800)
+    window.statusBar().layout().activate()
+    assert bar.isVisible() and bar.width() >= widest + PROGRESS_MARGIN  # room for the frame and chunk margins
 
 
 @pytest.mark.gui

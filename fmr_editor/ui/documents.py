@@ -188,7 +188,8 @@ class DocumentCommands:
             self._document_changed()
             self._frame_ready(workspace.frame)
         self.zoom_button.setVisible(workspace is not None)  # nothing to zoom while a tab is still opening
-        self.status_label.setText("")  # what was said was about the document shown before
+        self.status_label.setText(self._standing_status())  # what was said was about the document shown before
+        self.position_label.setText("")  # and the pointer's position was over it
         self._show_task()
         if workspace is not None and workspace.failure is not None:
             self._engine_failed(workspace.failure)
@@ -203,6 +204,7 @@ class DocumentCommands:
         """A workspace's steps or saved mark changed: its tab's name, and the window if it is shown."""
         self._name_tab(workspace)
         if workspace is self.shown:
+            self.status_label.expire(self._standing_status())
             self.update_state()
 
     def _name_tab(self, tab: Workspace | Opening) -> None:

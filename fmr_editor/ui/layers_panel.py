@@ -68,6 +68,9 @@ class LayersPanel(QWidget):
         self.opacity.setRange(0, 100)
         self.opacity.setToolTip("Opacity of the active layer")
         self.opacity_label = QLabel("100%", self)
+        # as wide as "100%" whatever it says, so that the slider keeps its length under the pointer
+        self.opacity_label.setFixedWidth(self.opacity_label.fontMetrics().horizontalAdvance("100%"))
+        self.opacity_label.setAlignment(Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter)
         self.mask_menu = QMenu(self)
         for name in MASK_ACTIONS:
             if name is None:
@@ -78,6 +81,9 @@ class LayersPanel(QWidget):
         self.buttons["mask"].setToolTip("Layer mask")
         self.buttons["mask"].setMenu(self.mask_menu)
         self.buttons["mask"].setPopupMode(QToolButton.ToolButtonPopupMode.InstantPopup)
+        for action in self.mask_menu.actions():  # the button is enabled while its menu has something to do
+            action.changed.connect(self._enable_mask_button)
+        self._enable_mask_button()
         opacity_row = QHBoxLayout()
         opacity_row.addWidget(QLabel("Opacity", self))
         opacity_row.addWidget(self.opacity, 1)
@@ -104,6 +110,10 @@ class LayersPanel(QWidget):
             button.clicked.connect(action.trigger)
             action.changed.connect(lambda: button.setEnabled(action.isEnabled()))
         return button
+
+    def _enable_mask_button(self) -> None:
+        self.buttons["mask"].setEnabled(any(action.isEnabled() for action in self.mask_menu.actions()
+                                            if not action.isSeparator()))
 
     def _connect(self) -> None:
         self.list.currentRowChanged.connect(self._select)

@@ -16,7 +16,16 @@ from collections.abc import Callable
 
 from PySide6.QtCore import QEvent, QSettings, Qt
 from PySide6.QtGui import QCursor, QKeySequence, QShortcut
-from PySide6.QtWidgets import QDockWidget, QLabel, QMainWindow, QMenu, QMessageBox, QProgressBar, QToolButton
+from PySide6.QtWidgets import (
+    QAbstractSpinBox,
+    QDockWidget,
+    QLabel,
+    QMainWindow,
+    QMenu,
+    QMessageBox,
+    QProgressBar,
+    QToolButton,
+)
 
 from .. import __version__
 from ..io.autosave import AutosaveFolder
@@ -39,15 +48,19 @@ from .layers_panel import LayersPanel
 from .menus import build_actions, build_menus
 from .options_panel import OptionsPanel
 from .overlay import Overlay
+from .panel_focus import ReturnToCanvas
 from .preferences import Preferences, PreferencesDialog
-from .progress import progress_text
+from .progress import STAGE_WORDS, progress_text
 from .refusals import reporting
+from .status_message import StatusMessage
 from .stops_panel import StopsPanel
 from .toolbox import build_toolbox
 from .workspace import Workspace
 from .zoom import ZoomButton
 
 APP_NAME = "FMR Editor"
+#: Room in the progress bar beside its words: its frame and the chunk's margins, pixels.
+PROGRESS_MARGIN = 40
 CURSORS = {
     "arrow": Qt.CursorShape.ArrowCursor,
     "crosshair": Qt.CursorShape.CrossCursor,
@@ -129,6 +142,9 @@ class MainWindow(FileCommands, DocumentCommands, QMainWindow):
         ]
         build_menus(self, self.actions, self.recent_menu,
                     [self.toolbox.toggleViewAction()] + [d.toggleViewAction() for d in docks])
+        self.return_to_canvas = ReturnToCanvas(self.canvas, self)
+        self.return_to_canvas.watch(box for panel in (self.options_panel, self.stops_panel)
+                                    for box in panel.findChildren(QAbstractSpinBox))
 
         self._build_status_bar()
         self.autosaver.failed.connect(lambda message: self.status_label.setText(message))
@@ -144,14 +160,17 @@ class MainWindow(FileCommands, DocumentCommands, QMainWindow):
 
     def _build_status_bar(self) -> None:
         """Messages and the active tool's hint on the left; preview notice, progress and pointer on the right."""
-        self.status_label = QLabel()
+        self.status_label = StatusMessage(self._history_step)
         self.hint_label = ElidedLabel()  # what the active tool does
         self.shading_label = QLabel()  # shown while a frame is a drag's preview
         self.shading_label.hide()
         self.position_label = QLabel()
         self.progress_bar = QProgressBar()
         self.progress_bar.setRange(0, 1000)
-        self.progress_bar.setMaximumWidth(220)
+        # as wide as its widest words at 100%, and no narrower when the window is (the tool's hint gives way)
+        words = max(self.progress_bar.fontMetrics().horizontalAdvance(progress_text(stage).replace("%p", "100"))
+                    for stage in STAGE_WORDS)
+        self.progress_bar.setFixedWidth(words + PROGRESS_MARGIN)
         self.progress_bar.hide()
         self.cancel_button = QToolButton()
         self.cancel_button.setText("Cancel")
@@ -375,10 +394,23 @@ class MainWindow(FileCommands, DocumentCommands, QMainWindow):
         overlay = document.layer.id if document.editing_mask else None
         if overlay != self.canvas.mask_overlay:
             self.canvas.set_mask_overlay(overlay)
-            self.status_label.setText(f"Editing the mask of {document.layer.name} (red: hidden); "
-                                      "Ctrl+Shift+M goes back to the layer" if overlay is not None else "")
+            self.status_label.setText(self._standing_status())
         self.after_tool()
         self._update_title()
+
+    def _history_step(self) -> tuple[int, int, int] | None:
+        """The shown document's step (``StatusMessage``): its history, current step and count of steps."""
+        if self.workspace is None:
+            return None
+        history = self.workspace.history
+        return id(history), history.index, len(history.labels)
+
+    def _standing_status(self) -> str:
+        """What the status bar says while nothing else is said: the mask being edited, and how to leave it."""
+        document = self.workspace.history.document if self.workspace is not None else None
+        if document is None or not document.editing_mask:
+            return ""
+        return f"Editing the mask of {document.layer.name} (red: hidden); Ctrl+Shift+M goes back to the layer"
 
     def _frame_ready(self, frame) -> None:
         self._show_shading(frame)

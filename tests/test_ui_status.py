@@ -1,0 +1,67 @@
+"""The status bar's message lasts until the document moves to another step; the mask being edited stays said."""
+
+from __future__ import annotations
+
+import pytest
+
+pytest.importorskip("pytestqt", reason="pytest-qt is in the [test] extra")
+
+from PySide6.QtCore import Qt  # noqa: E402
+
+from fmr_editor.model import DiffusionPoint, edits  # noqa: E402
+
+pytestmark = pytest.mark.gui
+
+MASK_KEYS = Qt.KeyboardModifier.ControlModifier | Qt.KeyboardModifier.ShiftModifier
+
+
+def recolour(editor, value: float) -> None:
+    editor.history.apply(edits.set_stop_color(editor.document, editor.document.curves[0].id, "left", 0,
+                                              (value, 0.5, 0.5)), "Change Stop Colour")
+
+
+def test_a_message_lasts_until_the_document_moves_to_another_step(line):
+    editor = line
+    status = editor.window.status_label
+    editor.window.say("Not done: the layer is locked")
+    editor.history.mark_saved()  # the saved mark alone: the same step
+    assert status.text() == "Not done: the layer is locked"
+    recolour(editor, 0.1)  # the next edit
+    assert status.text() == ""
+    editor.window.say("Exported line.png")
+    editor.history.undo()
+    assert status.text() == ""
+    editor.history.redo()
+    editor.window.say("Pasted 1 curves")  # said after the step it tells of, as the commands do
+    assert status.text() == "Pasted 1 curves"
+    editor.wait_idle()
+
+
+def test_editing_a_mask_stays_said_through_the_edits_made_in_it(line):
+    editor = line
+    window, status = editor.window, editor.window.status_label
+    window.actions["add_mask"].trigger()
+    editor.key(Qt.Key.Key_M, MASK_KEYS)
+    assert editor.document.editing_mask and status.text().startswith("Editing the mask of")
+    said = status.text()
+    window.say("Not done: something")
+    dab = DiffusionPoint((40.0, 40.0), 10.0, (0.0, 0.0, 0.0), -0.5)
+    editor.history.apply(edits.add_points(editor.document, [dab]), "Paint Mask")  # an edit of the mask
+    assert editor.document.layer.mask.points and status.text() == said  # the standing message came back
+    assert status.text() == said
+    editor.key(Qt.Key.Key_M, MASK_KEYS)
+    assert not editor.document.editing_mask and status.text() == ""
+    editor.wait_idle()
+
+
+def test_another_tab_shown_says_nothing_of_the_one_before(line):
+    editor = line
+    window = editor.window
+    editor.drag([(30, 30), (40, 35)])  # the pointer over the canvas: its position shown
+    assert window.position_label.text()
+    window.say("Not done: the layer is locked")
+    first = editor.workspace
+    window.new_document((100, 100))
+    editor.qtbot.waitUntil(lambda: window.job is None and editor.workspace is not first, timeout=30_000)
+    assert window.position_label.text() == "" and window.status_label.text() == ""
+    editor.wait_idle()
