@@ -29,6 +29,13 @@ def test_the_shortcuts_dialog_lists_every_command_s_keys(editor):
     expected.update({tool.title: native(tool.shortcut) for tool in TOOLS})
     assert listed == expected
     assert listed["Actual Size"] == "1" and listed["Fit Canvas"] == "Ctrl+0, 5"
+    dialog = editor.window.shortcuts_dialog
+    editor.qtbot.waitExposed(dialog)
+    header, metrics = table.horizontalHeader(), table.fontMetrics()
+    assert header.length() == table.viewport().width()  # the columns fill the table
+    widest = max(metrics.horizontalAdvance(keys) for keys in listed.values())
+    assert header.sectionSize(1) > widest + 8  # the longest keys clear the column's edge
+    dialog.close()
 
 
 def test_help_opens_the_user_guide_and_about_names_the_version(editor, monkeypatch):

@@ -94,3 +94,28 @@ def test_the_dialog_sets_its_settings_under_headings(editor):
     assert brush.isAncestorOf(dialog.mode)
     assert all(documents.isAncestorOf(dialog.spins[name]) for name in ("autosave_seconds", "undo_memory_mib"))
     dialog.reject()
+
+
+@pytest.mark.gui
+def test_new_preferences_redraw_the_brush_circle_before_the_pointer_moves(editor):
+    from PySide6.QtCore import QEvent, QObject
+    from PySide6.QtWidgets import QApplication
+
+    class Paints(QObject):
+        count = 0
+
+        def eventFilter(self, watched, event):  # noqa: N802 - Qt's name
+            self.count += event.type() == QEvent.Type.Paint
+            return False
+
+    editor.open(RIBBON)
+    window = editor.window
+    paints = Paints()
+    window.overlay.installEventFilter(paints)
+    QApplication.processEvents()
+    before = paints.count
+    window.set_preferences(Preferences(brush_radius=42.0))
+    editor.qtbot.waitUntil(lambda: paints.count > before)
+    assert window.options.brush_radius == 42.0
+    window.overlay.removeEventFilter(paints)
+    editor.wait_idle()

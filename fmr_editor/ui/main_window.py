@@ -361,6 +361,7 @@ class MainWindow(FileCommands, DocumentCommands, QMainWindow):
         preferences.save(self.settings)
         preferences.apply_brush(self.options)
         self.options_panel.refresh()
+        self.overlay.update()  # the brush's circle at its new radius, before the pointer moves
         self.autosaver.set_seconds(preferences.autosave_seconds)
         for workspace in self.workspaces:
             workspace.set_undo_memory(preferences.undo_memory)
