@@ -300,3 +300,20 @@ def test_return_in_a_panels_number_box_hands_the_keys_back_to_the_canvas(line, q
     qtbot.keyClick(blur, Qt.Key.Key_Return)
     assert QApplication.focusWidget() is window.canvas
     editor.wait_idle()
+
+
+def test_in_a_small_window_the_panels_scroll_instead_of_spilling_over_the_docks_below(line, qtbot):
+    from PySide6.QtWidgets import QDockWidget
+
+    window = line.window
+    assert window.minimumSizeHint().height() <= 500  # the panels' rows no longer hold the window taller
+    window.resize(700, 500)
+    qtbot.waitUntil(lambda: window.height() <= 500)
+    stops_dock = next(d for d in window.findChildren(QDockWidget) if d.objectName() == "stops")
+    for box in (window.stops_panel.blur_value, window.stops_panel.bars["blur"]):
+        shown = box.visibleRegion().boundingRect()
+        if shown.isEmpty():  # scrolled out of sight
+            continue
+        corners = (box.mapTo(window, shown.topLeft()), box.mapTo(window, shown.bottomRight()))
+        assert all(stops_dock.geometry().contains(corner) for corner in corners), (corners, stops_dock.geometry())
+    line.wait_idle()

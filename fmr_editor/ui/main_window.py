@@ -19,11 +19,13 @@ from PySide6.QtGui import QCursor, QKeySequence, QShortcut
 from PySide6.QtWidgets import (
     QAbstractSpinBox,
     QDockWidget,
+    QFrame,
     QLabel,
     QMainWindow,
     QMenu,
     QMessageBox,
     QProgressBar,
+    QScrollArea,
     QToolButton,
 )
 
@@ -135,9 +137,9 @@ class MainWindow(FileCommands, DocumentCommands, QMainWindow):
         self.clip_commands = ClipCommands(self, self.actions, self.canvas)
         self.layers_panel.failed.connect(lambda message: self.status_label.setText(message))
         docks = [
-            self._dock("Tool Options", "options", self.options_panel, Qt.DockWidgetArea.LeftDockWidgetArea),
+            self._dock("Tool Options", "options", self.options_panel, Qt.DockWidgetArea.LeftDockWidgetArea, True),
             self._dock("Layers", "layers", self.layers_panel, Qt.DockWidgetArea.RightDockWidgetArea),
-            self._dock("Colour Stops", "stops", self.stops_panel, Qt.DockWidgetArea.RightDockWidgetArea),
+            self._dock("Colour Stops", "stops", self.stops_panel, Qt.DockWidgetArea.RightDockWidgetArea, True),
             self._dock("History", "history", self.history_panel, Qt.DockWidgetArea.RightDockWidgetArea),
         ]
         build_menus(self, self.actions, self.recent_menu,
@@ -189,9 +191,17 @@ class MainWindow(FileCommands, DocumentCommands, QMainWindow):
         self.zoom_button = ZoomButton(self.canvas, self)
         status.addPermanentWidget(self.zoom_button)
 
-    def _dock(self, title: str, name: str, widget, area) -> QDockWidget:
+    def _dock(self, title: str, name: str, widget, area, scrolled: bool = False) -> QDockWidget:
+        """``widget`` in a dock; ``scrolled``: in a scroll area, for a panel of fixed rows that a small window
+        would otherwise squeeze past their minimum (its last rows drawn over the dock below)."""
         dock = QDockWidget(title, self)
         dock.setObjectName(name)
+        if scrolled:
+            scroll = QScrollArea(dock)
+            scroll.setWidgetResizable(True)
+            scroll.setFrameShape(QFrame.Shape.NoFrame)
+            scroll.setWidget(widget)
+            widget = scroll
         dock.setWidget(widget)
         self.addDockWidget(area, dock)
         return dock
