@@ -167,5 +167,6 @@ def test_after_a_kill_the_editor_offers_the_autosaved_document_and_restores_it_e
     assert window.workspace.history.document == expected
     assert window.workspace.history.modified and window.workspace.path == RIBBON
     assert window.windowTitle().startswith("ribbon.xml*")
+    assert window.history_panel.list.item(0).text() == "Recovered ribbon.xml"  # not "Open": where it came from
     # the copy stays (rewritten by later autosaves) until the recovered document is saved or closed
     assert window.autosaver.folder.orphans()[0].key == line.split()[1]

@@ -181,7 +181,8 @@ class DocumentCommands:
             if not fitted:
                 self.canvas.set_view(view)
             workspace.context.zoom = self.canvas.view.scale
-            first = f"Open {workspace.name}" if workspace.path is not None else "New Document"
+            first = (f"Recovered {workspace.name}" if workspace.recovered else f"Open {workspace.name}"
+                     if workspace.path is not None else "New Document")
             self.history_panel.bind(workspace.history, first)
             self.layers_panel.bind(workspace.history)
             self.stops_panel.bind(workspace.context)

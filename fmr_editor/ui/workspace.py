@@ -177,7 +177,8 @@ class Workspace(QObject):
         self.path = opened.path
         self.settings = opened.live.settings
         self.history = History(opened.document)
-        if opened.recovered is not None:
+        self.recovered = opened.recovered is not None  # from an autosaved copy: its changes are not saved
+        if self.recovered:
             self.history.mark_unsaved()
         self.context = ToolContext(self.history, sample=self.sample, choose_color=choose_color, options=options,
                                    say=self.message.emit)
