@@ -333,3 +333,18 @@ def test_a_file_opened_by_another_spelling_of_its_path_is_its_open_tab(ribbon, t
     assert window.recent.paths() == [RIBBON]
     window.settings.setValue(window.recent.KEY, [str(through_parent), str(link), str(RIBBON)])  # as kept before
     assert window.recent.paths() == [RIBBON]
+
+
+def test_closing_several_unsaved_documents_can_discard_them_all_at_once(ribbon, qtbot):
+    editor = ribbon
+    window = editor.window
+    recolour(editor)
+    first = editor.workspace
+    window.new_document((100, 100))
+    qtbot.waitUntil(lambda: window.job is None and editor.workspace is not first, timeout=30_000)
+    editor.history.apply(editor.document.with_points([DiffusionPoint((50.0, 50.0), 5.0, (1.0, 0.0, 0.0))]),
+                         "Add Point")
+    editor.answers["question"] = Button.NoToAll
+    window.close()
+    qtbot.waitUntil(lambda: not window.isVisible(), timeout=30_000)
+    assert len(editor.questions) == 1 and "1 more document has unsaved changes" in editor.questions[0][1]

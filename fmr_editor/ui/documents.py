@@ -267,16 +267,20 @@ class DocumentCommands:
             proceed()
             return
         self._activate(waiting[0])
-        self._settle_changes(lambda: self._settle_all(proceed, asked + (waiting[0],)))
+        self._settle_changes(lambda: self._settle_all(proceed, asked + (waiting[0],)), len(waiting) - 1, proceed)
 
-    def _settle_changes(self, proceed: Callable[[], None]) -> None:
-        """Run ``proceed`` once the shown document's unsaved changes are saved or may be dropped (asks)."""
+    def _settle_changes(self, proceed: Callable[[], None], others: int = 0,
+                        proceed_all: Callable[[], None] | None = None) -> None:
+        """Run ``proceed`` once the shown document's unsaved changes are saved or may be dropped (asks); with
+        ``others`` documents waiting after it, No to All runs ``proceed_all`` (none of them saved)."""
         workspace = self.workspace
         if workspace is None or not workspace.history.modified:
             proceed()
             return
-        answer = ask_keep_changes(self, workspace.name)
-        if answer == "discard":
+        answer = ask_keep_changes(self, workspace.name, others if proceed_all is not None else 0)
+        if answer == "discard all":
+            proceed_all()
+        elif answer == "discard":
             proceed()
         elif answer == "save":
             self.save(then=proceed)

@@ -57,14 +57,17 @@ def _ask_target(parent, title: str, suggested: str | os.PathLike, filters: str, 
     return path if path.suffix.lower() == suffix else path.with_name(path.name + suffix)
 
 
-def ask_keep_changes(parent, name: str) -> str:
-    """Ask what to do with unsaved changes of ``name``: ``"save"``, ``"discard"`` or ``"cancel"``."""
+def ask_keep_changes(parent, name: str, others: int = 0) -> str:
+    """Ask what to do with unsaved changes of ``name``: ``"save"``, ``"discard"`` or ``"cancel"``; with ``others``
+    documents of unsaved changes waiting after it, ``"discard all"`` too (No to All: none of them saved)."""
     buttons = QMessageBox.StandardButton
-    answer = QMessageBox.question(
-        parent, "Unsaved Changes", f"Save the changes to {name} before closing it?",
-        buttons.Save | buttons.Discard | buttons.Cancel, buttons.Save,
-    )
-    return {buttons.Save: "save", buttons.Discard: "discard"}.get(answer, "cancel")
+    question = f"Save the changes to {name} before closing it?"
+    choices = buttons.Save | buttons.Discard | buttons.Cancel
+    if others:
+        question += f" ({others} more {'document has' if others == 1 else 'documents have'} unsaved changes.)"
+        choices |= buttons.NoToAll
+    answer = QMessageBox.question(parent, "Unsaved Changes", question, choices, buttons.Save)
+    return {buttons.Save: "save", buttons.Discard: "discard", buttons.NoToAll: "discard all"}.get(answer, "cancel")
 
 
 def show_error(parent, title: str, message: str) -> None:
