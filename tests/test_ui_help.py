@@ -6,14 +6,30 @@ import pytest
 
 pytest.importorskip("pytestqt", reason="pytest-qt is in the [test] extra")
 
-from PySide6.QtGui import QDesktopServices, QKeySequence  # noqa: E402
+from PySide6.QtCore import QUrl  # noqa: E402
+from PySide6.QtGui import QDesktopServices, QKeySequence, QTextDocument  # noqa: E402
 from PySide6.QtWidgets import QMessageBox  # noqa: E402
 
 import fmr_editor  # noqa: E402
 from fmr_editor.tools import TOOLS  # noqa: E402
+from fmr_editor.ui.help import GUIDE_PICTURE_WIDTH  # noqa: E402
 from fmr_editor.ui.menus import ACTIONS  # noqa: E402
 
 pytestmark = pytest.mark.gui
+
+
+def _blocks(document):
+    block = document.begin()
+    while block.isValid():
+        yield block
+        block = block.next()
+
+
+def _fragments(block):
+    it = block.begin()
+    while not it.atEnd():
+        yield it.fragment()
+        it += 1
 
 
 def native(key: str) -> str:
@@ -38,13 +54,26 @@ def test_the_shortcuts_dialog_lists_every_command_s_keys(editor):
     dialog.close()
 
 
-def test_help_opens_the_user_guide_and_about_names_the_version(editor, monkeypatch):
-    opened, about = [], []
-    monkeypatch.setattr(QDesktopServices, "openUrl", staticmethod(lambda url: opened.append(url) or True))
+def test_help_shows_the_user_guide_in_the_editor_and_about_names_the_version(editor, monkeypatch):
+    about = []
     monkeypatch.setattr(QMessageBox, "about", staticmethod(lambda parent, title, text: about.append(text)))
-    editor.window.actions["user_guide"].trigger()
-    assert len(opened) == 1 and opened[0].toLocalFile().endswith("docs/user-guide.md")
-    with open(opened[0].toLocalFile()) as guide:
-        assert guide.readline().startswith("# User guide")
+    editor.window.actions["user_guide"].trigger()  # F1: no viewer of the desktop needed
+    dialog = editor.window.guide_dialog
+    document = dialog.text.document()
+    assert dialog.isVisible() and document.toPlainText().startswith("User guide")  # the heading, rendered
+    pictures = [fragment.charFormat().toImageFormat() for block in _blocks(document)
+                for fragment in _fragments(block) if fragment.charFormat().isImageFormat()]
+    assert [picture.name() for picture in pictures] == ["screenshot.png", "layers.png", "clone.png"]  # each once
+    assert all(0 < picture.width() <= GUIDE_PICTURE_WIDTH for picture in pictures)  # and no wider than the viewer
+    pictures = {picture.name() for picture in pictures}
+    for name in pictures:  # each found beside the guide
+        assert not document.resource(QTextDocument.ResourceType.ImageResource, QUrl(name)).isNull(), name
+    opened = []
+    monkeypatch.setattr(QDesktopServices, "openUrl", staticmethod(lambda url: opened.append(url) or True))
+    dialog.follow(QUrl("../README.md"))  # the guide's link to the README: shown here
+    assert dialog.shown.name == "README.md" and document.toPlainText().startswith("fmr-editor")
+    dialog.follow(QUrl("https://example.org/"))  # the web: in the browser
+    assert [url.toString() for url in opened] == ["https://example.org/"]
+    dialog.close()
     editor.window.actions["about"].trigger()
     assert len(about) == 1 and fmr_editor.__version__ in about[0]

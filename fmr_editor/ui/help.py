@@ -1,15 +1,27 @@
-"""The Help menu's windows: the keyboard shortcuts, made from the actions themselves, and the user guide."""
+"""The Help menu's windows: the keyboard shortcuts, made from the actions themselves, and the user guide, shown in
+the editor."""
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 from PySide6.QtCore import QUrl
-from PySide6.QtGui import QAction, QDesktopServices, QKeySequence
-from PySide6.QtWidgets import QDialog, QDialogButtonBox, QHeaderView, QTableWidget, QTableWidgetItem, QVBoxLayout
+from PySide6.QtGui import QAction, QDesktopServices, QKeySequence, QTextCursor, QTextDocument
+from PySide6.QtWidgets import (
+    QDialog,
+    QDialogButtonBox,
+    QHeaderView,
+    QTableWidget,
+    QTableWidgetItem,
+    QTextBrowser,
+    QVBoxLayout,
+)
 
 #: The user guide in a checkout of the repository (``docs/user-guide.md``).
 USER_GUIDE = Path(__file__).resolve().parents[2] / "docs" / "user-guide.md"
+#: The widest a picture of the guide is shown, pixels (its viewer opens 760 wide).
+GUIDE_PICTURE_WIDTH = 680
 
 
 def shortcut_rows(actions: dict[str, QAction]) -> list[tuple[str, str]]:
@@ -47,6 +59,63 @@ class ShortcutsDialog(QDialog):
         self.resize(460, 560)
 
 
-def open_user_guide() -> bool:
-    """Open ``USER_GUIDE`` with the desktop's viewer; False when nothing opened it."""
-    return QDesktopServices.openUrl(QUrl.fromLocalFile(str(USER_GUIDE)))
+def one_line_alt_texts(markdown: str) -> str:
+    """``markdown`` with each picture's description on one line: Qt's reader shows a picture once for every line
+    of it (three lines, three pictures)."""
+    return re.sub(r"!\[([^\]]*)\]", lambda match: "![" + " ".join(match.group(1).split()) + "]", markdown)
+
+
+class GuideDialog(QDialog):
+    """Help > User Guide: ``USER_GUIDE`` shown in the editor itself (no viewer of the desktop needed), its
+    pictures beside it; its links to the other documents open them here, links to the web in the browser."""
+
+    def __init__(self, parent=None) -> None:
+        super().__init__(parent)
+        self.setWindowTitle("User Guide")
+        self.text = QTextBrowser(self)
+        self.text.setOpenLinks(False)
+        self.text.anchorClicked.connect(self.follow)
+        buttons = QDialogButtonBox(QDialogButtonBox.StandardButton.Close, self)
+        buttons.rejected.connect(self.reject)
+        layout = QVBoxLayout(self)
+        layout.addWidget(self.text)
+        layout.addWidget(buttons)
+        self.resize(760, 680)
+        self.shown = USER_GUIDE  # the file shown, which links are relative to
+        self.show_file(USER_GUIDE)
+
+    def show_file(self, path: Path) -> None:
+        """Show the markdown file ``path``, its pictures from its folder."""
+        self.shown = path
+        self.text.setSearchPaths([str(path.parent)])
+        self.text.setMarkdown(one_line_alt_texts(path.read_text(encoding="utf-8")))
+        self._fit_pictures(GUIDE_PICTURE_WIDTH)
+
+    def follow(self, url: QUrl) -> None:
+        """A link: a markdown file beside the one shown (``../README.md``) is shown here, the web in the browser."""
+        if url.scheme() not in ("", "file"):
+            QDesktopServices.openUrl(url)
+            return
+        target = (self.shown.parent / url.path()).resolve() if url.path() else self.shown
+        if target.suffix.lower() == ".md" and target.is_file():
+            self.show_file(target)
+
+    def _fit_pictures(self, width: int) -> None:
+        """Show each picture wider than ``width`` pixels at that width (the screenshots are the window's size)."""
+        document = self.text.document()
+        block = document.begin()
+        while block.isValid():
+            fragments = block.begin()
+            while not fragments.atEnd():
+                fragment = fragments.fragment()
+                picture = fragment.charFormat().toImageFormat()
+                image = document.resource(QTextDocument.ResourceType.ImageResource, QUrl(picture.name()))
+                if picture.isValid() and not image.isNull() and image.width() > width:
+                    picture.setWidth(width)
+                    picture.setHeight(image.height() * width / image.width())
+                    cursor = QTextCursor(document)
+                    cursor.setPosition(fragment.position())
+                    cursor.setPosition(fragment.position() + fragment.length(), QTextCursor.MoveMode.KeepAnchor)
+                    cursor.setCharFormat(picture)
+                fragments += 1
+            block = block.next()

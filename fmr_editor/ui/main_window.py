@@ -42,7 +42,7 @@ from .elided_label import ElidedLabel
 from .events import modifier_names, pointer_event, tool_key
 from .file_commands import FileCommands
 from .files import RecentFiles
-from .help import USER_GUIDE, ShortcutsDialog, open_user_guide
+from .help import USER_GUIDE, GuideDialog, ShortcutsDialog
 from .history_panel import HistoryPanel
 from .jobs import Job, Task
 from .layer_commands import LayerCommands
@@ -388,8 +388,9 @@ class MainWindow(FileCommands, DocumentCommands, QMainWindow):
     def user_guide(self) -> None:
         if not USER_GUIDE.is_file():
             self.status_label.setText("The user guide is docs/user-guide.md in the editor's source repository")
-        elif not open_user_guide():
-            self.status_label.setText(f"No viewer opened the user guide: {USER_GUIDE}")
+            return
+        self.guide_dialog = GuideDialog(self)
+        self.guide_dialog.show()
 
     # -- the document ---------------------------------------------------------------------------------
     def _choose_stop_color(self, current) -> None:
