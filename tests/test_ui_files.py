@@ -293,6 +293,15 @@ def test_export_and_new_document_dialogs(gl_display, qtbot, tmp_path):
     assert dialog.options().background == (0.2, 0.4, 0.6)
     icon = dialog.background_button.icon().pixmap(20, 20).toImage()
     assert icon.pixelColor(10, 10).getRgb()[:3] == (51, 102, 153)  # the swatch shows it
+    dialog.show()
+    qtbot.waitExposed(dialog)
+
+    def left(widget) -> int:
+        return widget.mapTo(dialog, widget.rect().topLeft()).x()
+
+    assert left(dialog.path_edit) == left(dialog.width_box) == left(dialog.samples_box)  # the fields line up
+    assert left(dialog.flatten) == left(dialog.keep_aspect)
+    dialog.close()
 
     new = NewDocumentDialog(None, 300, 200)
     qtbot.addWidget(new)

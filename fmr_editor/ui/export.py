@@ -23,7 +23,6 @@ from PySide6.QtWidgets import (
     QPushButton,
     QSpinBox,
     QToolButton,
-    QWidget,
 )
 
 from ..engine import Composite, LiveStack, Representation, Settings, check_image_memory, rasterise
@@ -131,16 +130,12 @@ class ExportDialog(QDialog):
         buttons.accepted.connect(self.accept)
         buttons.rejected.connect(self.reject)
         form = QFormLayout(self)
-        holder = QWidget(self)
-        holder.setLayout(where)
-        form.addRow("File", holder)
+        form.addRow("File", where)  # a layout, not a widget holding it: no margins of its own, so it lines up
         form.addRow("Width", self.width_box)
         form.addRow("Height", self.height_box)
         form.addRow("", self.keep_aspect)
         form.addRow("Antialiasing (samples per side)", self.samples_box)
-        flatten_holder = QWidget(self)
-        flatten_holder.setLayout(flatten_row)
-        form.addRow("", flatten_holder)
+        form.addRow("", flatten_row)
         form.addRow(buttons)
 
     def _follow(self, box: QSpinBox, value: float) -> None:
