@@ -16,12 +16,23 @@ from PySide6.QtWidgets import (
     QTableWidgetItem,
     QTextBrowser,
     QVBoxLayout,
+    QWidget,
 )
 
 #: The user guide in a checkout of the repository (``docs/user-guide.md``).
 USER_GUIDE = Path(__file__).resolve().parents[2] / "docs" / "user-guide.md"
 #: The widest a picture of the guide is shown, pixels (its viewer opens 760 wide).
 GUIDE_PICTURE_WIDTH = 680
+
+
+def _lay_out(dialog: QDialog, content: QWidget, width: int, height: int) -> None:
+    """``content`` above a Close button in ``dialog``, which opens ``width x height``."""
+    buttons = QDialogButtonBox(QDialogButtonBox.StandardButton.Close, dialog)
+    buttons.rejected.connect(dialog.reject)
+    layout = QVBoxLayout(dialog)
+    layout.addWidget(content)
+    layout.addWidget(buttons)
+    dialog.resize(width, height)
 
 
 def shortcut_rows(actions: dict[str, QAction]) -> list[tuple[str, str]]:
@@ -51,12 +62,7 @@ class ShortcutsDialog(QDialog):
         header = self.table.horizontalHeader()
         header.setSectionResizeMode(0, QHeaderView.ResizeMode.ResizeToContents)
         header.setSectionResizeMode(1, QHeaderView.ResizeMode.Stretch)  # the keys take the rest of the width
-        buttons = QDialogButtonBox(QDialogButtonBox.StandardButton.Close, self)
-        buttons.rejected.connect(self.reject)
-        layout = QVBoxLayout(self)
-        layout.addWidget(self.table)
-        layout.addWidget(buttons)
-        self.resize(460, 560)
+        _lay_out(self, self.table, 460, 560)
 
 
 def one_line_alt_texts(markdown: str) -> str:
@@ -75,12 +81,7 @@ class GuideDialog(QDialog):
         self.text = QTextBrowser(self)
         self.text.setOpenLinks(False)
         self.text.anchorClicked.connect(self.follow)
-        buttons = QDialogButtonBox(QDialogButtonBox.StandardButton.Close, self)
-        buttons.rejected.connect(self.reject)
-        layout = QVBoxLayout(self)
-        layout.addWidget(self.text)
-        layout.addWidget(buttons)
-        self.resize(760, 680)
+        _lay_out(self, self.text, 760, 680)
         self.shown = USER_GUIDE  # the file shown, which links are relative to
         self.show_file(USER_GUIDE)
 
