@@ -65,3 +65,17 @@ def test_another_tab_shown_says_nothing_of_the_one_before(line):
     editor.qtbot.waitUntil(lambda: window.job is None and editor.workspace is not first, timeout=30_000)
     assert window.position_label.text() == "" and window.status_label.text() == ""
     editor.wait_idle()
+
+
+def test_a_clones_placement_said_gives_way_when_the_placement_is_dropped(line):
+    editor = line
+    window = editor.window
+    editor.key(Qt.Key.Key_L)  # the lasso, round the middle of the canvas
+    for corner in ((30.0, 30.0), (90.0, 30.0), (90.0, 90.0), (30.0, 90.0), (30.0, 30.0)):
+        editor.click(*corner)
+    editor.key(Qt.Key.Key_C, Qt.KeyboardModifier.ControlModifier)
+    editor.key(Qt.Key.Key_V, MASK_KEYS)  # Ctrl+Shift+V: paste seamless, placed with handles
+    assert editor.history.in_transaction and window.status_label.text().startswith("Place the clone")
+    editor.key(Qt.Key.Key_Escape)  # dropped: no step was made, yet the placement is over
+    assert not editor.history.in_transaction and window.status_label.text() == ""
+    editor.wait_idle()

@@ -410,12 +410,13 @@ class MainWindow(FileCommands, DocumentCommands, QMainWindow):
         self.after_tool()
         self._update_title()
 
-    def _history_step(self) -> tuple[int, int, int] | None:
-        """The shown document's step (``StatusMessage``): its history, current step and count of steps."""
+    def _history_step(self) -> tuple[int, int, int, bool] | None:
+        """The shown document's step (``StatusMessage``): its history, current step, count of steps and whether a
+        gesture is open on it (a drag, a clone's placement), whose end, kept or dropped, moves it on too."""
         if self.workspace is None:
             return None
         history = self.workspace.history
-        return id(history), history.index, len(history.labels)
+        return id(history), history.index, len(history.labels), history.in_transaction
 
     def _standing_status(self) -> str:
         """What the status bar says while nothing else is said: the mask being edited, and how to leave it."""
