@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
-from layered import GREEN, SIZE, paint_over_glow, reference, three_layers
+from layered import GREEN, SIZE, paint_over_glow, reference, three_layers, translucent_layers, with_alphas
 from shapes import scattered_document
 
 from fmr_editor.engine import LiveStack, evaluate_points, raster, rasterise
@@ -242,18 +243,33 @@ def test_a_baked_transform_gives_the_same_image_without_a_transform(monkeypatch)
 
 def test_merge_down_joins_the_items_with_transforms_applied_and_keeps_the_lower_layer():
     masked = three_layers()
-    with pytest.raises(EditRefused, match="mask and opacity cannot be kept"):
-        layer_edits.merge_down(masked, 2)
+    with pytest.raises(EditRefused, match="mask and opacity cannot be kept.*; middle's mask, opacity"):
+        layer_edits.merge_down(masked, 2)  # every reason at once: the upper layer's and the lower one's
     document = layer_edits.remove_mask(masked, 2)
+    with pytest.raises(EditRefused, match="^middle's mask, opacity or colour stops .* would weigh top's items"):
+        layer_edits.merge_down(document, 2)  # the lower layer's mask and opacity would fall on the upper items
+    with pytest.raises(EditRefused, match="middle's mask, opacity"):
+        layer_edits.merge_down(layer_edits.set_opacity(document, 1, 1.0), 2)  # its mask alone
+    document = layer_edits.set_opacity(layer_edits.remove_mask(document, 1), 1, 1.0)
     with pytest.raises(EditRefused, match="show both layers"):
         layer_edits.merge_down(layer_edits.set_visible(document, 1, False), 2)
     merged = layer_edits.merge_down(document, 2)
     assert [layer.name for layer in merged.layers] == ["bottom", "middle"] and merged.active == 1
     middle, top = document.layers[1], layer_edits.baked(document.layers[2])
     assert merged.layers[1].curves == middle.curves + top.curves
-    assert merged.layers[1].mask == middle.mask and merged.layers[1].opacity == middle.opacity
+    assert merged.layers[1].mask is None and merged.layers[1].opacity == 1.0
     with pytest.raises(EditRefused, match="no layer below"):
         layer_edits.merge_down(document, 0)
+
+
+def test_merge_down_refuses_a_translucent_lower_layer():
+    document = layer_edits.remove_mask(translucent_layers(), 2)  # the middle layer's circles: clear outside
+    document = layer_edits.set_opacity(layer_edits.remove_mask(document, 1), 1, 1.0)
+    top = document.layers[2]
+    document = document.with_layer(2, replace(top, curves=tuple(with_alphas(c, 1.0, 1.0) for c in top.curves)))
+    assert document.layers[1].translucent and not document.layers[2].translucent
+    with pytest.raises(EditRefused, match="middle's mask, opacity or colour stops with alpha below 1"):
+        layer_edits.merge_down(document, 2)
 
 
 def test_flatten_merges_the_visible_layers_into_one_and_drops_hidden_ones():

@@ -156,10 +156,10 @@ def merge_down(document: Document, index: int | None = None) -> Document:
     Raises
     ------
     EditRefused
-        For the bottom layer (nothing below), a clone layer, a hidden layer, an upper layer
-        with a mask, an opacity below 1 or stops with alpha below 1 (which merged items cannot keep), or
-        a layer whose transform cannot be applied to its items (a colour
-        offset with no curve to carry it, as a Paint layer's).
+        For the bottom layer (nothing below), a clone layer, a hidden layer, either layer with a mask, an
+        opacity below 1 or stops with alpha below 1 (the upper one's merged items cannot keep them; the lower
+        one's would then weigh the upper one's items too), or a layer whose transform cannot be applied to its
+        items (a colour offset with no curve to carry it, as a Paint layer's); every reason that holds at once.
     """
     index = _index(document, index)
     if index == 0:
@@ -170,16 +170,21 @@ def merge_down(document: Document, index: int | None = None) -> Document:
     upper, lower = baked(document.layers[index]), baked(document.layers[index - 1])
     if not (upper.visible and lower.visible):
         raise EditRefused("show both layers to merge them (a hidden layer's items would appear or vanish)")
+    reasons = []
     if upper.active_mask is not None or upper.opacity < 1.0:
-        raise EditRefused(f"{upper.name}'s mask and opacity cannot be kept by merging its items: "
-                         "delete or disable the mask and set the opacity to 100% first")
+        reasons.append(f"{upper.name}'s mask and opacity cannot be kept by merging its items: "
+                       "delete or disable the mask and set the opacity to 100% first")
     if upper.translucent:
-        raise EditRefused(f"{upper.name}'s curves have colour stops with alpha below 1, which merged items "
-                         "cannot keep: make them opaque first")
-    for layer in (upper, lower):
-        if not layer.transform.is_identity:
-            raise EditRefused(f"{layer.name}'s colour transform shifts colours but it has no curve to carry the shift "
-                             "(a Paint layer, say): it cannot be merged")
+        reasons.append(f"{upper.name}'s curves have colour stops with alpha below 1, which merged items "
+                       "cannot keep: make them opaque first")
+    if lower.active_mask is not None or lower.opacity < 1.0 or lower.translucent:
+        reasons.append(f"{lower.name}'s mask, opacity or colour stops with alpha below 1 would weigh "
+                       f"{upper.name}'s items too once merged: make it opaque first")
+    reasons += [f"{layer.name}'s colour transform shifts colours but it has no curve to carry the shift "
+                "(a Paint layer, say): it cannot be merged" for layer in (upper, lower)
+                if not layer.transform.is_identity]
+    if reasons:
+        raise EditRefused("; ".join(reasons))
     merged = replace(lower, curves=lower.curves + upper.curves, points=lower.points + upper.points)
     layers = document.layers[: index - 1] + (merged,) + document.layers[index + 1 :]
     active = document.active - (document.active >= index)
