@@ -197,6 +197,31 @@ def test_pen_on_the_bottom_layer_or_an_opaque_one_keeps_foreground_left_and_back
         assert curve.left == (ColorStop(0.0, (0.9, 0.5, 0.0)),) and curve.right == (ColorStop(0.0, (0.0, 0.0, 1.0)),)
 
 
+@pytest.mark.parametrize("corners", [[(20, 20), (80, 20), (80, 80), (20, 80)],  # clockwise on the screen
+                                     [(20, 20), (20, 80), (80, 80), (80, 20)]])
+def test_pen_on_a_hide_all_mask_shows_a_closed_curves_inside_whichever_way_it_is_drawn(corners):
+    """Foreground inside and background outside (white, black): the layer shows exactly inside the shape."""
+    from fmr_editor.engine import LiveStack, evaluate_points
+    from fmr_editor.model import Mask, layer_edits
+
+    below = Document(100, 100, [line_curve(left=(ColorStop(0.0, (0.1, 0.2, 0.3)),))])
+    document = layer_edits.add_layer(below, Layer([line_curve(left=(ColorStop(0.0, GREEN),),
+                                                               right=(ColorStop(0.0, GREEN),))]))
+    document = layer_edits.select_layer(layer_edits.add_mask(document, 1, Mask(base=0.0)), 1, mask=True)
+    context = make_context(document)
+    context.options.color, context.options.secondary_color = (1.0, 1.0, 1.0), (0.0, 0.0, 0.0)
+    pen = PenTool(context)
+    for x, y in corners + [corners[0]]:  # the last click closes the curve
+        click(pen, x, y)
+    curve = context.document.layers[1].mask.curves[0]
+    inside, outside = (curve.left, curve.right) if curve.inside_on_left() else (curve.right, curve.left)
+    assert inside == (ColorStop(0.0, (1.0, 1.0, 1.0)),) and outside == (ColorStop(0.0, (0.0, 0.0, 0.0)),)
+    shown, under = (evaluate_points(LiveStack(d).composite, [(50.0, 50.0), (95.0, 5.0)])
+                    for d in (context.document, below))
+    np.testing.assert_allclose(shown[0], GREEN, atol=1e-3)  # the layer inside the shape ...
+    np.testing.assert_allclose(shown[1], under[1], atol=1e-6)  # ... and what lies below outside it
+
+
 def test_pen_overlay_shows_the_curve_and_the_next_piece():
     context = make_context(Document(100, 100))
     pen = PenTool(context)

@@ -60,14 +60,18 @@ def control_points(anchors: list[Anchor]) -> np.ndarray:
 
 def _colour_stops(context: ToolContext, curve: DiffusionCurve) -> tuple[tuple[ColorStop], tuple[ColorStop]]:
     """The new curve's left and right stops: the foreground colour on the left and the background colour on the
-    right; on a clear layer above the bottom one (empty, or with alpha already), the foreground colour on both
-    sides, a closed curve opaque inside and clear outside, so that it covers exactly its inside, and an open
-    one with the options' stroke alphas."""
+    right (of a closed curve on a mask: inside and outside, whichever way it was drawn, so that a white shape
+    on a Hide All mask shows its inside); on a clear layer above the bottom one (empty, or with alpha
+    already), the foreground colour on both sides, a closed curve opaque inside and clear outside, so that it
+    covers exactly its inside, and an open one with the options' stroke alphas."""
     options, document = context.options, context.document
     foreground = tuple(float(v) for v in options.color)
+    background = tuple(float(v) for v in options.secondary_color)
     layer = document.layer
+    if document.editing_mask and is_closed(curve) and not curve.inside_on_left():
+        return (ColorStop(0.0, background),), (ColorStop(0.0, foreground),)
     if document.editing_mask or document.active == 0 or not (layer.empty or layer.translucent):
-        return (ColorStop(0.0, foreground),), (ColorStop(0.0, tuple(float(v) for v in options.secondary_color)),)
+        return (ColorStop(0.0, foreground),), (ColorStop(0.0, background),)
     left, right = options.stroke_left_alpha, options.stroke_right_alpha
     if is_closed(curve):
         left, right = (1.0, 0.0) if curve.inside_on_left() else (0.0, 1.0)
