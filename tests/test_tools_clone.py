@@ -148,3 +148,18 @@ def test_copy_carries_the_layers_colour_adjustment_and_paste_curves_adds_to_the_
     offset = np.asarray(paste_position(copied, small).offset)
     np.testing.assert_allclose(shapely.Polygon(copied.region + offset).centroid.coords[0], (20.0, 15.0))
     np.testing.assert_array_equal(canvas_region(small), [[0, 0], [40, 0], [40, 30], [0, 30]])
+
+
+def test_the_pen_on_a_clone_layer_refuses_at_its_first_click(pasting):
+    """Not after the whole curve is drawn: the first anchor is refused, and nothing is drawn."""
+    from fmr_editor.tools import PenTool
+
+    tool, _, _ = pasting
+    assert tool.key("Return") and tool.context.document.layer.clone is not None  # placed: the clone layer active
+    pen = PenTool(tool.context)
+    with pytest.raises(EditRefused, match="clone layer holds no curves"):
+        click(pen, 40.0, 40.0)
+    assert not pen.busy
+    pen.context.history.apply(layer_edits.select_layer(pen.context.document, 0), "Select Layer")
+    click(pen, 40.0, 40.0)  # another layer: drawn as ever
+    assert pen.busy

@@ -33,6 +33,9 @@ MASK_LUMA = np.array([0.2126, 0.7152, 0.0722])
 MAX_LAYERS = 200
 #: Longest layer name, in characters.
 MAX_NAME = 1000
+#: Why nothing is drawn on a clone layer.
+CLONE_HOLDS_NOTHING = ("a clone layer holds no curves, points or mask of its own: draw on another layer, or add a "
+                       "layer above it")
 
 
 def _items(owner, name: str, kind: type) -> None:
@@ -146,8 +149,7 @@ class Layer:
             if not isinstance(self.clone, Clone):
                 raise TypeError("a layer's clone must be a Clone")
             if self.curves or self.points or self.mask is not None:
-                raise EditRefused("a clone layer holds no curves, points or mask of its own: "
-                                 "draw on another layer, or add a layer above it")
+                raise EditRefused(CLONE_HOLDS_NOTHING)
         object.__setattr__(self, "id", checked_id(self.id))
 
     def with_curves(self, curves) -> Layer:

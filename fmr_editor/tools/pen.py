@@ -24,7 +24,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..model import ColorStop, DiffusionCurve, edits
+from ..model import ColorStop, DiffusionCurve, EditRefused, edits
+from ..model.layer import CLONE_HOLDS_NOTHING
 from .base import Tool
 from .context import Selection, ToolContext
 from .events import BACKSPACE, DELETE, ENTER, ESCAPE, RETURN, PointerEvent
@@ -110,6 +111,8 @@ class PenTool(Tool):
         if event.clicks == 2:  # the first click of the double click placed the last anchor
             self.finish()
             return
+        if not self.anchors and self.context.document.layer.clone is not None:  # at once, not once it is drawn
+            raise EditRefused(CLONE_HOLDS_NOTHING)
         p = np.array(event.position)
         self.pressed_at, self.moved = event.position, False
         if self.anchors and self.near(self.anchors[-1], p):  # no zero-length piece: reshape the last anchor
