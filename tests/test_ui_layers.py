@@ -79,10 +79,20 @@ def test_layers_panel_mask_hue_undo_redo_save_and_reopen(line, tmp_path, qtbot):
 
     window.layer_commands.adjust_colors()
     dialog = window.layer_commands.color_dialog
+    assert not dialog.from_own.isVisible()  # nothing adjusted before: nothing to start from
     dialog.set_values(hue=120)
     dialog.accept()
     step("Colour Adjust")
     assert editor.document.layers[1].transform == hue_rotation(120)
+    window.layer_commands.adjust_colors()  # again: the sliders add to the layer's adjustment ...
+    dialog = window.layer_commands.color_dialog
+    assert dialog.from_own.isVisible() and dialog.transform.is_identity
+    dialog.set_values(hue=30)
+    assert editor.history.document.layers[1].transform == hue_rotation(120).then(hue_rotation(30))
+    dialog.from_own.setChecked(True)  # ... or take its place
+    assert editor.history.document.layers[1].transform == hue_rotation(30)
+    dialog.reject()
+    assert editor.document.layers[1].transform == hue_rotation(120) and editor.history.labels[-1] == "Colour Adjust"
 
     panel.opacity.setValue(60)
     panel.opacity.setValue(70)  # one drag of the slider: one step

@@ -1,7 +1,8 @@
 """The Colour Adjust dialog: hue, saturation, brightness, contrast and invert of the active layer.
 
 The adjustment is a colour transform composed after the layer's own
-(``model.color_transform``); it applies to the layer's cell coefficients, so
+(``model.color_transform``), or in its place when the user starts from the
+layer's own colours; it applies to the layer's cell coefficients, so
 no solve runs and the canvas follows each slider at once.  The dialog opens a
 history transaction: every change is previewed, OK records one step "Colour
 Adjust", Cancel restores the layer as it was.
@@ -22,7 +23,7 @@ from PySide6.QtWidgets import (
 )
 
 from ..model import layer_edits
-from ..model.color_transform import ColorTransform, brightness_contrast, hue_rotation, inversion, saturation
+from ..model.color_transform import IDENTITY, ColorTransform, brightness_contrast, hue_rotation, inversion, saturation
 from ..model.history import History
 
 #: Sliders: (name, label, low, high, neutral, unit).
@@ -76,6 +77,12 @@ class ColorAdjustDialog(QDialog):
         self.invert = QCheckBox("Invert", self)
         self.invert.toggled.connect(self._preview)
         form.addRow("", self.invert)
+        # a layer adjusted before: the sliders add to that; this takes it away (not a Paint layer's: its colour)
+        self.from_own = QCheckBox("Start from the layer's own colours (drop its earlier adjustments)", self)
+        self.from_own.setVisible(not self.start.layer.transform.is_identity
+                                 and layer_edits.fill_color(self.start.layer) is None)
+        self.from_own.toggled.connect(self._preview)
+        form.addRow("", self.from_own)
         buttons = QDialogButtonBox(QDialogButtonBox.StandardButton.Ok | QDialogButtonBox.StandardButton.Cancel
                                    | QDialogButtonBox.StandardButton.Reset, self)
         buttons.accepted.connect(self.accept)
@@ -104,10 +111,11 @@ class ColorAdjustDialog(QDialog):
 
     def reset(self) -> None:
         self.set_values()
+        self.from_own.setChecked(False)
 
     def _preview(self) -> None:
-        layer = self.start.layer
-        self.history.preview(layer_edits.set_transform(self.start, None, layer.transform.then(self.transform)))
+        before = IDENTITY if self.from_own.isChecked() else self.start.layer.transform
+        self.history.preview(layer_edits.set_transform(self.start, None, before.then(self.transform)))
 
     def done(self, result: int) -> None:
         if self.history.in_transaction:
