@@ -197,7 +197,7 @@ class EditorDriver:
         self.window.open_path(path)
         self.qtbot.waitUntil(lambda: self.window.job is None, timeout=60_000)
         workspace = self.window.workspace
-        assert workspace is not None and workspace.path == Path(path).absolute(), f"{path} did not open: {self.errors}"
+        assert workspace is not None and workspace.path == Path(path).resolve(), f"{path} did not open: {self.errors}"
         self.wait_idle()
 
     # -- pointer, in document pixels (rounded to the nearest window pixel)

@@ -100,6 +100,9 @@ def test_shapes_without_paint_and_text_are_left_out_and_said(tmp_path):
     assert [layer.name for layer in document.layers] == ["Lines"]  # stroked, not filled: line art
     assert notes == ["not imported (only paths and shapes are): 1 path without stroke or fill, 1 text element"]
     assert fmr_editor.load(svg_file(tmp_path, body)) == document  # the Python API reads SVG by its suffix
+    twice = body + '<path d="M 9 9 L 5 5" fill="none" stroke="none"/><text x="9" y="9">ho</text>'
+    load_svg(svg_file(tmp_path, twice), notes := [])
+    assert notes == ["not imported (only paths and shapes are): 2 paths without stroke or fill, 2 text elements"]
 
 
 @pytest.mark.parametrize("content, message", [

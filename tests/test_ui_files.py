@@ -357,3 +357,20 @@ def test_closing_several_unsaved_documents_can_discard_them_all_at_once(ribbon, 
     window.close()
     qtbot.waitUntil(lambda: not window.isVisible(), timeout=30_000)
     assert len(editor.questions) == 1 and "1 more document has unsaved changes" in editor.questions[0][1]
+
+
+def test_a_document_opened_through_a_link_is_saved_to_its_file_and_the_link_stays(editor, tmp_path, qtbot):
+    from shapes import line_document
+
+    from fmr_editor.io import save_fmr
+
+    real, link = tmp_path / "real.fmr", tmp_path / "link.fmr"
+    save_fmr(real, line_document())
+    link.symlink_to(real)
+    editor.open(link)
+    assert editor.workspace.path == real
+    recolour(editor)
+    edited = editor.document
+    editor.window.save()
+    qtbot.waitUntil(lambda: editor.window.job is None and not editor.history.modified, timeout=30_000)
+    assert link.is_symlink() and load_fmr(link).document == load_fmr(real).document == edited

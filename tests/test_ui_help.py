@@ -12,24 +12,11 @@ from PySide6.QtWidgets import QMessageBox  # noqa: E402
 
 import fmr_editor  # noqa: E402
 from fmr_editor.tools import TOOLS  # noqa: E402
-from fmr_editor.ui.help import GUIDE_PICTURE_WIDTH  # noqa: E402
+from fmr_editor.ui.help import GUIDE_PICTURE_WIDTH, USER_GUIDE, picture_fragments  # noqa: E402
 from fmr_editor.ui.menus import ACTIONS  # noqa: E402
 
 pytestmark = pytest.mark.gui
-
-
-def _blocks(document):
-    block = document.begin()
-    while block.isValid():
-        yield block
-        block = block.next()
-
-
-def _fragments(block):
-    it = block.begin()
-    while not it.atEnd():
-        yield it.fragment()
-        it += 1
+REPO = USER_GUIDE.parents[1]
 
 
 def native(key: str) -> str:
@@ -61,8 +48,7 @@ def test_help_shows_the_user_guide_in_the_editor_and_about_names_the_version(edi
     dialog = editor.window.guide_dialog
     document = dialog.text.document()
     assert dialog.isVisible() and document.toPlainText().startswith("User guide")  # the heading, rendered
-    pictures = [fragment.charFormat().toImageFormat() for block in _blocks(document)
-                for fragment in _fragments(block) if fragment.charFormat().isImageFormat()]
+    pictures = [fragment.charFormat().toImageFormat() for fragment in picture_fragments(document)]
     assert [picture.name() for picture in pictures] == ["screenshot.png", "layers.png", "clone.png"]  # each once
     assert all(0 < picture.width() <= GUIDE_PICTURE_WIDTH for picture in pictures)  # and no wider than the viewer
     pictures = {picture.name() for picture in pictures}
@@ -70,10 +56,21 @@ def test_help_shows_the_user_guide_in_the_editor_and_about_names_the_version(edi
         assert not document.resource(QTextDocument.ResourceType.ImageResource, QUrl(name)).isNull(), name
     opened = []
     monkeypatch.setattr(QDesktopServices, "openUrl", staticmethod(lambda url: opened.append(url) or True))
+    assert not dialog.back_button.isEnabled()
+    dialog.follow(QUrl("#command-line"))  # a heading of the page shown: it stays as it is
+    assert dialog.shown == USER_GUIDE and not opened
     dialog.follow(QUrl("../README.md"))  # the guide's link to the README: shown here
     assert dialog.shown.name == "README.md" and document.toPlainText().startswith("fmr-editor")
+    dialog.follow(QUrl("docs/examples/layers.py"))  # the README's link to an example: outside
     dialog.follow(QUrl("https://example.org/"))  # the web: in the browser
-    assert [url.toString() for url in opened] == ["https://example.org/"]
+    assert [url.toString() for url in opened] == [QUrl.fromLocalFile(str(REPO / "docs/examples/layers.py")).toString(),
+                                                  "https://example.org/"]
+    dialog.back_button.click()
+    assert dialog.shown == USER_GUIDE and document.toPlainText().startswith("User guide")
+    assert not dialog.back_button.isEnabled()
+    dialog.close()
+    editor.window.actions["user_guide"].trigger()  # F1 again: the same window
+    assert editor.window.guide_dialog is dialog and dialog.isVisible()
     dialog.close()
     editor.window.actions["about"].trigger()
     assert len(about) == 1 and fmr_editor.__version__ in about[0]

@@ -293,3 +293,22 @@ def test_the_mask_button_is_enabled_with_its_menu_and_the_opacity_slider_keeps_i
         lengths.append(panel.opacity.width())
     assert panel.opacity_label.text() == "7%" and len(set(lengths)) == 1, lengths
     editor.wait_idle()
+
+
+def test_colour_adjust_keeps_the_colour_of_a_layer_whose_colour_is_its_transform(gl_display, qtbot):
+    """An SVG's background and a Paint layer hold no curves: their colour is their transform, not an earlier
+    adjustment, so the dialog does not offer to drop it."""
+    from fmr_editor.model import Document, Layer, layer_edits
+    from fmr_editor.model.color_transform import ColorTransform
+    from fmr_editor.model.history import History
+    from fmr_editor.ui.color_adjust import ColorAdjustDialog
+
+    background = Layer(name="Rect 1", transform=ColorTransform(np.zeros((3, 3)), (0.2, 0.4, 0.6)))
+    painted, index = layer_edits.with_fill_layer(Document(64, 64), (0.9, 0.5, 0.1))
+    for document in (Document(64, 64, layers=(background,)), layer_edits.select_layer(painted, index)):
+        assert not document.layer.transform.is_identity
+        dialog = ColorAdjustDialog(History(document))
+        qtbot.addWidget(dialog)
+        dialog.show()
+        assert not dialog.from_own.isVisible()
+        dialog.reject()

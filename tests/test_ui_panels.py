@@ -310,10 +310,13 @@ def test_in_a_small_window_the_panels_scroll_instead_of_spilling_over_the_docks_
     window.resize(700, 500)
     qtbot.waitUntil(lambda: window.height() <= 500)
     stops_dock = next(d for d in window.findChildren(QDockWidget) if d.objectName() == "stops")
-    for box in (window.stops_panel.blur_value, window.stops_panel.bars["blur"]):
+    seen = 0
+    for box in (window.stops_panel.title, window.stops_panel.bars["left"], window.stops_panel.blur_value):
         shown = box.visibleRegion().boundingRect()
         if shown.isEmpty():  # scrolled out of sight
             continue
+        seen += 1
         corners = (box.mapTo(window, shown.topLeft()), box.mapTo(window, shown.bottomRight()))
         assert all(stops_dock.geometry().contains(corner) for corner in corners), (corners, stops_dock.geometry())
+    assert seen  # the panel's top at least is in sight
     line.wait_idle()

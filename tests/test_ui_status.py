@@ -31,9 +31,6 @@ def test_a_message_lasts_until_the_document_moves_to_another_step(line):
     editor.window.say("Exported line.png")
     editor.history.undo()
     assert status.text() == ""
-    editor.history.redo()
-    editor.window.say("Pasted 1 curves")  # said after the step it tells of, as the commands do
-    assert status.text() == "Pasted 1 curves"
     editor.wait_idle()
 
 
@@ -48,7 +45,6 @@ def test_editing_a_mask_stays_said_through_the_edits_made_in_it(line):
     dab = DiffusionPoint((40.0, 40.0), 10.0, (0.0, 0.0, 0.0), -0.5)
     editor.history.apply(edits.add_points(editor.document, [dab]), "Paint Mask")  # an edit of the mask
     assert editor.document.layer.mask.points and status.text() == said  # the standing message came back
-    assert status.text() == said
     editor.key(Qt.Key.Key_M, MASK_KEYS)
     assert not editor.document.editing_mask and status.text() == ""
     editor.wait_idle()
@@ -78,4 +74,26 @@ def test_a_clones_placement_said_gives_way_when_the_placement_is_dropped(line):
     assert editor.history.in_transaction and window.status_label.text().startswith("Place the clone")
     editor.key(Qt.Key.Key_Escape)  # dropped: no step was made, yet the placement is over
     assert not editor.history.in_transaction and window.status_label.text() == ""
+    editor.wait_idle()
+
+
+def test_a_refusal_in_the_middle_of_a_drag_stays_said_once_the_drag_is_undone(line, monkeypatch):
+    """The drag's gesture is cancelled, then why is said: ending the gesture does not take the reason back."""
+    from fmr_editor.model import EditRefused
+
+    editor = line
+    window = editor.window
+    tool = window.tool
+    moved = type(tool).move
+
+    def refusing(self, event):
+        moved(self, event)
+        if editor.history.in_transaction:
+            raise EditRefused("the curve cannot go there")
+
+    monkeypatch.setattr(type(tool), "move", refusing)
+    editor.drag([(64.0, 64.0), (70.0, 80.0)], release=False)  # on the line: a move of the curve, refused
+    assert not editor.history.in_transaction and editor.history.index == 0
+    assert window.status_label.text() == "Not done: the curve cannot go there"
+    editor.release(70.0, 80.0)
     editor.wait_idle()

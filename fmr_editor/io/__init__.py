@@ -32,7 +32,7 @@ def load_document(path: str | os.PathLike, notes: list[str] | None = None) -> Do
         paths and shapes become curves).
     notes : list, optional
         Gets a line for what the file held that was not imported (an SVG file's text and images, a usvg
-        scene's gradient meshes and Poisson curves).
+        scene's gradient meshes and Poisson curves), and one when an Orzan or usvg file holds no curve.
 
     Returns
     -------

@@ -79,7 +79,7 @@ def parse_svg(data: bytes, name: str, notes: list[str] | None = None) -> Documen
             if isinstance(element, svgelements.Shape):
                 stroke, fill = _colour(element.stroke), _colour(element.fill)
                 if stroke is None and fill is None:
-                    left_out["path without stroke or fill"] += 1
+                    left_out["path without stroke or fill", "paths without stroke or fill"] += 1
                 elif fill is None:
                     lines += _lines(element, stroke)
                 else:
@@ -87,10 +87,12 @@ def parse_svg(data: bytes, name: str, notes: list[str] | None = None) -> Documen
                 if len(lines) + shapes.curves > limits.MAX_CURVES:  # before the work grows further
                     raise DocumentLoadError(name, f"more than {limits.MAX_CURVES:,} curves to import")
             elif isinstance(element, (svgelements.Text, svgelements.Image)):
-                left_out[f"{type(element).__name__.lower()} element"] += 1
+                kind = type(element).__name__.lower()
+                left_out[f"{kind} element", f"{kind} elements"] += 1
         layers = ((Layer(tuple(lines), name="Lines"),) if lines else ()) + shapes.layers()
         if shapes.merged:
-            left_out[f"separate layer past {MAX_SHAPE_LAYERS} (the rest share the last)"] = shapes.merged
+            left_out[f"separate layer past {MAX_SHAPE_LAYERS} (it shares the last)",
+                     f"separate layers past {MAX_SHAPE_LAYERS} (the rest share the last)"] = shapes.merged
         if not layers:
             raise DocumentLoadError(name, "no path or shape with a stroke or a fill to import")
         document = Document(width, height, layers=layers, active=len(layers) - 1)
@@ -105,7 +107,7 @@ def parse_svg(data: bytes, name: str, notes: list[str] | None = None) -> Documen
         raise DocumentLoadError(name, f"cannot import the SVG ({type(error).__name__}: {error})") from None
     if notes is not None and left_out:
         notes.append("not imported (only paths and shapes are): "
-                     + listed((count, kind, None) for kind, count in left_out.items()))
+                     + listed((count, *nouns) for nouns, count in left_out.items()))
     return document
 
 

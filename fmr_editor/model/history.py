@@ -173,6 +173,11 @@ class History:
         return tuple(self._labels)
 
     @property
+    def step_count(self) -> int:
+        """``len(labels)``, without the copy."""
+        return len(self._labels)
+
+    @property
     def can_undo(self) -> bool:
         return self._pending is None and self._index > 0
 

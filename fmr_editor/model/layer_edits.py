@@ -159,7 +159,8 @@ def merge_down(document: Document, index: int | None = None) -> Document:
         For the bottom layer (nothing below), a clone layer, a hidden layer, either layer with a mask, an
         opacity below 1 or stops with alpha below 1 (the upper one's merged items cannot keep them; the lower
         one's would then weigh the upper one's items too), or a layer whose transform cannot be applied to its
-        items (a colour offset with no curve to carry it, as a Paint layer's); every reason that holds at once.
+        items (a colour offset with no curve to carry it, as a Paint layer's): every one of these last that
+        holds, at once.
     """
     index = _index(document, index)
     if index == 0:
@@ -177,9 +178,12 @@ def merge_down(document: Document, index: int | None = None) -> Document:
     if upper.translucent:
         reasons.append(f"{upper.name}'s curves have colour stops with alpha below 1, which merged items "
                        "cannot keep: make them opaque first")
-    if lower.active_mask is not None or lower.opacity < 1.0 or lower.translucent:
-        reasons.append(f"{lower.name}'s mask, opacity or colour stops with alpha below 1 would weigh "
-                       f"{upper.name}'s items too once merged: make it opaque first")
+    weighing = [kind for kind, holds in (("mask", lower.active_mask is not None),
+                                         ("opacity below 100%", lower.opacity < 1.0),
+                                         ("colour stops with alpha below 1", lower.translucent)) if holds]
+    if weighing:
+        reasons.append(f"{lower.name}'s {' and '.join(weighing)} would weigh {upper.name}'s items too once "
+                       "merged")
     reasons += [f"{layer.name}'s colour transform shifts colours but it has no curve to carry the shift "
                 "(a Paint layer, say): it cannot be merged" for layer in (upper, lower)
                 if not layer.transform.is_identity]

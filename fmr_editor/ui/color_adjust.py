@@ -77,10 +77,11 @@ class ColorAdjustDialog(QDialog):
         self.invert = QCheckBox("Invert", self)
         self.invert.toggled.connect(self._preview)
         form.addRow("", self.invert)
-        # a layer adjusted before: the sliders add to that; this takes it away (not a Paint layer's: its colour)
+        # a layer adjusted before: the sliders add to that; this takes it away (not from a layer of no curves or
+        # points, whose colour is its transform: a Paint layer, an SVG's background)
+        layer = self.start.layer
         self.from_own = QCheckBox("Start from the layer's own colours (drop its earlier adjustments)", self)
-        self.from_own.setVisible(not self.start.layer.transform.is_identity
-                                 and layer_edits.fill_color(self.start.layer) is None)
+        self.from_own.setVisible(not layer.transform.is_identity and bool(layer.curves or layer.points))
         self.from_own.toggled.connect(self._preview)
         form.addRow("", self.from_own)
         buttons = QDialogButtonBox(QDialogButtonBox.StandardButton.Ok | QDialogButtonBox.StandardButton.Cancel

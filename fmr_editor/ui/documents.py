@@ -197,8 +197,6 @@ class DocumentCommands:
         self.set_tool(self.tool_name)
         self.update_state()
         self.canvas.setFocus()
-        if workspace is not None and self.canvas.error:  # no suitable OpenGL: editing works, nothing is shown
-            self.status_label.setText(f"The canvas cannot draw the image: {self.canvas.error}")
 
     # -- names --------------------------------------------------------------------------------------
     def _steps_of(self, workspace: Workspace) -> None:
@@ -261,25 +259,26 @@ class DocumentCommands:
 
     def _settle_all(self, proceed: Callable[[], None], asked: tuple = ()) -> None:
         """Run ``proceed`` once every document's unsaved changes are saved or may be dropped (asks per
-        document; Cancel stops there)."""
+        document; Cancel stops there, No to All drops the changes of every one left)."""
         waiting = [w for w in self.workspaces if w.history.modified and w not in asked]
         if not waiting:
             proceed()
             return
         self._activate(waiting[0])
-        self._settle_changes(lambda: self._settle_all(proceed, asked + (waiting[0],)), len(waiting) - 1, proceed)
+        others = (len(waiting) - 1, proceed) if len(waiting) > 1 else None
+        self._settle_changes(lambda: self._settle_all(proceed, asked + (waiting[0],)), others)
 
-    def _settle_changes(self, proceed: Callable[[], None], others: int = 0,
-                        proceed_all: Callable[[], None] | None = None) -> None:
+    def _settle_changes(self, proceed: Callable[[], None],
+                        others: tuple[int, Callable[[], None]] | None = None) -> None:
         """Run ``proceed`` once the shown document's unsaved changes are saved or may be dropped (asks); with
-        ``others`` documents waiting after it, No to All runs ``proceed_all`` (none of them saved)."""
+        ``others``, ``(count, proceed_all)`` of the documents waiting after it, No to All runs ``proceed_all``."""
         workspace = self.workspace
         if workspace is None or not workspace.history.modified:
             proceed()
             return
-        answer = ask_keep_changes(self, workspace.name, others if proceed_all is not None else 0)
+        answer = ask_keep_changes(self, workspace.name, others[0] if others else 0)
         if answer == "discard all":
-            proceed_all()
+            others[1]()
         elif answer == "discard":
             proceed()
         elif answer == "save":

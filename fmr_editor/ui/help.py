@@ -4,10 +4,11 @@ the editor."""
 from __future__ import annotations
 
 import re
+from collections.abc import Iterator
 from pathlib import Path
 
 from PySide6.QtCore import QUrl
-from PySide6.QtGui import QAction, QDesktopServices, QKeySequence, QTextCursor, QTextDocument
+from PySide6.QtGui import QAction, QDesktopServices, QKeySequence, QTextCursor, QTextDocument, QTextFragment
 from PySide6.QtWidgets import (
     QDialog,
     QDialogButtonBox,
@@ -25,14 +26,15 @@ USER_GUIDE = Path(__file__).resolve().parents[2] / "docs" / "user-guide.md"
 GUIDE_PICTURE_WIDTH = 680
 
 
-def _lay_out(dialog: QDialog, content: QWidget, width: int, height: int) -> None:
-    """``content`` above a Close button in ``dialog``, which opens ``width x height``."""
+def _lay_out(dialog: QDialog, content: QWidget, width: int, height: int) -> QDialogButtonBox:
+    """``content`` above a Close button in ``dialog``, which opens ``width x height``; the buttons."""
     buttons = QDialogButtonBox(QDialogButtonBox.StandardButton.Close, dialog)
     buttons.rejected.connect(dialog.reject)
     layout = QVBoxLayout(dialog)
     layout.addWidget(content)
     layout.addWidget(buttons)
     dialog.resize(width, height)
+    return buttons
 
 
 def shortcut_rows(actions: dict[str, QAction]) -> list[tuple[str, str]]:
@@ -81,8 +83,10 @@ class GuideDialog(QDialog):
         self.text = QTextBrowser(self)
         self.text.setOpenLinks(False)
         self.text.anchorClicked.connect(self.follow)
-        _lay_out(self, self.text, 760, 680)
+        self.back_button = _lay_out(self, self.text, 760, 680).addButton("Back", QDialogButtonBox.ButtonRole.ActionRole)
+        self.back_button.clicked.connect(self.back)
         self.shown = USER_GUIDE  # the file shown, which links are relative to
+        self._before: list[Path] = []  # the files shown before it, which Back returns to
         self.show_file(USER_GUIDE)
 
     def show_file(self, path: Path) -> None:
@@ -91,32 +95,51 @@ class GuideDialog(QDialog):
         self.text.setSearchPaths([str(path.parent)])
         self.text.setMarkdown(one_line_alt_texts(path.read_text(encoding="utf-8")))
         self._fit_pictures(GUIDE_PICTURE_WIDTH)
+        self.back_button.setEnabled(bool(self._before))
 
     def follow(self, url: QUrl) -> None:
-        """A link: a markdown file beside the one shown (``../README.md``) is shown here, the web in the browser."""
+        """A link: a markdown file beside the one shown (``../README.md``) is shown here (at its top: Qt gives its
+        headings no anchors), another file of the repository (an example, the licence) and the web outside."""
         if url.scheme() not in ("", "file"):
             QDesktopServices.openUrl(url)
             return
-        target = (self.shown.parent / url.path()).resolve() if url.path() else self.shown
+        if not url.path():  # a heading of the page shown
+            return
+        target = (self.shown.parent / url.path()).resolve()
         if target.suffix.lower() == ".md" and target.is_file():
+            self._before.append(self.shown)
             self.show_file(target)
+        elif target.exists():
+            QDesktopServices.openUrl(QUrl.fromLocalFile(str(target)))
+
+    def back(self) -> None:
+        """Show the file shown before the last link followed."""
+        if self._before:
+            self.show_file(self._before.pop())
 
     def _fit_pictures(self, width: int) -> None:
         """Show each picture wider than ``width`` pixels at that width (the screenshots are the window's size)."""
         document = self.text.document()
-        block = document.begin()
-        while block.isValid():
-            fragments = block.begin()
-            while not fragments.atEnd():
-                fragment = fragments.fragment()
-                picture = fragment.charFormat().toImageFormat()
-                image = document.resource(QTextDocument.ResourceType.ImageResource, QUrl(picture.name()))
-                if picture.isValid() and not image.isNull() and image.width() > width:
-                    picture.setWidth(width)
-                    picture.setHeight(image.height() * width / image.width())
-                    cursor = QTextCursor(document)
-                    cursor.setPosition(fragment.position())
-                    cursor.setPosition(fragment.position() + fragment.length(), QTextCursor.MoveMode.KeepAnchor)
-                    cursor.setCharFormat(picture)
-                fragments += 1
-            block = block.next()
+        for fragment in list(picture_fragments(document)):
+            picture = fragment.charFormat().toImageFormat()
+            image = document.resource(QTextDocument.ResourceType.ImageResource, QUrl(picture.name()))
+            if not image.isNull() and image.width() > width:
+                picture.setWidth(width)
+                picture.setHeight(image.height() * width / image.width())
+                cursor = QTextCursor(document)
+                cursor.setPosition(fragment.position())
+                cursor.setPosition(fragment.position() + fragment.length(), QTextCursor.MoveMode.KeepAnchor)
+                cursor.setCharFormat(picture)
+
+
+def picture_fragments(document: QTextDocument) -> Iterator[QTextFragment]:
+    """The fragments of ``document`` that are pictures, in order."""
+    block = document.begin()
+    while block.isValid():
+        fragments = block.begin()
+        while not fragments.atEnd():
+            fragment = fragments.fragment()
+            if fragment.charFormat().isImageFormat():
+                yield fragment
+            fragments += 1
+        block = block.next()

@@ -103,6 +103,7 @@ class MainWindow(FileCommands, DocumentCommands, QMainWindow):
         self.autosaver = autosave or Autosaver(AutosaveFolder(default_folder()), self.preferences.autosave_seconds)
         self.autosaver.setParent(self)
         self.recovery: RecoveryDialog | None = None  # the recovery dialog while it is open
+        self.guide_dialog: GuideDialog | None = None  # the user guide, once shown
         self.recent = RecentFiles(settings)
         self.options = ToolOptions()
         self.preferences.apply_brush(self.options)
@@ -243,9 +244,11 @@ class MainWindow(FileCommands, DocumentCommands, QMainWindow):
     def _refusing(self, action: Callable, *args):
         """``action(*args)`` of the tool; an edit the document refuses (drawing on a clone layer, say), or a bug,
         cancels what the tool was doing and the status bar says why (``refusals.reporting``)."""
-        with reporting(self.status_label.setText):
+        said: list[str] = []
+        with reporting(said.append):
             return action(*args)
-        self.tool.cancel()
+        self.tool.cancel()  # first: ending the tool's gesture would take back what is said of it (``StatusMessage``)
+        self.status_label.setText(said[-1])
         return True
 
     def say(self, text: str) -> None:
@@ -389,8 +392,11 @@ class MainWindow(FileCommands, DocumentCommands, QMainWindow):
         if not USER_GUIDE.is_file():
             self.status_label.setText("The user guide is docs/user-guide.md in the editor's source repository")
             return
-        self.guide_dialog = GuideDialog(self)
+        if self.guide_dialog is None:  # one guide window, brought to the front again
+            self.guide_dialog = GuideDialog(self)
         self.guide_dialog.show()
+        self.guide_dialog.raise_()
+        self.guide_dialog.activateWindow()
 
     # -- the document ---------------------------------------------------------------------------------
     def _choose_stop_color(self, current) -> None:
@@ -412,15 +418,19 @@ class MainWindow(FileCommands, DocumentCommands, QMainWindow):
 
     def _history_step(self) -> tuple[int, int, int, bool] | None:
         """The shown document's step (``StatusMessage``): its history, current step, count of steps and whether a
-        gesture is open on it (a drag, a clone's placement), whose end, kept or dropped, moves it on too."""
+        gesture is open on it (a drag, a clone's placement), whose end, kept or dropped, moves it on too.  An
+        edit merged into the step before it (a slider's drag) stays at that step."""
         if self.workspace is None:
             return None
         history = self.workspace.history
-        return id(history), history.index, len(history.labels), history.in_transaction
+        return id(history), history.index, history.step_count, history.in_transaction
 
     def _standing_status(self) -> str:
-        """What the status bar says while nothing else is said: the mask being edited, and how to leave it."""
+        """What the status bar says while nothing else is said: that the canvas cannot draw, or the mask being
+        edited and how to leave it."""
         document = self.workspace.history.document if self.workspace is not None else None
+        if document is not None and self.canvas.error:  # no suitable OpenGL: editing works, nothing is shown
+            return f"The canvas cannot draw the image: {self.canvas.error}"
         if document is None or not document.editing_mask:
             return ""
         return f"Editing the mask of {document.layer.name} (red: hidden); Ctrl+Shift+M goes back to the layer"

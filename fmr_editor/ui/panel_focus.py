@@ -24,6 +24,7 @@ class ReturnToCanvas(QObject):
 
     def eventFilter(self, watched: QObject, event: QEvent) -> bool:  # noqa: N802 - Qt's name
         if event.type() == QEvent.Type.KeyPress and event.key() in _RETURN:
+            self._canvas.activateWindow()  # from a floating panel too
             self._canvas.setFocus()
             return True
         return False

@@ -59,7 +59,7 @@ class Tabs(QObject):
         return [tab for tab in self.open_tabs if isinstance(tab, Workspace)]
 
     def find(self, path: Path):
-        """The tab of the file ``path`` (absolute), or None."""
+        """The tab of the file ``path`` (resolved: ``..`` and links followed), or None."""
         return next((tab for tab in self.open_tabs if tab.path is not None and tab.path == path), None)
 
     def add(self, tab, name: str) -> None:

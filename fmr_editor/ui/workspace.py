@@ -140,7 +140,9 @@ class Workspace(QObject):
     frame : Frame
         The newest frame the engine produced.
     path : pathlib.Path or None
-        Where the document was read from or last saved to.
+        Where the document was read from or last saved to (resolved).
+    recovered : bool
+        Whether it was recovered from an autosaved copy (``Opened.recovered``, that copy's key).
     view : tuple
         ``(render.view.View or None, fitted)``: the canvas's view while the
         document was last shown (fitted: it fitted the canvas in the window).
