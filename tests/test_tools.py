@@ -579,6 +579,22 @@ def test_glow_on_a_clear_layer_paints_and_glows_elsewhere():
             assert len(after.layers) == len(document.layers) and len(after.layer.points) == 1
 
 
+def test_in_glow_mode_alt_erases_the_layers_points_under_the_stroke():
+    context = make_context(Document(100, 100))
+    context.options.brush_mode, context.options.brush_radius = "glow", 5.0
+    brush = BrushTool(context)
+    for x in (20, 50, 80):
+        click(brush, x, 50)
+    drag(brush, [(45, 30), (55, 70)], "alt")  # passes within a radius of the middle dab alone
+    assert [p.position for p in context.document.points] == [(20.0, 50.0), (80.0, 50.0)]
+    assert context.history.labels == ("",) + ("Glow Stroke",) * 3 + ("Erase Points",)
+    drag(brush, [(45, 90), (55, 95)], "alt")  # meets no dab: no step
+    assert len(context.history.labels) == 5
+    context.options.brush_mode = "paint"  # Paint: Alt paints as ever (its dabs are a fill layer's mask)
+    click(brush, 30, 30, "alt")
+    assert context.history.labels[-1] == "Paint Stroke"
+
+
 def test_a_stroke_that_reaches_no_canvas_pixel_or_erases_nothing_makes_no_step():
     from fmr_editor.model import layer_edits
 

@@ -15,8 +15,10 @@ the press.  What a dab does depends on the mode:
   bottom one (clear: there is no picture to add light to, and points would
   make it an opaque black one) it paints as Paint does;
 - while the active layer's **mask** is edited, a dab adds to the mask (a light
-  brush colour) or subtracts from it (a dark one), and with Alt the stroke
-  erases the mask's dabs under it.
+  brush colour) or subtracts from it (a dark one).
+
+With Alt, a stroke on a mask or in Glow mode erases the dabs under it (the
+mask's, or the active layer's points).
 
 The whole stroke is one undo step ("Paint Stroke", "Glow Stroke"); Esc during
 it removes the stroke, and a stroke that changes nothing (every dab farther
@@ -48,8 +50,10 @@ class Stroke(EditDrag):
         self.spacing = max(float(options.brush_spacing), 1e-3)
         radius, color, amplitude = options.brush_radius, options.brush_color, options.brush_amplitude
         self.fill: int | None = None  # the fill layer painted into (Paint mode)
-        self.erasing = document.editing_mask and event.alt
-        if document.editing_mask:
+        self.erasing = event.alt and (document.editing_mask or options.brush_mode == "glow")
+        if self.erasing and not document.editing_mask:
+            label = "Erase Points"
+        elif document.editing_mask:
             label = "Erase Mask" if self.erasing else "Paint Mask"
             sign = 1.0 if float(MASK_LUMA @ color) >= 0.5 else -1.0
             color, amplitude = (1.0, 1.0, 1.0), sign * abs(amplitude)
@@ -63,7 +67,7 @@ class Stroke(EditDrag):
         self.dabs = [self.dab(*event.position)]
         self.last = event.position  # the pointer's previous position
         self.travelled = 0.0  # distance along the path since the last dab
-        self.reach = radius  # how near a mask dab's centre an erasing stroke passes to remove it
+        self.reach = radius  # how near a dab's centre an erasing stroke passes to remove it
         super().__init__(context, event, label, pressed=self._painted(document))
 
     def _painted(self, start: Document) -> Document:
@@ -118,7 +122,7 @@ class BrushTool(Tool):
     name = "brush"
     title = "Point Brush"
     hint = ("Drag to paint dabs (Paint covers what is below, Glow adds up towards white); "
-            "on a mask light adds, dark subtracts, Alt erases")
+            "on a mask light adds, dark subtracts; Alt erases on a mask and in Glow")
     shortcut = "B"
     summary = "Paint diffusion points: soft Gaussian dabs of colour"
     cursor = "crosshair"
