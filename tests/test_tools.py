@@ -134,6 +134,17 @@ def test_pen_escape_cancels_and_backspace_removes_the_last_anchor():
     assert context.document.curves[0].piece_count == 1
 
 
+def test_a_new_pen_curve_drops_the_selection_and_ends_selected():
+    context = make_context(Document(100, 100, [line_curve()]))
+    context.selection = by_index(context.document, curves=[0], stops=[])
+    pen = PenTool(context)
+    click(pen, 10, 10)  # the curve selected before is not the one being drawn
+    assert context.selection.empty and pen.busy
+    click(pen, 30, 80)
+    pen.key("Return")
+    assert context.selection == by_index(context.document, curves=[1])
+
+
 def test_pen_needs_two_anchors_and_closes_on_the_first_anchor():
     context = make_context(Document(100, 100))
     pen = PenTool(context)

@@ -113,6 +113,8 @@ class PenTool(Tool):
             return
         if not self.anchors and self.context.document.layer.clone is not None:  # at once, not once it is drawn
             raise EditRefused(CLONE_HOLDS_NOTHING)
+        if not self.anchors:  # a new curve: the one selected before is not what the panels should show
+            self.context.selection = Selection()
         p = np.array(event.position)
         self.pressed_at, self.moved = event.position, False
         if self.anchors and self.near(self.anchors[-1], p):  # no zero-length piece: reshape the last anchor
