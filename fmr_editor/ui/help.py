@@ -85,12 +85,11 @@ class GuideDialog(QDialog):
         self.text.anchorClicked.connect(self.follow)
         self.back_button = _lay_out(self, self.text, 760, 680).addButton("Back", QDialogButtonBox.ButtonRole.ActionRole)
         self.back_button.clicked.connect(self.back)
-        self.shown = USER_GUIDE  # the file shown, which links are relative to
-        self._before: list[Path] = []  # the files shown before it, which Back returns to
+        self._before: list[Path] = []  # the files shown before the one shown, which Back returns to
         self.show_file(USER_GUIDE)
 
     def show_file(self, path: Path) -> None:
-        """Show the markdown file ``path``, its pictures from its folder."""
+        """Show the markdown file ``path``, its pictures from its folder (``shown``: what links are relative to)."""
         self.shown = path
         self.text.setSearchPaths([str(path.parent)])
         self.text.setMarkdown(one_line_alt_texts(path.read_text(encoding="utf-8")))

@@ -138,9 +138,11 @@ class MainWindow(FileCommands, DocumentCommands, QMainWindow):
         self.clip_commands = ClipCommands(self, self.actions, self.canvas)
         self.layers_panel.failed.connect(lambda message: self.status_label.setText(message))
         docks = [
-            self._dock("Tool Options", "options", self.options_panel, Qt.DockWidgetArea.LeftDockWidgetArea, True),
+            self._dock("Tool Options", "options", self.options_panel, Qt.DockWidgetArea.LeftDockWidgetArea,
+                       scrolled=True),
             self._dock("Layers", "layers", self.layers_panel, Qt.DockWidgetArea.RightDockWidgetArea),
-            self._dock("Colour Stops", "stops", self.stops_panel, Qt.DockWidgetArea.RightDockWidgetArea, True),
+            self._dock("Colour Stops", "stops", self.stops_panel, Qt.DockWidgetArea.RightDockWidgetArea,
+                       scrolled=True),
             self._dock("History", "history", self.history_panel, Qt.DockWidgetArea.RightDockWidgetArea),
         ]
         build_menus(self, self.actions, self.recent_menu,
